@@ -1,0 +1,146 @@
+"""The `skelcore` command line: run, batch, shapes, evaluate, report, bench.
+
+Bad input ends with a one-line message naming the file and the problem and a non-zero exit code;
+no traceback reaches the user.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .errors import SkelError
+from .params import ContractionParams
+
+EXIT_INPUT = 2
+
+
+def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
+    """The contraction and skeleton flags shared by `run`, `batch` and `bench` (DESIGN.md section 4)."""
+    defaults = ContractionParams()
+    group = parser.add_argument_group("contraction parameters")
+    group.add_argument("--method", choices=["lbc", "glskeleton"], default=defaults.method,
+                       help="lbc: Cao et al. 2010; glskeleton: Wen et al. 2024 with in-loop point reduction (default: %(default)s)")
+    group.add_argument("--k", type=int, default=None,
+                       help="neighbours per one-ring (default: clamp(round(0.012 n), 8, 30))")
+    group.add_argument("--wl0", type=float, default=None,
+                       help="initial contraction weight W_L0 (default: 1 / (5 * mean one-ring edge length))")
+    group.add_argument("--wh0", type=float, default=defaults.wh0, help="initial attraction weight W_H0 (default: %(default)s)")
+    group.add_argument("--sl", type=float, default=defaults.sl, help="W_L amplification per iteration s_L (default: %(default)s)")
+    group.add_argument("--wl-max", type=float, default=defaults.wl_max, help="cap on W_L (default: %(default)s)")
+    group.add_argument("--max-iterations", type=int, default=defaults.max_iterations,
+                       help="most contraction iterations (default: %(default)s)")
+    group.add_argument("--termination", type=float, default=defaults.termination,
+                       help="stop when the one-ring size ratio falls by less than this (default: %(default)s)")
+    group.add_argument("--sample-radius", type=float, default=0.02,
+                       help="skeleton sample radius, a fraction of the bounding-box diagonal (default: %(default)s)")
+    group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
+    group.add_argument("--sample", type=int, default=None,
+                       help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
+    group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
+    group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
+
+
+def contraction_params(args: argparse.Namespace) -> ContractionParams:
+    return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
+                             max_iterations=args.max_iterations, termination=args.termination).validated()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    run = commands.add_parser("run", help="contract one cloud and extract its curve skeleton",
+                              formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    run.add_argument("input", help="point cloud or mesh (.ply .pcd .xyz .pts .txt .off .obj .stl .glb)")
+    run.add_argument("--out", required=True, help="output folder")
+    run.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_parameter_flags(run)
+    run.set_defaults(handler=_run)
+
+    bench = commands.add_parser("bench", help="time the contraction per stage on a torus")
+    bench.add_argument("--points", type=int, nargs="+", default=[30_000], help="cloud sizes (default: %(default)s)")
+    bench.add_argument("--iterations", type=int, default=4, help="contraction iterations timed per size (default: %(default)s)")
+    bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="lbc")
+    bench.add_argument("--baseline", action="store_true",
+                       help="also time a pc-skeletor-style iteration (three SuperLU factorisations) for the speed-up")
+    bench.add_argument("--metrics", action="store_true", help="also time the paper's metrics for one iteration")
+    bench.set_defaults(handler=_bench)
+
+    # -- shapes (skelcore.shapes) --
+    from .shapes import SHAPES
+
+    shapes = commands.add_parser("shapes", help="write point clouds sampled on tubes around known centrelines")
+    shapes.add_argument("--out", required=True, help="output folder: NAME.ply (points) and NAME_centreline.json per shape")
+    shapes.add_argument("--names", nargs="+", default=list(SHAPES), metavar="NAME",
+                        help=f"shapes to write, of: {' '.join(SHAPES)} (default: all)")
+    shapes.add_argument("--n", type=int, default=3000, help="points per shape (default: %(default)s)")
+    shapes.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
+    shapes.add_argument("--noise", type=float, default=0.0,
+                        help="std of Gaussian noise, a fraction of the bounding-box diagonal (default: %(default)s)")
+    shapes.add_argument("--nonuniform", type=float, default=0.0,
+                        help="in [0, 1): sampling density falls linearly along x from 1 to 1 - this (default: %(default)s)")
+    shapes.set_defaults(handler=_shapes)
+    # -- evaluate (skelcore.evaluate) --
+    evaluate = commands.add_parser("evaluate", help="score a skeleton against a ground-truth curve: distances and topology")
+    evaluate.add_argument("skeleton", help="skeleton.json, or .ply with vertex and edge elements")
+    evaluate.add_argument("truth", help="ground truth: NAME_centreline.json, skeleton .json/.ply, rig .skeleton or .tgf")
+    evaluate.add_argument("--json", action="store_true", help="print the result as JSON instead of a table")
+    evaluate.set_defaults(handler=_evaluate)
+    # -- report (skelcore.report) --
+    # -- batch (skelcore.batch) --
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    from .pipeline import RunOptions, run_pipeline
+
+    options = RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
+                         sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
+    progress = None if args.quiet else print
+    result = run_pipeline(args.input, args.out, options, progress=progress)
+    if not args.quiet:
+        print(result.summary_line())
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from .bench import run_bench
+
+    run_bench(args.points, iterations=args.iterations, method=args.method, baseline=args.baseline,
+              metrics=args.metrics)
+    return 0
+
+
+def _shapes(args: argparse.Namespace) -> int:
+    from .shapes import write_shapes
+
+    for path in write_shapes(args.out, args.names, args.n, seed=args.seed, noise=args.noise, nonuniform=args.nonuniform):
+        print(path)
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    import json
+
+    from .evaluate import evaluate_files, format_report
+
+    result = evaluate_files(args.skeleton, args.truth)
+    print(json.dumps(result, indent=2) if args.json else format_report(result))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.handler(args)
+    except SkelError as error:
+        print(f"skelcore {args.command}: error: {error}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print(f"skelcore {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,150 @@
+"""Laplacian-based contraction (Cao et al. 2010) as a generator of per-iteration states.
+
+Each step solves eq. 2, [W_L L; W_H] P' = [0; W_H P], in the least-squares sense through its normal
+equations (W_L^2 L^T L + W_H^2) P' = W_H^2 P with one sparse Cholesky factorisation for all three
+coordinates. W_L grows by s_L per step up to a cap; W_H,i = W_H0 s_i^0 / s_i^t follows how far each
+one-ring has shrunk (cloudcontr: s_i is the smallest distance from point i to its ring).
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Generator
+
+import numpy as np
+from .errors import ParameterError, SolverError
+from .laplacian import LaplacianSystem
+from .neighbours import OneRings, one_rings
+from .normalise import Normalisation
+from .params import ContractionParams, default_k
+from .solver import CholeskySolver
+
+TERMINATION_MESSAGES = {
+    "ring_ratio": "the one-ring size ratio stopped falling",
+    "max_iterations": "the maximum number of iterations was reached",
+    "nan": "the solve produced NaN; the last good state is kept",
+    "solver_failure": "the sparse solver failed; the last good state is kept",
+    "bbox_growth": "the bounding box grew past its limit; the last good state is kept",
+    "covariance": "the cloud's covariance shows a converged curve",
+}
+RESTART_FIELDS = ("method", "k", "normalise")
+
+
+@dataclass(frozen=True)
+class IterationState:
+    iteration: int  # 0 is the input
+    points: np.ndarray  # (m,3) positions of the present points, in the user's coordinates
+    point_ids: np.ndarray  # (m,) ids into the input of the present points
+    owner: np.ndarray  # (n,) for each input point, the row of `points` that represents it
+    rings: OneRings  # one-rings over the present points
+    wl: float
+    wh: np.ndarray  # (m,)
+    ring_ratio: float  # a_t = sum s^t / sum s^0
+    params: ContractionParams
+    timings: dict = field(default_factory=dict)  # seconds: rings, laplacian, solve, rest
+    termination: str | None = None  # set on the last state of a run (see TERMINATION_MESSAGES)
+    message: str = ""
+
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+
+def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
+             ) -> Generator[IterationState, ContractionParams | None, None]:
+    """Yield the input state, then one state per solve; `send(params)` retunes the following steps.
+
+    The last state yielded carries `termination`. When a rule rejects the candidate of a step (NaN,
+    solver failure, bounding-box growth, ring ratio no longer falling: cloudcontr discards that step),
+    the last accepted state is yielded again with the reason set.
+    """
+    params = params.validated()
+    if params.method != "lbc":
+        from .glskeleton import contract_with_reduction
+        yield from contract_with_reduction(points, params)
+        return
+    points = np.asarray(points, dtype=np.float64)
+    normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
+    unit = normalisation.forward(points)
+    k = params.k or default_k(len(points))
+    started = time.perf_counter()
+    rings = one_rings(unit, k)
+    system_builder = LaplacianSystem(rings)  # the sparsity patterns, fixed for the run
+    rings_time = time.perf_counter() - started
+    sizes0 = rings.sizes(unit)
+    auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
+    ids = np.arange(len(points))
+    extent0 = np.ptp(unit, axis=0)
+
+    state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
+                           wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
+                           params=params, timings={"rings": rings_time})
+    current, sizes, ratio = unit, sizes0, 1.0
+    solver = CholeskySolver()
+    for iteration in range(1, 10**9):
+        sent = yield state
+        notes = []
+        if sent is not None:
+            params, note = retune(params, sent)
+            notes.append(note)
+        step_start = time.perf_counter()
+        wl = min((params.wl0 or auto_wl0) * params.sl ** (iteration - 1), params.wl_max)
+        wh = np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
+        laplacian_start = time.perf_counter()
+        system = system_builder.normal_matrix(current, wl, wh)
+        solve_start = time.perf_counter()
+        failure = None
+        try:
+            candidate = solver.solve(system, wh[:, None] ** 2 * current)
+        except SolverError as error:
+            failure, candidate = ("solver_failure", str(error)), None
+        solve_end = time.perf_counter()
+        timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
+        if failure is None and not np.isfinite(candidate).all():
+            failure = ("nan", "")
+        if failure is None and (np.ptp(candidate, axis=0) > params.bbox_growth * extent0).any():
+            failure = ("bbox_growth", "")
+        if failure is None:
+            new_sizes = rings.sizes(candidate)
+            new_ratio = float(new_sizes.sum() / sizes0.sum())
+            # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold
+            if iteration > 1 and ratio - new_ratio < params.termination:
+                failure = ("ring_ratio", f"a_t fell by {ratio - new_ratio:.4f} < {params.termination:g}")
+        if failure is not None:
+            reason, detail = failure
+            message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))
+            yield dataclasses.replace(state, termination=reason, message=message)
+            return
+        current, sizes, ratio = candidate, new_sizes, new_ratio
+        termination = "max_iterations" if iteration >= params.max_iterations else None
+        message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
+        user_points = normalisation.inverse(current)
+        timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]
+        state = IterationState(iteration=iteration, points=user_points, point_ids=ids, owner=ids, rings=rings,
+                               wl=wl, wh=wh, ring_ratio=ratio, params=params, timings=timings,
+                               termination=termination, message=message)
+        if termination:
+            yield state
+            return
+
+
+def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams()) -> list[IterationState]:
+    """Run to the end; the last state carries the termination reason (a repeated state replaces its twin)."""
+    history: list[IterationState] = []
+    for state in contract(points, params):
+        if history and history[-1].iteration == state.iteration:
+            history[-1] = state
+        else:
+            history.append(state)
+    return history
+
+
+def retune(current: ContractionParams, sent: ContractionParams) -> tuple[ContractionParams, str]:
+    sent = sent.validated()
+    changed = [name for name in current.to_dict() if getattr(sent, name) != getattr(current, name)]
+    blocked = [name for name in changed if name in RESTART_FIELDS]
+    if blocked:
+        raise ParameterError(f"parameter {', '.join(blocked)} can only change on restart")
+    note = ", ".join(f"{name}={getattr(sent, name)}" for name in changed)
+    return sent, f"retuned {note}" if note else ""

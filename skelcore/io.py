@@ -1,0 +1,242 @@
+"""Load point clouds and meshes into a validated (n,3) float64 array.
+
+Every problem is reported as an InputError whose message is one line naming the file and the
+problem; recoverable oddities (duplicate points) are fixed and reported in `Cloud.notes`.
+"""
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
+MESH_FORMATS = (".obj", ".stl", ".glb")
+FORMATS = POINT_FORMATS + MESH_FORMATS
+MIN_POINTS = 20
+MAX_POINTS = 2_000_000
+
+
+@dataclass
+class Cloud:
+    points: np.ndarray  # (n,3) float64, finite, unique
+    faces: np.ndarray | None = None  # (m,3) int64 into points, when the file is a mesh
+    name: str = "cloud"
+    notes: list[str] = field(default_factory=list)
+
+
+def load(path, *, sample: int | None = None, voxel_size: float | None = None,
+         max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
+    """Read a file into a validated Cloud.
+
+    sample: for a mesh, draw this many points evenly over its surface instead of using its vertices.
+    voxel_size: downsample to one point per voxel (the way to bring a huge cloud under max_points).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: file not found")
+    if not path.is_file():
+        raise InputError(f"{path}: not a regular file")
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise InputError(f"{path}: unknown format '{suffix or path.name}' (supported: {' '.join(FORMATS)})")
+    try:
+        points, faces = _READERS[suffix](path)
+    except InputError:
+        raise
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{path}: cannot read file ({_one_line(error)})") from None
+    except Exception as error:  # a parser's own failure on a malformed file
+        raise InputError(f"{path}: cannot parse as {suffix[1:].upper()} ({_one_line(error)})") from None
+    return validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
+                    max_points=max_points, seed=seed)
+
+
+def load_bytes(data: bytes, filename: str, **options) -> Cloud:
+    """Load an uploaded file: parsed from a private temporary directory, never from a client path."""
+    suffix = Path(filename).suffix.lower()
+    display = Path(filename).name or "upload"
+    if suffix not in FORMATS:
+        raise InputError(f"{display}: unknown format '{suffix or display}' (supported: {' '.join(FORMATS)})")
+    with tempfile.TemporaryDirectory(prefix="skelcore-upload-") as tmp:
+        target = Path(tmp) / f"upload{suffix}"
+        target.write_bytes(data)
+        try:
+            cloud = load(target, **options)
+        except InputError as error:
+            raise InputError(str(error).replace(str(target), display)) from None
+    cloud.name = display
+    return cloud
+
+
+def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
+             voxel_size: float | None = None, max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
+    """Check an array of points (and optional faces) and return a clean Cloud."""
+    try:
+        points = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: coordinates are not numbers") from None
+    if points.ndim != 2 or points.shape[1] != 3:
+        if points.size == 0:
+            raise InputError(f"{name}: the file holds no points")
+        raise InputError(f"{name}: expected (n,3) coordinates, got shape {points.shape}")
+    if len(points) == 0:
+        raise InputError(f"{name}: the file holds no points")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        raise InputError(f"{name}: {int(bad.sum())} of {len(points)} points have NaN or Inf coordinates")
+    notes: list[str] = []
+    if faces is not None:
+        faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+        if len(faces) == 0:
+            faces = None
+        elif faces.min() < 0 or faces.max() >= len(points):
+            raise InputError(f"{name}: faces refer to vertices that do not exist")
+    if sample is not None:
+        if faces is None:
+            raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
+        points = _sample_surface(points, faces, int(sample), seed)
+        faces = None
+        notes.append(f"sampled {len(points)} points evenly over the mesh surface")
+    if voxel_size is not None:
+        if not np.isfinite(voxel_size) or voxel_size <= 0:
+            raise InputError(f"{name}: voxel size must be a positive number, got {voxel_size}")
+        before = len(points)
+        points = voxel_downsample(points, voxel_size)
+        faces = None
+        notes.append(f"voxel downsampling ({voxel_size:g}) kept {len(points)} of {before} points")
+    if len(points) > max_points:
+        raise InputError(f"{name}: {len(points):,} points exceed the cap of {max_points:,}; "
+                         f"downsample with a voxel size (--voxel-size) or raise the cap (--max-points)")
+    unique, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
+    if len(unique) < len(points):
+        notes.append(f"removed {len(points) - len(unique)} duplicate points")
+        order = np.sort(first)  # keep the original order of first occurrences
+        remap = np.empty(len(unique), dtype=np.int64)
+        remap[np.argsort(first)] = np.arange(len(unique))
+        if faces is not None:
+            faces = remap[inverse.ravel()][faces]
+            faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+        points = points[order]
+    if len(points) < MIN_POINTS:
+        raise InputError(f"{name}: only {len(points)} distinct points, at least {MIN_POINTS} are needed")
+    centred = points - points.mean(axis=0)
+    singular = np.linalg.svd(centred[:: max(1, len(points) // 100_000)], compute_uv=False)
+    if singular[0] <= 1e-12 * max(1.0, np.abs(points).max()):
+        raise InputError(f"{name}: all points are identical")
+    if singular[1] <= 1e-9 * singular[0]:
+        raise InputError(f"{name}: all points lie on one line; a surface is needed")
+    return Cloud(points=points, faces=faces, name=name, notes=notes)
+
+
+def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
+    """One point per occupied voxel: the centroid of the points in it."""
+    keys = np.floor((points - points.min(axis=0)) / voxel_size).astype(np.int64)
+    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    sums = np.zeros((len(counts), 3))
+    np.add.at(sums, inverse.ravel(), points)
+    return sums / counts[:, None]
+
+
+def _sample_surface(vertices, faces, count: int, seed: int) -> np.ndarray:
+    import trimesh
+
+    if count < MIN_POINTS:
+        raise InputError(f"surface sample of {count} points is too small, at least {MIN_POINTS} are needed")
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=seed)
+    return np.asarray(points, dtype=np.float64)
+
+
+def _one_line(error: Exception) -> str:
+    text = " ".join(str(error).split())
+    return text[:160] or type(error).__name__
+
+
+def _read_off(path: Path):
+    with open(path, "r", encoding="utf-8", errors="strict") as handle:
+        lines = [line.split("#", 1)[0].split() for line in handle]
+    lines = [fields for fields in lines if fields]
+    if not lines:
+        raise InputError(f"{path}: the file holds no points")
+    header = lines[0][0].upper()
+    if header not in ("OFF", "NOFF", "COFF", "CNOFF", "NCOFF"):
+        raise InputError(f"{path}: not an OFF file (header {lines[0][0][:20]!r})")
+    counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 else (lines[1], lines[2:])
+    n_vertices, n_faces = int(counts[0]), int(counts[1])
+    if len(body) < n_vertices:
+        raise InputError(f"{path}: OFF header promises {n_vertices} vertices but the file has {len(body)}")
+    # vertex lines may carry a normal (N) and a colour (C) after x y z
+    points = np.asarray([fields[:3] for fields in body[:n_vertices]], dtype=np.float64)
+    triangles = []
+    for fields in body[n_vertices:n_vertices + n_faces]:
+        polygon = [int(value) for value in fields[1:1 + int(fields[0])]]
+        triangles.extend([polygon[0], polygon[i], polygon[i + 1]] for i in range(1, len(polygon) - 1))
+    return points, (np.asarray(triangles, dtype=np.int64) if triangles else None)
+
+
+def _read_text(path: Path):
+    rows = []
+    with open(path, "r", encoding="utf-8", errors="strict") as handle:
+        for line in handle:
+            fields = line.replace(",", " ").split()
+            if not fields or fields[0].startswith(("#", "//")):
+                continue
+            if len(fields) < 3:
+                if len(rows) == 0 and len(fields) == 1 and fields[0].isdigit():
+                    continue  # .pts point-count header
+                raise InputError(f"{path}: line {len(rows) + 1} has fewer than 3 coordinates")
+            rows.append(fields[:3])
+    if not rows:
+        raise InputError(f"{path}: the file holds no points")
+    try:
+        return np.asarray(rows, dtype=np.float64), None
+    except ValueError:
+        raise InputError(f"{path}: coordinates are not numbers") from None
+
+
+def _read_ply(path: Path):
+    import trimesh
+
+    loaded = trimesh.load(path, process=False)
+    if isinstance(loaded, trimesh.Trimesh):
+        return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+    vertices = getattr(loaded, "vertices", None)
+    if vertices is None:
+        raise InputError(f"{path}: PLY file has no vertex element")
+    return np.asarray(vertices), None
+
+
+def _read_pcd(path: Path):
+    import open3d as o3d
+
+    cloud = o3d.io.read_point_cloud(str(path), format="pcd")
+    points = np.asarray(cloud.points)
+    if len(points) == 0 and path.stat().st_size > 0:
+        raise InputError(f"{path}: cannot parse as PCD or it holds no points")
+    return points, None
+
+
+def _read_mesh(path: Path):
+    import trimesh
+
+    loaded = trimesh.load(path, process=False, force="mesh")
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
+        raise InputError(f"{path}: the file holds no mesh geometry")
+    return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+
+
+_READERS = {
+    ".off": _read_off,
+    ".xyz": _read_text,
+    ".pts": _read_text,
+    ".txt": _read_text,
+    ".ply": _read_ply,
+    ".pcd": _read_pcd,
+    ".obj": _read_mesh,
+    ".stl": _read_mesh,
+    ".glb": _read_mesh,
+}

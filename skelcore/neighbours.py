@@ -1,0 +1,134 @@
+"""Neighbourhoods: kNN, PCA frames and the one-ring of every point (Cao et al. 2010, section 3).
+
+The one-ring of a point is its fan of triangles in the 2-D Delaunay triangulation of its k nearest
+neighbours projected onto their PCA plane. The Delaunay neighbours of a point c are exactly the vertices
+of the convex hull of its neighbours inverted about c (p -> p/|p|^2), together with c itself: inversion
+maps circles through c to lines, so an empty circumcircle through c becomes a supporting line. That
+hull is computed for all points at once on a fixed (n, k-1) array, angularly sorted, by removing every
+vertex that lies inside the triangle (c, previous, next) until none does: no Python loop over points.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+
+@dataclass(frozen=True)
+class OneRings:
+    indptr: np.ndarray  # (n+1,) CSR offsets into `indices`
+    indices: np.ndarray  # fan neighbours of each point, in angular order
+    triangles: np.ndarray  # (m,3) fan triangles (i, j, l), i the centre, j then l counter-clockwise
+
+    @property
+    def n_points(self) -> int:
+        return len(self.indptr) - 1
+
+    def centres(self) -> np.ndarray:
+        """The centre of each entry of `indices`."""
+        return np.repeat(np.arange(self.n_points), np.diff(self.indptr))
+
+    def edges(self) -> np.ndarray:
+        """(e,2) unique undirected centre-neighbour pairs, a < b."""
+        pairs = np.sort(np.column_stack([self.centres(), self.indices]), axis=1)
+        return np.unique(pairs, axis=0)
+
+    def sizes(self, points: np.ndarray, reduce=np.minimum) -> np.ndarray:
+        """Per point, the smallest (or, with np.add, the summed) distance to its ring neighbours."""
+        lengths = np.linalg.norm(points[self.indices] - points[self.centres()], axis=1)
+        return reduce.reduceat(lengths, self.indptr[:-1]) if len(lengths) else np.zeros(self.n_points)
+
+    def mean_edge_length(self, points: np.ndarray) -> float:
+        """Mean over points of the mean distance to the ring (cloudcontr's one_ring_size, type 2)."""
+        counts = np.diff(self.indptr)
+        return float(np.mean(self.sizes(points, np.add) / np.maximum(counts, 1)))
+
+
+def knn(points: np.ndarray, k: int, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Distances and indices of the k nearest neighbours, the point itself in column 0."""
+    k = min(k, len(points))
+    tree = cKDTree(points) if tree is None else tree
+    dist, idx = tree.query(points, k=k, workers=-1)
+    return dist.reshape(len(points), k), idx.reshape(len(points), k).astype(np.int64)
+
+
+def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and eigenvectors (columns) of each neighbourhood's covariance."""
+    local = points[neighbours]
+    local = local - local.mean(axis=1, keepdims=True)
+    covariance = np.matmul(local.transpose(0, 2, 1), local) / neighbours.shape[1]
+    return np.linalg.eigh(covariance)
+
+
+def one_rings(points: np.ndarray, k: int) -> OneRings:
+    """The Delaunay fan of every point among its k nearest neighbours (itself included in k)."""
+    n = len(points)
+    _, idx = knn(points, k)
+    _, frames = pca_frames(points, idx)
+    offsets = points[idx[:, 1:]] - points[:, None, :]
+    # Coordinates in the plane of the two largest principal components.
+    planar = np.matmul(offsets, frames[:, :, [2, 1]])
+    radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
+    angle = np.arctan2(planar[..., 1], planar[..., 0])
+    order = np.argsort(angle, axis=1, kind="stable")
+    angle = np.take_along_axis(angle, order, axis=1)
+    neighbour_ids = np.take_along_axis(idx[:, 1:], order, axis=1)
+    inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
+    width = inverted.shape[1]
+    rows = np.arange(n)
+
+    # A gap of pi or more between neighbours puts the centre on the hull: an open fan that starts after it.
+    gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
+    widest = np.argmax(gaps, axis=1)
+    is_open = gaps[rows, widest] >= np.pi
+    # A closed scan starts at the nearest neighbour (always a hull vertex) and returns to it;
+    # an open scan starts at the centre itself (slot `width`, the origin of the inverted plane).
+    start = np.where(is_open, widest + 1, np.argmin(np.take_along_axis(radius2, order, axis=1), axis=1))
+    sequence = np.mod(start[:, None] + np.arange(width + 1), width)
+    sequence[is_open] = np.concatenate([np.full((is_open.sum(), 1), width), sequence[is_open, :width]], axis=1)
+    plane = np.concatenate([inverted, np.zeros((n, 1, 2))], axis=1)
+    hull, size = _graham_scan(plane, sequence)
+
+    # Drop the closing repeat (closed) or the centre (open); consecutive hull slots form the fan triangles.
+    first = np.where(is_open, 1, 0)
+    length = size - 1
+    slots = np.arange(width + 1)
+    keep = (slots >= first[:, None]) & (slots < (first + length)[:, None])
+    ring_slots = hull[keep]
+    ring_ids = neighbour_ids[np.repeat(rows, length), ring_slots]
+    indptr = np.concatenate([[0], np.cumsum(length)])
+    pair_keep = (slots[:-1] >= first[:, None]) & (slots[:-1] < (first + length - is_open)[:, None])
+    j_slots, l_slots = hull[:, :-1][pair_keep], hull[:, 1:][pair_keep]
+    centres = np.repeat(rows, length - is_open)
+    triangles = np.column_stack([centres, neighbour_ids[centres, j_slots], neighbour_ids[centres, l_slots]])
+    return OneRings(indptr=indptr, indices=ring_ids.astype(np.int64), triangles=triangles.astype(np.int64))
+
+
+def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Convex chain of each row's star-shaped sequence, all rows at once: a stack per row.
+
+    Collinear points stay (they are cocircular in the original plane, a Delaunay tie kept as an edge).
+    """
+    n, steps = sequence.shape
+    rows = np.arange(n)
+    stack = np.zeros((n, steps), dtype=np.int64)
+    stack[:, :2] = sequence[:, :2]
+    size = np.full(n, 2)
+    for column in range(2, steps):
+        incoming = plane[rows, sequence[:, column]]
+        pending = rows
+        while len(pending):
+            top = size[pending] - 1
+            b = plane[pending, stack[pending, top]]
+            a = plane[pending, stack[pending, top - 1]]
+            q = incoming[pending]
+            u, v = b - a, q - b
+            cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+            tolerance = 1e-12 * ((u**2).sum(1) + (v**2).sum(1))
+            pop = (top >= 1) & (cross < -tolerance)
+            pending = pending[pop]
+            size[pending] -= 1
+        stack[rows, size] = sequence[:, column]
+        size += 1
+    return stack, size

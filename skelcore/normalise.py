@@ -1,0 +1,29 @@
+"""cloudcontr's normalisation (GS.normalize): centre the bounding box, largest extent 1.6."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+UNIT_EXTENT = 1.6
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    centre: np.ndarray
+    scale: float
+
+    @classmethod
+    def fit(cls, points: np.ndarray) -> "Normalisation":
+        low, high = points.min(axis=0), points.max(axis=0)
+        return cls(centre=(low + high) / 2, scale=UNIT_EXTENT / float((high - low).max()))
+
+    @classmethod
+    def identity(cls) -> "Normalisation":
+        return cls(centre=np.zeros(3), scale=1.0)
+
+    def forward(self, points: np.ndarray) -> np.ndarray:
+        return (points - self.centre) * self.scale
+
+    def inverse(self, points: np.ndarray) -> np.ndarray:
+        return points / self.scale + self.centre

@@ -1,0 +1,58 @@
+"""Parameters of the contraction, one validated dataclass (cloudcontr defaults, DESIGN.md section 3)."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from .errors import ParameterError
+
+METHODS = ("lbc", "glskeleton")
+
+
+def default_k(n_points: int) -> int:
+    """cloudcontr GS.compute_k_knn: clamp(round(0.012 n), 8, 30)."""
+    return int(min(30, max(8, round(0.012 * n_points))))
+
+
+@dataclass(frozen=True)
+class ContractionParams:
+    method: str = "lbc"
+    k: int | None = None  # neighbours for the one-rings; None: default_k(n)
+    wl0: float | None = None  # initial contraction weight; None: 1 / (5 * mean one-ring edge length)
+    wh0: float = 1.0  # initial attraction weight
+    sl: float = 3.0  # W_L amplification per iteration
+    wl_max: float = 2048.0  # cap on W_L (Au et al. 2008)
+    wh_max: float = 1e4  # cap on W_H
+    max_iterations: int = 20
+    termination: float = 0.01  # stop when the ring-size ratio falls by less than this
+    bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
+    normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
+
+    def validated(self) -> "ContractionParams":
+        def positive(name: str, value: float | None, allow_none: bool = False) -> None:
+            if value is None and allow_none:
+                return
+            if value is None or not math.isfinite(value) or value <= 0:
+                raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
+
+        if self.method not in METHODS:
+            raise ParameterError(f"parameter method={self.method!r}: must be one of {', '.join(METHODS)}")
+        if self.k is not None and (int(self.k) != self.k or not 3 <= self.k <= 200):
+            raise ParameterError(f"parameter k={self.k!r}: must be an integer between 3 and 200")
+        positive("wl0", self.wl0, allow_none=True)
+        for name in ("wh0", "wl_max", "wh_max", "termination"):
+            positive(name, getattr(self, name))
+        if not math.isfinite(self.sl) or self.sl < 1:
+            raise ParameterError(f"parameter sl={self.sl!r}: must be a finite number >= 1")
+        if int(self.max_iterations) != self.max_iterations or not 1 <= self.max_iterations <= 1000:
+            raise ParameterError(f"parameter max_iterations={self.max_iterations!r}: must be an integer between 1 and 1000")
+        if not math.isfinite(self.bbox_growth) or self.bbox_growth <= 1:
+            raise ParameterError(f"parameter bbox_growth={self.bbox_growth!r}: must be a finite number > 1")
+        return self
+
+    def replace(self, **changes) -> "ContractionParams":
+        return dataclasses.replace(self, **changes).validated()
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)

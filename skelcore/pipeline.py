@@ -1,0 +1,198 @@
+"""The whole pipeline for one input: load, contract, measure, extract the skeleton, write the results.
+
+`run_pipeline` is what `skelcore run` and `skelcore batch` call; the inspector uses `skeleton_of_state`,
+`IterationMetricsCache` and `write_results` on the states it already holds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from . import __version__, io
+from .contraction import TERMINATION_MESSAGES, IterationState, contract
+from .errors import InputError
+from .metrics import IterationMetrics, MetricsReference, run_verdict
+from .params import ContractionParams, default_k
+from .skeleton import Skeleton, SkeletonParams, extract_skeleton
+from .solver import backend
+
+METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
+RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    params: ContractionParams = ContractionParams()
+    sample_radius: float = 0.02  # skeleton ball radius, fraction of the bounding-box diagonal
+    seed: int = 0
+    sample: int | None = None  # mesh input: points sampled evenly over the surface
+    voxel_size: float | None = None
+    max_points: int = io.MAX_POINTS
+    metrics_k: int = METRICS_K
+
+    def skeleton_params(self) -> SkeletonParams:
+        return SkeletonParams(sample_radius=self.sample_radius).validated()
+
+
+@dataclass
+class RunResult:
+    out_dir: Path
+    cloud: io.Cloud
+    states: list[IterationState]
+    skeleton: Skeleton
+    metrics: dict
+    elapsed: float
+
+    def summary_line(self) -> str:
+        topology = self.skeleton.topology()
+        final = self.states[-1]
+        return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
+                f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
+                f"{topology['junctions']} junctions, {topology['ends']} ends; verdict {self.metrics['verdict']['label']}; "
+                f"{self.elapsed:.1f} s -> {self.out_dir}")
+
+
+def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams) -> Skeleton:
+    """Curve skeleton of a state; every input point takes the position of the point that represents it."""
+    ring_edges = state.point_ids[state.rings.edges()]
+    return extract_skeleton(state.points[state.owner], original, ring_edges, params)
+
+
+class IterationMetricsCache:
+    """The paper's metrics of each state of one run, computed on demand, once, in iteration order
+    (each iteration's normals are oriented from the one before). A restarted run needs a new cache."""
+
+    def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0) -> None:
+        self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed)
+        self._metrics: list[IterationMetrics] = []
+
+    def get(self, states: list[IterationState], index: int) -> IterationMetrics:
+        while len(self._metrics) <= index:
+            state = states[len(self._metrics)]
+            previous = self._metrics[-1] if self._metrics else None
+            self._metrics.append(self.reference.evaluate(state.points, state.point_ids, previous=previous,
+                                                         iteration=state.iteration))
+        return self._metrics[index]
+
+    def all(self, states: list[IterationState]) -> list[IterationMetrics]:
+        return [self.get(states, index) for index in range(len(states))]
+
+
+def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
+                 progress: Callable[[str], None] | None = None) -> RunResult:
+    """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
+    started = time.perf_counter()
+    options.skeleton_params()  # bad skeleton parameters fail before any work
+    cloud = io.load(input_path, sample=options.sample, voxel_size=options.voxel_size,
+                    max_points=options.max_points, seed=options.seed)
+    for note in cloud.notes:
+        _say(progress, f"{cloud.name}: {note}")
+    states = run_states(cloud, options.params, progress)
+    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
+    metrics = metrics_cache.all(states)
+    skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    elapsed = time.perf_counter() - started
+    summary = write_results(out_dir, cloud, states, skeleton, metrics, options, input_path=input_path, elapsed=elapsed)
+    return RunResult(Path(out_dir), cloud, states, skeleton, summary, elapsed)
+
+
+def run_states(cloud: io.Cloud, params: ContractionParams,
+               progress: Callable[[str], None] | None = None) -> list[IterationState]:
+    states: list[IterationState] = []
+    for state in contract(cloud.points, params):
+        if states and states[-1].iteration == state.iteration:
+            states[-1] = state
+        else:
+            states.append(state)
+        if state.iteration > 0 and state.termination is None or state.termination == "max_iterations":
+            seconds = sum(state.timings.values())
+            _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
+                           f"points={state.n_points} ({seconds:.2f} s)")
+    final = states[-1]
+    _say(progress, f"stopped after iteration {final.iteration}: {final.message or final.termination}")
+    return states
+
+
+def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics]) -> dict:
+    """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict."""
+    iterations = []
+    for state, measured in zip(states, metrics):
+        iterations.append({
+            "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
+            "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
+            "ring_ratio": state.ring_ratio, "timings": state.timings, **measured.to_dict(),
+        })
+    final = states[-1]
+    return {"method": final.params.method, "n_points": len(cloud.points), "iterations": iterations,
+            "termination": final.termination, "termination_message": TERMINATION_MESSAGES.get(final.termination, ""),
+            "verdict": run_verdict(metrics)}
+
+
+def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None) -> dict:
+    """params.json: everything needed to reproduce the run, the resolved defaults included."""
+    params = states[0].params
+    resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
+    return {
+        "input": str(Path(input_path).resolve()) if input_path is not None else cloud.name,
+        "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
+        "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
+        "max_points": options.max_points, "metrics_k": options.metrics_k,
+        "retuned": [state.message for state in states if state.message.startswith("retuned")],
+        "skelcore_version": __version__, "solver": backend(),
+    }
+
+
+def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
+                  metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
+                  elapsed: float | None = None) -> dict:
+    """Write the five result files, each atomically (a temporary file renamed into place)."""
+    from .export import skeleton_document, write_points_ply, write_skeleton_ply
+
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
+    summary = metrics_document(cloud, states, metrics)
+    if elapsed is not None:
+        summary["elapsed_seconds"] = elapsed
+    final = states[-1]
+    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
+    _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
+    _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
+    _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
+    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path)))
+    return summary
+
+
+def _atomic(path: Path, write: Callable[[Path], None]) -> None:
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(temporary)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def _write_json(path: Path, document: dict) -> None:
+    path.write_text(json.dumps(document, indent=1, default=_json_default))
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def _say(progress: Callable[[str], None] | None, line: str) -> None:
+    if progress is not None:
+        progress(line)

@@ -1,0 +1,61 @@
+"""Sparse Cholesky for the normal equations of eq. 2.
+
+CHOLMOD through scikit-sparse when it is installed (the set-up builds it against Debian's SuiteSparse
+and OpenBLAS): the symbolic analysis is kept while the sparsity pattern stays the same, so an LBC
+iteration pays for the numeric factorisation only. Otherwise cholespy (a plain wheel; CHOLMOD inside,
+but it analyses and factorises anew every call).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import SolverError
+
+try:
+    from sksparse.cholmod import CholmodError, analyze
+except ImportError:  # the plain-wheel fallback
+    analyze = None
+    CholmodError = RuntimeError
+
+
+def backend() -> str:
+    return "scikit-sparse (CHOLMOD)" if analyze is not None else "cholespy (CHOLMOD)"
+
+
+class CholeskySolver:
+    """Solves symmetric positive-definite systems with one numeric factorisation per call."""
+
+    def __init__(self) -> None:
+        self._analysis = None
+        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+
+    def solve(self, system: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+        system = system.tocsr()
+        try:
+            if analyze is not None:
+                return self._solve_cholmod(system, rhs)
+            return _solve_cholespy(system, rhs)
+        except (CholmodError, RuntimeError, ValueError) as error:
+            raise SolverError(f"Cholesky factorisation failed ({' '.join(str(error).split())[:120]})") from None
+
+    def _solve_cholmod(self, system: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+        # A symmetric CSR matrix read as CSC is itself: no copy, no transpose.
+        matrix = sp.csc_matrix((system.data, system.indices, system.indptr), shape=system.shape)
+        pattern = (matrix.indptr, matrix.indices)
+        if self._pattern is None or not (np.array_equal(pattern[0], self._pattern[0])
+                                         and np.array_equal(pattern[1], self._pattern[1])):
+            self._analysis = analyze(matrix)
+            self._pattern = pattern
+        factor = self._analysis.cholesky(matrix)
+        return np.asarray(factor(np.asarray(rhs, dtype=np.float64)))
+
+
+def _solve_cholespy(system: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+    from cholespy import CholeskySolverD, MatrixType
+
+    solver = CholeskySolverD(system.shape[0], system.indptr.astype(np.int32), system.indices.astype(np.int32),
+                             system.data.astype(np.float64), MatrixType.CSR)
+    solution = np.zeros(rhs.shape, dtype=np.float64)
+    solver.solve(np.ascontiguousarray(rhs, dtype=np.float64), solution)
+    return solution

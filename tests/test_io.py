@@ -1,0 +1,177 @@
+"""Loading and validation: every bad input gives an InputError with a one-line message naming the file."""
+import numpy as np
+import pytest
+
+from skelcore import io
+from skelcore.errors import InputError
+
+
+def sphere(n=200, seed=0):
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def write_xyz(path, points):
+    np.savetxt(path, points)
+    return path
+
+
+def assert_one_line(error, *fragments):
+    message = str(error.value)
+    assert "\n" not in message
+    for fragment in fragments:
+        assert fragment in message, message
+
+
+def test_text_formats_round_trip(tmp_path):
+    points = sphere()
+    for suffix in (".xyz", ".txt", ".pts"):
+        cloud = io.load(write_xyz(tmp_path / f"c{suffix}", points))
+        np.testing.assert_allclose(cloud.points, points)
+        assert cloud.faces is None
+
+
+def test_pts_count_header_and_comma_separated(tmp_path):
+    points = sphere(50)
+    path = tmp_path / "c.pts"
+    path.write_text("50\n" + "\n".join(",".join(map(str, p)) for p in points))
+    np.testing.assert_allclose(io.load(path).points, points)
+
+
+def test_off_headers(tmp_path):
+    points = sphere(30)
+    body = "\n".join(" ".join(map(str, p)) for p in points)
+    (tmp_path / "a.off").write_text(f"OFF\n30 1 0\n{body}\n3 0 1 2\n")
+    cloud = io.load(tmp_path / "a.off")
+    np.testing.assert_allclose(cloud.points, points)
+    assert cloud.faces.tolist() == [[0, 1, 2]]
+    normals = "\n".join(" ".join(map(str, list(p) + list(p))) for p in points)
+    (tmp_path / "b.off").write_text(f"NOFF 30 0 0\n{normals}\n")
+    np.testing.assert_allclose(io.load(tmp_path / "b.off").points, points)
+    coloured = "\n".join(" ".join(map(str, list(p) + [255, 0, 0, 255])) for p in points)
+    (tmp_path / "c.off").write_text(f"COFF\n# a comment\n30 0 0\n{coloured}\n")
+    np.testing.assert_allclose(io.load(tmp_path / "c.off").points, points)
+
+
+def test_ply_pcd_and_meshes(tmp_path):
+    import open3d as o3d
+    import trimesh
+
+    points = sphere(300)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    o3d.io.write_point_cloud(str(tmp_path / "c.pcd"), cloud)
+    o3d.io.write_point_cloud(str(tmp_path / "c.ply"), cloud)
+    np.testing.assert_allclose(io.load(tmp_path / "c.pcd").points, points)
+    np.testing.assert_allclose(io.load(tmp_path / "c.ply").points, points)
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    for suffix in (".obj", ".stl", ".glb", ".ply"):
+        mesh.export(tmp_path / f"m{suffix}")
+        loaded = io.load(tmp_path / f"m{suffix}")
+        assert loaded.faces is not None and len(loaded.points) == len(mesh.vertices)
+    sampled = io.load(tmp_path / "m.obj", sample=500)
+    assert sampled.faces is None and 400 <= len(sampled.points) <= 500
+    assert np.allclose(np.linalg.norm(sampled.points, axis=1), 1, atol=0.05)
+
+
+def test_load_bytes_names_the_upload_not_the_temp_path():
+    data = "\n".join(" ".join(map(str, p)) for p in sphere()).encode()
+    assert len(io.load_bytes(data, "mine.xyz").points) == 200
+    with pytest.raises(InputError) as error:
+        io.load_bytes(b"\x00\xff garbage", "bad.xyz")
+    assert_one_line(error, "bad.xyz")
+    assert "/tmp" not in str(error.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError) as error:
+        io.load(tmp_path / "nope.ply")
+    assert_one_line(error, "nope.ply", "file not found")
+
+
+def test_unknown_format(tmp_path):
+    (tmp_path / "cloud.las").write_text("1 2 3")
+    with pytest.raises(InputError) as error:
+        io.load(tmp_path / "cloud.las")
+    assert_one_line(error, "cloud.las", "unknown format", ".las")
+
+
+def test_unreadable_garbage(tmp_path):
+    path = tmp_path / "garbage.ply"
+    path.write_bytes(b"\x00\x01\x02 not a ply file at all \xff\xfe")
+    with pytest.raises(InputError) as error:
+        io.load(path)
+    assert_one_line(error, "garbage.ply")
+
+
+def test_empty_file(tmp_path):
+    path = tmp_path / "empty.xyz"
+    path.write_text("")
+    with pytest.raises(InputError) as error:
+        io.load(path)
+    assert_one_line(error, "empty.xyz", "no points")
+
+
+def test_nan_and_inf(tmp_path):
+    points = sphere()
+    points[3, 1] = np.nan
+    points[7, 0] = np.inf
+    with pytest.raises(InputError) as error:
+        io.load(write_xyz(tmp_path / "nan.xyz", points))
+    assert_one_line(error, "nan.xyz", "2 of 200 points", "NaN or Inf")
+
+
+def test_too_few_points(tmp_path):
+    with pytest.raises(InputError) as error:
+        io.load(write_xyz(tmp_path / "few.xyz", sphere(5)))
+    assert_one_line(error, "few.xyz", "only 5 distinct points", f"at least {io.MIN_POINTS}")
+
+
+def test_identical_points(tmp_path):
+    points = np.tile([[1.0, 2.0, 3.0]], (100, 1)) + np.repeat(np.arange(25)[:, None] * 1e-15, 4, axis=0)
+    with pytest.raises(InputError) as error:
+        io.validate(np.tile([[1.0, 2.0, 3.0]], (100, 1)), name="same.xyz")
+    assert_one_line(error, "same.xyz")
+    with pytest.raises(InputError) as error:
+        io.validate(points, name="same.xyz")
+    assert_one_line(error, "same.xyz", "identical")
+
+
+def test_collinear_points(tmp_path):
+    t = np.linspace(0, 1, 100)[:, None]
+    with pytest.raises(InputError) as error:
+        io.load(write_xyz(tmp_path / "line.xyz", t * [[1.0, 2.0, -1.0]] + [[0.5, 0, 0]]))
+    assert_one_line(error, "line.xyz", "one line")
+
+
+def test_duplicates_removed_and_reported(tmp_path):
+    points = sphere(100)
+    doubled = np.concatenate([points, points[:30]])
+    cloud = io.load(write_xyz(tmp_path / "dup.xyz", doubled))
+    assert len(cloud.points) == 100
+    np.testing.assert_allclose(cloud.points, points)  # first occurrences, original order
+    assert cloud.notes == ["removed 30 duplicate points"]
+
+
+def test_duplicate_vertices_remap_faces():
+    points = np.concatenate([sphere(50), sphere(50)[:1]])
+    faces = np.array([[0, 1, 2], [50, 3, 4], [1, 2, 3]])
+    cloud = io.validate(points, faces, name="mesh")
+    assert cloud.faces.tolist() == [[0, 1, 2], [0, 3, 4], [1, 2, 3]]
+
+
+def test_absurd_size_is_capped_with_voxel_advice(tmp_path):
+    points = sphere(5000)
+    path = write_xyz(tmp_path / "big.xyz", points)
+    with pytest.raises(InputError) as error:
+        io.load(path, max_points=1000)
+    assert_one_line(error, "big.xyz", "exceed the cap of 1,000", "--voxel-size")
+    cloud = io.load(path, max_points=1000, voxel_size=0.15)
+    assert len(cloud.points) <= 1000
+    assert any("voxel downsampling" in note for note in cloud.notes)
+
+
+def test_reference_files_load(reference_dir):
+    cloud = io.load(reference_dir / "cloudcontr_simplejoint_v4770.off")
+    assert cloud.points.shape == (4770, 3) and cloud.faces.shape == (9536, 3)
+    assert len(io.load(reference_dir / "libigl_elephant.obj").points) == 6034
