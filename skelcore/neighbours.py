@@ -108,27 +108,31 @@ def one_rings(points: np.ndarray, k: int) -> OneRings:
 def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Convex chain of each row's star-shaped sequence, all rows at once: a stack per row.
 
-    Collinear points stay (they are cocircular in the original plane, a Delaunay tie kept as an edge).
+    plane (n, w, 2) holds each row's points; sequence (n, s) the slots in scan order. Returns the stack
+    of slots (n, s) and its size per row. Flat 1-D indexing keeps the per-column work cheap; collinear
+    points stay (they are cocircular in the original plane, a Delaunay tie kept as an edge).
     """
     n, steps = sequence.shape
+    width = plane.shape[1]
+    px, py = plane[..., 0].ravel(), plane[..., 1].ravel()
     rows = np.arange(n)
-    stack = np.zeros((n, steps), dtype=np.int64)
-    stack[:, :2] = sequence[:, :2]
+    flat = sequence + (rows * width)[:, None]
+    base = rows * steps
+    stack = np.zeros(n * steps, dtype=np.int64)
+    stack[base], stack[base + 1] = flat[:, 0], flat[:, 1]
     size = np.full(n, 2)
     for column in range(2, steps):
-        incoming = plane[rows, sequence[:, column]]
+        incoming = flat[:, column]
+        qx, qy = px[incoming], py[incoming]
         pending = rows
         while len(pending):
-            top = size[pending] - 1
-            b = plane[pending, stack[pending, top]]
-            a = plane[pending, stack[pending, top - 1]]
-            q = incoming[pending]
-            u, v = b - a, q - b
-            cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-            tolerance = 1e-12 * ((u**2).sum(1) + (v**2).sum(1))
-            pop = (top >= 1) & (cross < -tolerance)
-            pending = pending[pop]
+            top = base[pending] + size[pending] - 1
+            b, a = stack[top], stack[top - 1]
+            ux, uy = px[b] - px[a], py[b] - py[a]
+            vx, vy = qx[pending] - px[b], qy[pending] - py[b]
+            right_turn = ux * vy - uy * vx < -1e-12 * (ux * ux + uy * uy + vx * vx + vy * vy)
+            pending = pending[(size[pending] >= 2) & right_turn]
             size[pending] -= 1
-        stack[rows, size] = sequence[:, column]
+        stack[base + size] = incoming
         size += 1
-    return stack, size
+    return stack.reshape(n, steps) - (rows * width)[:, None], size

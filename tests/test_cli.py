@@ -1,0 +1,79 @@
+"""`skelcore run` end to end, as a user runs it: files written, progress, help, bad input."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from skelcore.cli import main
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "skelcore.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=None)
+
+
+def test_run_writes_every_result_file(tmp_path, assets_dir):
+    result = run_cli("run", assets_dir / "torus.ply", "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert any(line.startswith("iteration 1:") for line in lines)
+    assert "stopped after iteration" in result.stdout
+    out = tmp_path / "out"
+    skeleton = json.loads((out / "skeleton.json").read_text())
+    nodes, edges = np.array(skeleton["nodes"]), np.array(skeleton["edges"])
+    assert nodes.shape[1] == 3 and edges.shape[1] == 2 and edges.max() < len(nodes)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["iterations"][0]["iteration"] == 0
+    assert metrics["termination"] in ("ring_ratio", "max_iterations")
+    assert {"d_theta", "delta_kappa", "boundedness", "verdict", "wl", "ring_ratio"} <= metrics["iterations"][-1].keys()
+    assert metrics["verdict"]["label"] in ("stable", "not yet converged", "unstable")
+    params = json.loads((out / "params.json").read_text())
+    assert params["contraction"]["k"] == 30 and params["contraction"]["wl0"] > 0
+    assert params["input"].endswith("torus.ply")
+    header = (out / "contracted.ply").read_bytes()[:300]
+    assert b"element vertex 3000" in header
+    assert b"element edge" in (out / "skeleton.ply").read_bytes()[:400]
+    assert not list(out.glob(".*tmp"))
+
+
+def test_run_params_reproduce_the_run(tmp_path, assets_dir):
+    first = tmp_path / "a"
+    assert main(["run", str(assets_dir / "capsule.ply"), "--out", str(first), "--quiet", "--max-iterations", "3"]) == 0
+    contraction = json.loads((first / "params.json").read_text())["contraction"]
+    second = tmp_path / "b"
+    flags = ["--k", contraction["k"], "--wl0", contraction["wl0"], "--wh0", contraction["wh0"], "--sl", contraction["sl"],
+             "--wl-max", contraction["wl_max"], "--max-iterations", contraction["max_iterations"],
+             "--termination", contraction["termination"]]
+    assert main(["run", str(assets_dir / "capsule.ply"), "--out", str(second), "--quiet", *map(str, flags)]) == 0
+    assert (first / "skeleton.json").read_text() == (second / "skeleton.json").read_text()
+
+
+def test_help_documents_every_parameter_with_its_default():
+    result = run_cli("run", "--help")
+    assert result.returncode == 0
+    for flag in ("--k", "--wl0", "--wh0", "--sl", "--wl-max", "--max-iterations", "--termination",
+                 "--sample-radius", "--seed", "--method", "--out"):
+        assert flag in result.stdout
+    assert "default: 3.0" in result.stdout and "default: 2048.0" in result.stdout and "default: 0.02" in result.stdout
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda d: d / "missing.ply", "file not found"),
+    (lambda d: (d / "bad.ply").write_bytes(b"\x00garbage\xff") and d / "bad.ply", "bad.ply"),
+    (lambda d: (d / "nan.xyz").write_text("0 0 nan\n" * 30) and d / "nan.xyz", "NaN"),
+    (lambda d: (d / "x.foo").write_text("1 2 3") and d / "x.foo", "unknown format"),
+])
+def test_bad_input_is_one_line_and_non_zero(tmp_path, make, fragment):
+    result = run_cli("run", make(tmp_path), "--out", tmp_path / "out")
+    assert result.returncode != 0
+    assert "Traceback" not in result.stderr
+    message = result.stderr.strip().splitlines()
+    assert len(message) == 1 and fragment in message[0], result.stderr
+
+
+def test_bad_parameter_is_one_line_and_non_zero(tmp_path, assets_dir):
+    result = run_cli("run", assets_dir / "torus.ply", "--out", tmp_path / "out", "--sl", "-2")
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert "sl=" in result.stderr and len(result.stderr.strip().splitlines()) == 1
