@@ -87,7 +87,27 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--json", action="store_true", help="print the result as JSON instead of a table")
     evaluate.set_defaults(handler=_evaluate)
     # -- report (skelcore.report) --
+    report = commands.add_parser("report", help="write one HTML page of the paper's figures and verdicts for run folders")
+    report.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="output folders of `skelcore run`")
+    report.add_argument("--out", default="report.html", help="HTML file to write (default: %(default)s)")
+    report.set_defaults(handler=_report)
     # -- batch (skelcore.batch) --
+    batch = commands.add_parser("batch", help="run the pipeline over many objects: summary, comparison report, resumable, Dask")
+    batch.add_argument("inputs", nargs="+", metavar="INPUT",
+                       help="files, folders (their point cloud and mesh files) or quoted glob patterns ('data/**/*.ply')")
+    batch.add_argument("--out", required=True,
+                       help="output folder: OUT/<object>/ as `run` writes it, summary.csv, summary.json, report.html")
+    batch.add_argument("--force", action="store_true", help="redo objects already done with the same parameters")
+    batch.add_argument("--quiet", action="store_true", help="no progress bar")
+    batch.add_argument("--no-report", action="store_true", help="skip report.html (for very large batches)")
+    where = batch.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, nargs="?", const=0, default=None, metavar="N",
+                       help="run on a local Dask cluster of N one-thread worker processes (no N: one per CPU core)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on an existing Dask cluster (tcp://HOST:PORT); INPUTs and OUT must be at the same "
+                            "path on every worker")
+    add_parameter_flags(batch)
+    batch.set_defaults(handler=_batch)
     return parser
 
 
@@ -127,6 +147,25 @@ def _evaluate(args: argparse.Namespace) -> int:
     result = evaluate_files(args.skeleton, args.truth)
     print(json.dumps(result, indent=2) if args.json else format_report(result))
     return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from .report import write_report
+
+    print(write_report(args.run_dirs, args.out))
+    return 0
+
+
+def _batch(args: argparse.Namespace) -> int:
+    from .batch import run_batch
+    from .pipeline import RunOptions
+
+    options = RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
+                         sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
+    result = run_batch(args.inputs, args.out, options, workers=args.workers, scheduler=args.scheduler,
+                       force=args.force, progress=not args.quiet, report=not args.no_report)
+    print(result.summary_line())
+    return 1 if result.failed else 0
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,641 @@
+"""Stability metrics of a contraction: D_theta, delta_kappa, their histograms, boundedness, verdict.
+
+Per point and iteration (seed paper): the PCA normal n (eq. 6, eigenvector of the smallest eigenvalue of
+the covariance of the k nearest neighbours in the CURRENT cloud), the curvature
+kappa = lambda_1 / (lambda_1 + lambda_2 + lambda_3), lambda_1 the smallest (eq. 7),
+D_theta = arccos(cos_sim(n_k, n_0)) / pi (eqs. 3-5) and delta_kappa = kappa_k - kappa_0 (eq. 8).
+
+k defaults to 30: the largest neighbourhood the contraction itself uses (cloudcontr's k=30, our
+clamp(0.012 n, 8, 30)) and the usual kNN size for PCA normals (Open3D's examples); fewer neighbours make
+the normal of a contracted, nearly one-dimensional neighbourhood follow the sampling noise.
+
+Sign convention. The eigen-solver returns +n or -n at random, yet eq. 5 uses the signed cosine, so
+D_theta spans [0, 1]. We treat each point's normal as one continuous field over the iterations: at
+iteration k the sign of n_k,i is chosen so that n_k,i . n_{k-1},i >= 0, i.e. the normal turns by the
+smaller of its two possible angles per step (pass `previous`; without it the step is taken from
+iteration 0). The sign of n_0,i cancels in cos_sim(n_k,i, n_0,i), so D_theta depends on no arbitrary
+sign at all: it is the total turn of the tracked normal, 0 for an unchanged cloud, theta/pi for a patch
+rotated by theta < 90 deg. Why this and not "outward from the centroid" at every iteration: once a tube
+has collapsed onto its axis the new normal is just some direction across the axis; re-orienting it
+against the centroid would copy the sign of the old radial normal and fold D_theta into [0, 0.5]. With
+tracking, normals that have lost their relation to the surface wander over the sphere, whose angle
+density sin(theta)/2 is the symmetric bell centred on D_theta = 0.5 that the paper reports for a stable
+contraction. Reference normals are still oriented outward (a minimum spanning tree over the kNN graph,
+Hoppe et al. 1992), because the boundedness test needs an outside; D_theta does not use that sign.
+A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
+of the statistics (counted in "n_undefined"), and its tracked normal carries the previous one forward.
+
+Points that disappear (GLSkeleton): the caller passes `point_ids`, ids into the input cloud of the
+points present, and every quantity compares them with iteration 0 at those ids.
+
+Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original shape, judged by the
+side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
+times the original bounding-box diagonal (points on the surface count as inside); see InsideTest for
+how deep points are decided cheaply. A point cloud is its own sample with MST-oriented PCA normals; a
+mesh is sampled densely with its face normals after trimesh's winding repair. Away from the band this
+agrees with the winding number of a closed mesh: the nearest sample lies within half a sample spacing
+of the nearest surface point, whose normal gives the exact side. The size X of a cloud is its RMS
+distance to its centroid (it follows the collapse of every cross-section; a bounding box only sees the
+extreme tips and stays put while a tube collapses): shrinking means X_k <= (1 + shrink_tolerance) X_{k-1},
+X_0 taken over the same ids; a fall of more than max_step_shrink in one iteration is a collapse.
+
+Verdict (thresholds in StabilityThresholds): an iteration is "unstable" with more than one significant
+histogram peak, too few points inside, a growing or collapsing cloud; "not yet converged" with an
+asymmetric histogram or a mean off its target and not moving toward it; "stable" otherwise. A run is
+unstable if any iteration is, or if a mean ends off target having closed less than min_progress of its
+gap; otherwise it takes its last iteration's label.
+
+Cost: the kNN search dominates. A cloud above `max_points` (5,000) is judged on a fixed random sample of
+that many input points, each still measured against the whole current cloud (see MetricsReference).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
+from scipy.spatial import cKDTree
+
+from .errors import InputError, ParameterError
+from .neighbours import knn
+
+D_THETA_RANGE = (0.0, 1.0)
+DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
+_COLLAPSED = 1e-6  # a neighbourhood smaller than this fraction of the original diagonal has no frame
+_ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
+_SYMMETRY_LEVELS = np.linspace(0.02, 0.48, 24)
+
+
+@dataclass(frozen=True)
+class StabilityThresholds:
+    """What the verdict demands; fractions are of the number of points or of the original diagonal."""
+    peak_drop: float = 0.02  # a peak counts if the frequency falls by this share of the points on both sides
+    max_peaks: int = 1  # more significant peaks than this in either histogram: unstable
+    min_symmetry: float = 0.8  # quantile symmetry below this: not yet converged
+    d_theta_target: float = 0.5
+    d_theta_tolerance: float = 0.1  # |mean D_theta - 0.5| above this: not yet converged
+    delta_kappa_tolerance: float = 0.05  # |mean delta_kappa| above this: not yet converged
+    min_inside_share: float = 0.9  # fewer points inside the original shape: unstable
+    surface_tolerance: float = 0.01  # band around the surface that counts as inside
+    shrink_tolerance: float = 0.01  # relative growth of the RMS spread per iteration that still counts as shrinking
+    max_step_shrink: float = 0.5  # a larger fall of the spread in one iteration is a collapse, not a contraction
+    min_progress: float = 0.25  # run: share of a mean's gap to its target to close from first to last iteration
+
+    def validated(self) -> "StabilityThresholds":
+        for name, value in asdict(self).items():
+            if not np.isfinite(value) or value < 0:
+                raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
+        if (not 0 < self.peak_drop < 1 or not 0 <= self.min_inside_share <= 1 or self.max_peaks < 1
+                or self.min_progress > 1 or self.max_step_shrink > 1):
+            raise ParameterError("thresholds: need 0 < peak_drop < 1, 0 <= min_inside_share <= 1, max_peaks >= 1, "
+                                 "min_progress <= 1, max_step_shrink <= 1")
+        return self
+
+
+# --- per-point features -------------------------------------------------------------------------
+
+def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None, collapsed: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit normals (eq. 6, sign as the solver gives it), curvature (eq. 7) and kNN indices of the points
+    `rows` (default all), their neighbours taken among all `points`.
+
+    Neighbourhoods whose covariance trace is <= collapsed**2 get NaN normal and curvature.
+    """
+    k = min(k, len(points))
+    tree = cKDTree(points)
+    if rows is None:
+        _, idx = knn(points, k, tree)
+    else:
+        _, idx = tree.query(points[rows], k=k, workers=-1)
+        idx = idx.reshape(len(rows), k)
+    m = len(idx)
+    # Neighbourhood means of x and x x^T at once: one sparse averaging operator, 9 columns.
+    centred = points - points.mean(axis=0)
+    x, y, z = centred.T
+    columns = np.column_stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z])
+    average = sp.csr_matrix((np.full(m * k, 1.0 / k), idx.ravel(), np.arange(0, m * k + 1, k)),
+                            shape=(m, len(points)))
+    moments = average @ columns
+    mean = moments[:, :3]
+    xx, xy, xz, yy, yz, zz = (moments[:, 3 + j] - mean[:, a] * mean[:, b]
+                              for j, (a, b) in enumerate([(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]))
+    smallest, trace = _smallest_eigenvalue(xx, xy, xz, yy, yz, zz)
+    normals = _eigenvector(xx, xy, xz, yy, yz, zz, smallest)
+    kappa = np.clip(smallest / np.where(trace > 0, trace, 1.0), 0.0, 1.0 / 3.0)  # eq. 7
+    undefined = trace <= collapsed ** 2
+    normals[undefined] = np.nan
+    kappa[undefined] = np.nan
+    return normals, kappa, idx
+
+
+def _smallest_eigenvalue(xx, xy, xz, yy, yz, zz):
+    """Smallest eigenvalue of symmetric 3x3 matrices, closed form (trigonometric solution of the cubic)."""
+    q = (xx + yy + zz) / 3.0
+    off = xy * xy + xz * xz + yz * yz
+    p = np.sqrt(np.maximum(((xx - q) ** 2 + (yy - q) ** 2 + (zz - q) ** 2 + 2.0 * off) / 6.0, 0.0))
+    s = np.where(p > 0, p, 1.0)
+    a, b, c, d, e, f = (xx - q) / s, xy / s, xz / s, (yy - q) / s, yz / s, (zz - q) / s
+    half_det = (a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c)) / 2.0
+    phi = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3.0
+    return q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0), 3.0 * q
+
+
+def _eigenvector(xx, xy, xz, yy, yz, zz, eigenvalue):
+    """Unit eigenvector for `eigenvalue`: the largest cross product of two rows of (C - lambda I)."""
+    rows = np.stack([np.column_stack([xx - eigenvalue, xy, xz]),
+                     np.column_stack([xy, yy - eigenvalue, yz]),
+                     np.column_stack([xz, yz, zz - eigenvalue])], axis=1)
+    crosses = np.stack([np.cross(rows[:, 0], rows[:, 1]), np.cross(rows[:, 0], rows[:, 2]),
+                        np.cross(rows[:, 1], rows[:, 2])], axis=1)
+    sizes = np.einsum("nij,nij->ni", crosses, crosses)
+    best = np.argmax(sizes, axis=1)
+    vectors = crosses[np.arange(len(best)), best]
+    scale = np.einsum("nij,nij->n", rows, rows)
+    # A double smallest eigenvalue (line-like neighbourhood) leaves a plane of normals: take one across
+    # the dominant row, which spans the line.
+    flat = sizes[np.arange(len(best)), best] <= 1e-16 * scale ** 2
+    if flat.any():
+        row_sizes = np.einsum("nij,nij->ni", rows[flat], rows[flat])
+        dominant = rows[flat][np.arange(flat.sum()), np.argmax(row_sizes, axis=1)]
+        helper = np.eye(3)[np.argmin(np.abs(dominant), axis=1)]
+        across = np.cross(dominant, helper)
+        # Isotropic neighbourhood (C = lambda I): every direction is a normal.
+        across[np.einsum("ij,ij->i", across, across) == 0] = (0.0, 0.0, 1.0)
+        vectors[flat] = across
+    return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+
+
+def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Flip normals consistently along a minimum spanning tree of the kNN graph (weight 2 - |n_i.n_j|),
+    each connected part made outward at its point farthest from the part's centroid."""
+    n = len(points)
+    usable = np.nan_to_num(normals)
+    cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1]
+    rows = np.repeat(np.arange(n), cols.shape[1])
+    weights = 2.0 - np.abs(np.einsum("ij,ij->i", usable[rows], usable[cols.ravel()]))
+    graph = sp.csr_matrix((weights, (rows, cols.ravel())), shape=(n, n))
+    tree = minimum_spanning_tree(graph.maximum(graph.T))
+    parts, labels = connected_components(tree, directed=False)
+    centroids = np.stack([np.bincount(labels, points[:, a], parts) for a in range(3)], axis=1)
+    centroids /= np.bincount(labels, minlength=parts)[:, None]
+    offsets = points - centroids[labels]
+    order = np.lexsort((np.einsum("ij,ij->i", offsets, offsets), labels))
+    roots = order[np.r_[np.flatnonzero(np.diff(labels[order])), n - 1]]
+    # A virtual node n joined to every part's root makes the forest one tree: one BFS gives all parents.
+    root = n
+    tree = sp.bmat([[tree + tree.T, None], [None, sp.csr_matrix((1, 1))]], format="csr")
+    tree = tree + sp.csr_matrix((np.ones(parts), (np.full(parts, root), roots)), shape=(n + 1, n + 1))
+    _, parent = breadth_first_order(tree, root, directed=False, return_predecessors=True)
+    parent[root] = root
+    relative = np.ones(n + 1)
+    relative[:n] = np.where(np.einsum("ij,ij->i", usable, usable[np.minimum(parent[:n], n - 1)]) < 0, -1.0, 1.0)
+    relative[roots] = np.where(np.einsum("ij,ij->i", usable[roots], offsets[roots]) < 0, -1.0, 1.0)
+    # Pointer jumping: the sign of a point is the product of relative flips along its path to the root.
+    ancestor = parent.copy()
+    while (ancestor != root).any():
+        relative = relative * relative[ancestor]
+        ancestor = ancestor[ancestor]
+    return normals * relative[:n, None]
+
+
+# --- histogram statistics -----------------------------------------------------------------------
+
+def significant_peaks(counts: np.ndarray, n_points: int, drop: float = 0.02) -> np.ndarray:
+    """Bins of the peaks whose frequency falls by at least drop * n_points on both sides (the paper's rule).
+
+    A side is followed until a higher bin (to the left) or an equally high one (to the right), so a
+    plateau, or two equal maxima with a shallow dip between them, counts once; beyond the ends the
+    frequency is 0. A loop over bins (about 50), not points.
+    """
+    heights = np.concatenate([[0.0], np.asarray(counts, dtype=float), [0.0]])
+    needed = drop * n_points
+    peaks = []
+    for i in range(1, len(heights) - 1):
+        top = heights[i]
+        if top <= 0 or top < heights[i - 1] or top < heights[i + 1]:
+            continue
+        left, right = heights[i - 1::-1], heights[i + 1:]
+        left = left[:np.argmax(left > top)] if (left > top).any() else left
+        right = right[:np.argmax(right >= top)] if (right >= top).any() else right
+        if len(right) and top - left.min() >= needed and top - right.min() >= needed:
+            peaks.append(i - 1)
+    return np.asarray(peaks, dtype=np.int64)
+
+
+def distribution_stats(values: np.ndarray, value_range: tuple[float, float], bins: int = 50,
+                       peak_drop: float = 0.02) -> dict:
+    """JSON-ready statistics of one per-point measure; NaN values are left out and counted."""
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    n = len(finite)
+    counts, edges = np.histogram(finite, bins=bins, range=value_range)
+    peaks = significant_peaks(counts, n, peak_drop)
+    centres = (edges[:-1] + edges[1:]) / 2
+    stats = {"histogram": {"edges": edges.tolist(), "counts": counts.tolist()}, "n": n,
+             "n_undefined": int(len(values) - n),
+             "peaks": {"count": int(len(peaks)), "positions": centres[peaks].tolist(),
+                       "heights": counts[peaks].tolist()},
+             "mean": None, "median": None, "std": None, "skewness": None, "kurtosis": None,
+             "symmetry": None, "unimodality": None}
+    if n == 0:
+        return stats
+    mean = float(finite.mean())
+    deviation = finite - mean
+    m2, m3, m4 = (float(np.mean(deviation ** p)) for p in (2, 3, 4))
+    quantiles = np.quantile(finite, np.concatenate([[0.5], _SYMMETRY_LEVELS, 1.0 - _SYMMETRY_LEVELS]))
+    median, low, high = quantiles[0], quantiles[1:1 + len(_SYMMETRY_LEVELS)], quantiles[1 + len(_SYMMETRY_LEVELS):]
+    stats.update(mean=mean, median=float(median), std=float(np.sqrt(m2)))
+    spread = float(np.mean(high - low))
+    # Symmetry: quantiles mirrored about the median (Bowley's skewness over many levels), 1 = symmetric.
+    mismatch = float(np.mean(np.abs(high + low - 2 * median)))
+    stats["symmetry"] = 1.0 if spread <= 0 else float(np.clip(1.0 - mismatch / spread, 0, 1))
+    if m2 > 1e-18:  # the measures live on ranges of order 1
+        skewness, kurtosis = m3 / m2 ** 1.5, m4 / m2 ** 2 - 3.0
+        stats.update(skewness=float(skewness), kurtosis=float(kurtosis))
+        if n > 3:
+            # Sarle's bimodality coefficient BC (5/9 for a uniform, 1/3 for a normal); reported as 1 - BC.
+            # Informative only: heavy tails also raise BC, so the verdict counts peaks (the paper's rule).
+            bc = (skewness ** 2 + 1) / (kurtosis + 3 * (n - 1) ** 2 / ((n - 2) * (n - 3)))
+            stats["unimodality"] = float(np.clip(1.0 - bc, 0.0, 1.0))
+    else:
+        # A single value: skewness and kurtosis are undefined, the distribution is one spike.
+        stats["unimodality"] = 1.0
+    return stats
+
+
+# --- reference and per-iteration evaluation -----------------------------------------------------
+
+@dataclass
+class IterationMetrics:
+    """Metrics of one iteration; per-point arrays follow `point_ids` and stay out of to_dict()."""
+    iteration: int
+    point_ids: np.ndarray  # (m,) ids into the input cloud of the evaluated points (see MetricsReference)
+    rows: np.ndarray  # (m,) their rows in the evaluated `points`
+    n_present: int  # rows of the evaluated `points`
+    d_theta: np.ndarray  # (m,) eqs. 3-5, NaN where undefined
+    delta_kappa: np.ndarray  # (m,) eq. 8, NaN where undefined
+    normals: np.ndarray  # (m,3) tracked normals (see the module docstring)
+    kappa: np.ndarray  # (m,) eq. 7 at this iteration
+    spread: float  # RMS distance of all the points present to their centroid
+    d_theta_stats: dict
+    delta_kappa_stats: dict
+    boundedness: dict
+    verdict: dict
+
+    def per_point(self, quantity: str) -> np.ndarray:
+        """(n_present,) values of "d_theta" or "delta_kappa" for every row of the evaluated points, NaN
+        where a point was not evaluated (or its neighbourhood collapsed)."""
+        if quantity not in ("d_theta", "delta_kappa"):
+            raise ParameterError(f"quantity={quantity!r}: must be 'd_theta' or 'delta_kappa'")
+        values = np.full(self.n_present, np.nan)
+        values[self.rows] = getattr(self, quantity)
+        return values
+
+    def to_dict(self) -> dict:
+        return {"d_theta": self.d_theta_stats, "delta_kappa": self.delta_kappa_stats,
+                "boundedness": self.boundedness, "verdict": self.verdict}
+
+
+@dataclass(frozen=True)
+class MetricsReference:
+    """Iteration-0 features, computed once per run; `evaluate` compares an iteration with them.
+
+    Clouds larger than max_points are judged on a fixed random subset of max_points input points
+    (`evaluated`): their neighbourhoods still come from the whole current cloud, so each value is exact;
+    only the histograms are those of a sample (5,000 values put the 2% peak threshold at 100 counts,
+    five times the counting noise of a well-filled bin of 400). The kNN search is most of the cost, so this keeps
+    one iteration's metrics well under a quarter of a contraction step at 30k points. max_points=None
+    evaluates every point (e.g. to colour all of them).
+    """
+    points: np.ndarray  # (n,3) the input cloud
+    normals: np.ndarray  # (n,3) outward-oriented PCA normals (eq. 6)
+    kappa: np.ndarray  # (n,) eq. 7
+    k: int
+    bins: int
+    thresholds: StabilityThresholds
+    diagonal: float
+    inside: "InsideTest" = field(repr=False)  # the original shape, for boundedness
+    evaluated: np.ndarray = field(repr=False)  # (n,) bool: input points whose metrics are computed
+
+    @classmethod
+    def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
+                    thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
+                    seed: int = 0) -> "MetricsReference":
+        points0 = _as_points(points0, "points0")
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
+            raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
+        if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or not 2 <= bins <= 10_000:
+            raise ParameterError(f"bins={bins}: need an integer in [2, 10000]")
+        if max_points is not None and (isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer))
+                                       or max_points < 100):
+            raise ParameterError(f"max_points={max_points}: need None or an integer >= 100")
+        if len(points0) < 4:
+            raise InputError(f"points0: {len(points0)} points, need at least 4")
+        thresholds = (thresholds or StabilityThresholds()).validated()
+        diagonal = float(np.linalg.norm(np.ptp(points0, axis=0)))
+        if diagonal <= 0:
+            raise InputError("points0: all points coincide")
+        k = int(min(k, len(points0)))
+        normals, kappa, idx = pca_features(points0, k, collapsed=_COLLAPSED * diagonal)
+        normals = orient_outward(points0, normals, idx)
+        band = thresholds.surface_tolerance * diagonal
+        samples, sample_normals = points0, normals
+        if faces is not None and len(faces):
+            samples, sample_normals = _mesh_surface(points0, faces, band, seed)
+        inside = InsideTest.from_samples(samples, sample_normals, band)
+        evaluated = np.ones(len(points0), bool)
+        if max_points is not None and len(points0) > max_points:
+            evaluated[:] = False
+            evaluated[np.random.default_rng(seed).choice(len(points0), max_points, replace=False)] = True
+        return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated)
+
+    def evaluate(self, points, point_ids=None, previous: IterationMetrics | None = None,
+                 iteration: int | None = None) -> IterationMetrics:
+        """Metrics of the cloud `points`, rows matching `point_ids` (default: all input points, in order).
+
+        previous: the metrics of the iteration before, for the normal tracking and the shrinking test
+        (None: compare with iteration 0). The result's arrays cover the present points that are in
+        `evaluated`, in the order of `points`.
+        """
+        points = _as_points(points, "points")
+        n = len(self.points)
+        ids = np.arange(n) if point_ids is None else np.asarray(point_ids)
+        if ids.shape != (len(points),) or not np.issubdtype(ids.dtype, np.integer):
+            raise InputError(f"point_ids: need {len(points)} integer ids, one per point, got shape {ids.shape}")
+        if len(ids) < 4 or ids.min() < 0 or ids.max() >= n or np.bincount(ids, minlength=n).max() > 1:
+            raise InputError(f"point_ids: need at least 4 distinct ids in [0, {n})")
+        if iteration is None:
+            iteration = previous.iteration + 1 if previous is not None else 1
+        n_present = len(points)
+        spread, spread0 = _spread(points), _spread(self.points[ids])
+        bbox = float(np.linalg.norm(np.ptp(points, axis=0)))
+        rows = np.flatnonzero(self.evaluated[ids])
+        if len(rows) == len(ids):
+            rows = None
+        elif len(rows):
+            ids = ids[rows]
+        else:
+            raise InputError("point_ids: none of the present points is among the evaluated ones")
+        normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal)
+        points = points if rows is None else points[rows]
+        # Track each normal's sign from the previous iteration (module docstring).
+        before = self.normals.copy()
+        if previous is not None:
+            before[previous.point_ids] = previous.normals
+        before = before[ids]
+        flip = np.einsum("ij,ij->i", normals, before) < 0
+        normals[flip] *= -1
+        undefined = ~np.isfinite(normals).all(axis=1)
+        normals[undefined] = before[undefined]
+        # eqs. 3-5: arccos(cos_sim(n_k, n_0)) / pi, evaluated as 2 atan2(|a - b|, |a + b|) for unit
+        # vectors, the same angle without arccos's round-off near 0 (an unchanged normal gives exactly 0).
+        reference = self.normals[ids]
+        d_theta = 2.0 * np.arctan2(np.linalg.norm(normals - reference, axis=1),
+                                   np.linalg.norm(normals + reference, axis=1)) / np.pi
+        d_theta[undefined] = np.nan
+        delta_kappa = kappa - self.kappa[ids]  # eq. 8
+        t = self.thresholds
+        d_stats = distribution_stats(d_theta, D_THETA_RANGE, self.bins, t.peak_drop)
+        k_stats = distribution_stats(delta_kappa, DELTA_KAPPA_RANGE, self.bins, t.peak_drop)
+        bounded = self._boundedness(points, spread, spread0, bbox, previous)
+        before_means = (0.0, 0.0) if previous is None else (previous.d_theta_stats["mean"],
+                                                              previous.delta_kappa_stats["mean"])
+        verdict = iteration_verdict(d_stats, k_stats, bounded, t, before_means)
+        return IterationMetrics(int(iteration), ids, np.arange(n_present) if rows is None else rows, n_present,
+                                d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, verdict)
+
+    def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float,
+                     previous: IterationMetrics | None) -> dict:
+        """Inside share of the evaluated points; spread and bounding box of all the points present."""
+        inside = self.inside.contains(points)
+        before = previous.spread if previous is not None else spread0
+        growth = spread / before - 1.0 if before > 0 else 0.0
+        return {"inside_share": float(inside.mean()), "n_outside": int((~inside).sum()),
+                "spread_ratio": float(spread / spread0) if spread0 > 0 else 1.0,
+                "bbox_ratio": bbox / self.diagonal,
+                "growth": float(growth), "shrinking": bool(growth <= self.thresholds.shrink_tolerance)}
+
+
+def _spread(points: np.ndarray) -> float:
+    """RMS distance to the centroid: the size X of a cloud in X_{k+1} <= X_k."""
+    return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
+
+
+@dataclass(frozen=True)
+class InsideTest:
+    """Which points lie inside a closed surface given by samples with outward normals.
+
+    The side of a point is that of the nearest sample's normal, (p - s).n <= band counting as inside.
+    Deep inside a shape that nearest-sample query is slow (a point on a tube's axis is almost as far from
+    a whole ring of samples), so it is only made near the surface: a voxel grid of cell `size` marks the
+    cells holding a sample, dilated by one, as the shell; every connected region of empty cells lies on
+    one side of the surface and takes the side most of its cells next to the shell vote for (regions
+    touching the grid's border are outside). A region whose votes split (a surface with holes joins
+    inside and outside) is judged cell by cell, once.
+    """
+    origin: np.ndarray  # (3,) corner of the grid
+    size: float  # cell edge
+    cells: np.ndarray  # (nx,ny,nz) int8: 1 inside, 0 outside, -1 shell (decided per point)
+    samples: np.ndarray
+    normals: np.ndarray
+    tree: cKDTree
+    band: float
+
+    @classmethod
+    def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float) -> "InsideTest":
+        from scipy import ndimage
+
+        keep = np.linalg.norm(np.nan_to_num(normals), axis=1) > 0.5  # mesh vertices without faces have none
+        samples, normals = samples[keep], normals[keep]
+        tree = cKDTree(samples)
+        spacing, _ = tree.query(samples, k=2, workers=-1)
+        extent = np.ptp(samples, axis=0)
+        # Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis.
+        size = max(band, 2.0 * float(np.quantile(spacing[:, 1], 0.9)), float(extent.max()) / 256, 1e-12)
+        origin = samples.min(axis=0) - 2.5 * size
+        shape = tuple(np.ceil(extent / size).astype(int) + 6)
+        occupied = np.zeros(shape, bool)
+        occupied[tuple(np.floor((samples - origin) / size).astype(int).T)] = True
+        shell = ndimage.binary_dilation(occupied, np.ones((3, 3, 3), bool))
+        regions, count = ndimage.label(~shell)
+        test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band)
+        centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
+        voters = ~shell & ndimage.binary_dilation(shell)
+        votes = test._side(centres(voters)) <= 0
+        inside_share = (np.bincount(regions[voters], votes, count + 1)
+                        / np.maximum(np.bincount(regions[voters], minlength=count + 1), 1))
+        border = np.unique(np.concatenate([regions[[0, -1]].ravel(), regions[:, [0, -1]].ravel(),
+                                           regions[:, :, [0, -1]].ravel()]))
+        side = (inside_share > 0.5).astype(np.int8)
+        side[border] = 0
+        side[0] = -1  # label 0 is the shell
+        mixed = (inside_share > 0.25) & (inside_share < 0.75)
+        mixed[border] |= inside_share[border] > 0.25
+        mixed[0] = False
+        cells = side[regions]
+        split = mixed[regions]
+        cells[split] = test._side(centres(split)) <= 0
+        test.cells[...] = cells
+        return test
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Boolean mask: inside the surface, or within `band` of it."""
+        index = np.floor((points - self.origin) / self.size).astype(np.int64)
+        on_grid = ((index >= 0) & (index < self.cells.shape)).all(axis=1)
+        verdict = np.zeros(len(points), np.int8)
+        verdict[on_grid] = self.cells[tuple(index[on_grid].T)]
+        near = verdict < 0
+        verdict[near] = self._side(points[near]) <= self.band
+        return verdict.astype(bool)
+
+    def _side(self, points: np.ndarray) -> np.ndarray:
+        """Signed offset along the nearest sample's outward normal (eq.: (p - s) . n_s)."""
+        _, nearest = self.tree.query(points, k=1, workers=-1)
+        return np.einsum("ij,ij->i", points - self.samples[nearest], self.normals[nearest])
+
+
+def _as_points(points, name: str) -> np.ndarray:
+    try:
+        points = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: not a numeric array") from None
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"{name}: need an (n,3) array, got shape {points.shape}")
+    bad = int((~np.isfinite(points).all(axis=1)).sum())
+    if bad:
+        raise InputError(f"{name}: {bad} rows are not finite")
+    return points
+
+
+def _mesh_surface(vertices: np.ndarray, faces, spacing: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Dense surface samples with outward face normals (winding repaired), spaced about `spacing`/2."""
+    import trimesh
+
+    faces = np.asarray(faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
+        raise InputError(f"faces: need an (m,3) integer array, got shape {faces.shape}")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InputError(f"faces: indices must lie in [0, {len(vertices)})")
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    mesh.update_faces(mesh.nondegenerate_faces())
+    if not len(mesh.faces):
+        raise InputError("faces: every face is degenerate")
+    trimesh.repair.fix_normals(mesh)
+    count = int(np.clip(4.0 * mesh.area / spacing ** 2, 10_000, 200_000))
+    samples, face_index = trimesh.sample.sample_surface(mesh, count, seed=seed)
+    return (np.concatenate([np.asarray(samples), mesh.vertices]),
+            np.concatenate([mesh.face_normals[face_index], mesh.vertex_normals]))
+
+
+# --- verdicts -----------------------------------------------------------------------------------
+
+def iteration_verdict(d_stats: dict, k_stats: dict, boundedness: dict,
+                      thresholds: StabilityThresholds = StabilityThresholds(),
+                      previous_means: tuple[float | None, float | None] = (0.0, 0.0)) -> dict:
+    """{"label", "reasons"} of one iteration from its JSON-ready statistics (the paper's criteria).
+
+    unstable: a histogram with more than max_peaks significant peaks, too few points inside the original
+    shape, a growing cloud, or a collapse. not yet converged: an asymmetric histogram (no bell yet), or a
+    mean off its target that moved away from it since the previous iteration (previous_means: the means
+    of D_theta and delta_kappa there; iteration 0 has 0 and 0). stable: bell-shaped histograms whose means
+    are at, or moving toward, 0.5 and 0, in a bounded, shrinking cloud.
+    """
+    t = thresholds
+    unstable, unconverged = _bound_reasons(boundedness, t), []
+    for name, stats, target, tolerance, before in (
+            ("D_theta", d_stats, t.d_theta_target, t.d_theta_tolerance, previous_means[0]),
+            ("delta_kappa", k_stats, 0.0, t.delta_kappa_tolerance, previous_means[1])):
+        if stats["mean"] is None:
+            unconverged.append(f"{name} is undefined at every point")
+            continue
+        if stats["peaks"]["count"] > t.max_peaks:
+            unstable.append(f"{name} histogram has {stats['peaks']['count']} significant peaks")
+        gap = abs(stats["mean"] - target)
+        if gap > tolerance and before is not None and gap >= abs(before - target):
+            unconverged.append(f"mean {name} is not moving toward {target:g} ({before:.4f} -> {stats['mean']:.4f})")
+        if stats["symmetry"] < t.min_symmetry:
+            unconverged.append(f"{name} histogram is asymmetric "
+                               f"(symmetry {stats['symmetry']:.2f} < {t.min_symmetry:g})")
+    if unstable:
+        return {"label": "unstable", "reasons": unstable + unconverged}
+    if unconverged:
+        return {"label": "not yet converged", "reasons": unconverged}
+    return {"label": "stable", "reasons": ["unimodal, symmetric histograms with means at or moving toward "
+                                           "their targets; bounded and shrinking"]}
+
+
+def _bound_reasons(boundedness: dict, t: StabilityThresholds) -> list[str]:
+    reasons = []
+    if boundedness["inside_share"] < t.min_inside_share:
+        reasons.append(f"{100 * (1 - boundedness['inside_share']):.1f}% of the points left the original shape")
+    if not boundedness["shrinking"]:
+        reasons.append(f"the cloud's spread grew by {100 * boundedness['growth']:.1f}%")
+    if -boundedness["growth"] > t.max_step_shrink:
+        reasons.append(f"the cloud's spread collapsed by {-100 * boundedness['growth']:.0f}% in one iteration")
+    return reasons
+
+
+def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
+    """Means of D_theta (against 0.5) and delta_kappa (against 0) across iterations, JSON-ready.
+
+    Per measure: the means, their gaps to the target, and "progress", the share of the gap closed from
+    the first iteration after the input to the last (None with fewer than two such iterations;
+    iteration 0 is the input itself, where both measures are 0 by definition).
+    """
+    entries = _entries(iterations)
+    steps = [e["iteration"] for e in entries]
+    result = {"iteration": steps}
+    for key, target in (("d_theta", thresholds.d_theta_target), ("delta_kappa", 0.0)):
+        means = [e[key]["mean"] for e in entries]
+        gaps = [None if m is None else abs(m - target) for m in means]
+        later = [g for step, g in zip(steps, gaps) if step > 0 and g is not None]
+        progress = None
+        if len(later) >= 2:
+            progress = 1.0 if later[0] == 0 and later[-1] == 0 else (later[0] - later[-1]) / max(later[0], 1e-12)
+        result.update({f"{key}_mean": means, f"{key}_gap": gaps, f"{key}_progress": progress})
+    return result
+
+
+def run_verdict(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
+    """Verdict of a run from its IterationMetrics, or their to_dict() entries (with "iteration").
+
+    unstable: any iteration is unstable, or a mean that ends off its target closed less than min_progress
+    of its gap since the first iteration (the contraction stalled away from it); stable: the last
+    iteration is stable; otherwise not yet converged. Reasons name the iterations.
+    """
+    t = thresholds
+    entries = _entries(iterations)
+    if not entries:
+        return {"label": "not yet converged", "reasons": ["no iterations"], "iterations": [], "convergence": {}}
+    labels = [{"iteration": e["iteration"], "label": e["verdict"]["label"]} for e in entries]
+    trend = convergence(entries, t)
+    first = next((step for step in trend["iteration"] if step > 0), trend["iteration"][0])
+    unstable = [f"iteration {e['iteration']}: {r}" for e in entries if e["verdict"]["label"] == "unstable"
+                for r in e["verdict"]["reasons"]]
+    for name, key, target, tolerance in (("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance),
+                                         ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance)):
+        gap, progress = trend[f"{key}_gap"][-1], trend[f"{key}_progress"]
+        if gap is not None and gap > tolerance and progress is not None and progress < t.min_progress:
+            unstable.append(f"mean {name} stalled {gap:.3f} from {target:g}: {100 * progress:.0f}% of its gap "
+                            f"closed since iteration {first} (need {100 * t.min_progress:.0f}%)")
+    last = entries[-1]
+    if unstable:
+        label, reasons = "unstable", unstable
+    else:
+        label = last["verdict"]["label"]
+        reasons = [f"final iteration {last['iteration']}: {r}" for r in last["verdict"]["reasons"]]
+    return {"label": label, "reasons": reasons, "iterations": labels, "convergence": trend}
+
+
+def _entries(iterations) -> list[dict]:
+    entries = []
+    for position, item in enumerate(iterations):
+        if isinstance(item, IterationMetrics):
+            entries.append({"iteration": item.iteration, **item.to_dict()})
+        elif isinstance(item, dict) and {"d_theta", "delta_kappa", "boundedness", "verdict"} <= item.keys():
+            entries.append({"iteration": position, **item})
+        else:
+            raise InputError(f"iterations[{position}]: neither IterationMetrics nor a metrics dict with "
+                             "d_theta, delta_kappa, boundedness and verdict")
+    return entries

@@ -1,0 +1,231 @@
+"""The paper's stability metrics: known answers, the peak rule, boundedness, verdicts."""
+import json
+
+import numpy as np
+import pytest
+
+from skelcore.errors import InputError, ParameterError
+from skelcore.metrics import (D_THETA_RANGE, IterationMetrics, MetricsReference, StabilityThresholds,
+                              distribution_stats, orient_outward, pca_features, run_verdict, significant_peaks,
+                              _eigenvector, _smallest_eigenvalue)
+
+
+def torus(n=1500, big=1.0, small=0.3, seed=0):
+    """Points on a torus around the z axis (area-uniform), with their outward normals."""
+    rng = np.random.default_rng(seed)
+    theta = rng.uniform(0, 2 * np.pi, 4 * n)
+    phi = rng.uniform(0, 2 * np.pi, 4 * n)
+    keep = rng.uniform(0, big + small, 4 * n) < big + small * np.cos(phi)
+    theta, phi = theta[keep][:n], phi[keep][:n]
+    normals = np.column_stack([np.cos(phi) * np.cos(theta), np.cos(phi) * np.sin(theta), np.sin(phi)])
+    core = np.column_stack([big * np.cos(theta), big * np.sin(theta), np.zeros(n)])
+    return core + small * normals, normals, core
+
+
+def capsule(n=1500, length=2.0, radius=0.3, seed=0):
+    """Points on a closed capsule along z: a tube with two hemispherical caps."""
+    rng = np.random.default_rng(seed)
+    directions = rng.normal(size=(n, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    tube_share = length / (length + 2 * radius)
+    on_tube = rng.uniform(size=n) < tube_share
+    directions[on_tube, 2] = 0
+    directions[on_tube] /= np.linalg.norm(directions[on_tube], axis=1, keepdims=True)
+    z = np.where(on_tube, rng.uniform(-length / 2, length / 2, n), np.sign(directions[:, 2]) * length / 2)
+    return directions * radius + np.column_stack([np.zeros(n), np.zeros(n), z])
+
+
+def flat_patch(side=30):
+    u, v = np.meshgrid(np.linspace(-1, 1, side), np.linspace(-1, 1, side))
+    return np.column_stack([u.ravel(), v.ravel(), np.zeros(side * side)])
+
+
+def rotation_x(degrees):
+    a = np.radians(degrees)
+    return np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+
+
+def test_unchanged_cloud_has_zero_measures():
+    points = capsule()
+    reference = MetricsReference.from_points(points)
+    result = reference.evaluate(points, np.arange(len(points)))
+    assert np.all(result.d_theta == 0)
+    assert np.all(result.delta_kappa == 0)
+    assert result.d_theta_stats["mean"] == 0 and result.d_theta_stats["peaks"]["count"] == 1
+    assert result.boundedness["inside_share"] == 1.0
+
+
+def test_rotated_flat_patch_gives_angle_over_pi():
+    patch = flat_patch()
+    reference = MetricsReference.from_points(patch)
+    turned = reference.evaluate(patch @ rotation_x(30).T)
+    np.testing.assert_allclose(turned.d_theta, 30 / 180, atol=1e-9)
+    np.testing.assert_allclose(turned.delta_kappa, 0, atol=1e-12)
+
+
+def test_normals_are_tracked_across_iterations():
+    # Five turns of 30 degrees: each step takes the smaller angle, the total is 150 degrees.
+    patch = flat_patch()
+    reference = MetricsReference.from_points(patch)
+    previous = None
+    for step in range(1, 6):
+        previous = reference.evaluate(patch @ rotation_x(30 * step).T, previous=previous)
+    np.testing.assert_allclose(previous.d_theta, 150 / 180, atol=1e-9)
+    # Without the history the same cloud is one turn of 150 degrees, i.e. 30 degrees the short way.
+    np.testing.assert_allclose(reference.evaluate(patch @ rotation_x(150).T).d_theta, 30 / 180, atol=1e-9)
+
+
+def test_closed_form_eigen_matches_lapack():
+    rng = np.random.default_rng(3)
+    factors = rng.normal(size=(500, 3, 3))
+    matrices = factors @ factors.transpose(0, 2, 1)
+    matrices[:100] = np.einsum("ni,nj->nij", factors[:100, 0], factors[:100, 0])  # rank 1: line-like
+    matrices[100:110] = np.eye(3)  # isotropic
+    entries = [matrices[:, a, b] for a, b in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]]
+    smallest, trace = _smallest_eigenvalue(*entries)
+    expected = np.linalg.eigvalsh(matrices)
+    scale = expected[:, -1]
+    np.testing.assert_allclose(smallest / scale, expected[:, 0] / scale, atol=1e-7)
+    np.testing.assert_allclose(trace, expected.sum(axis=1))
+    vectors = _eigenvector(*entries, smallest)
+    residual = np.einsum("nij,nj->ni", matrices, vectors) - smallest[:, None] * vectors
+    assert np.abs(np.linalg.norm(vectors, axis=1) - 1).max() < 1e-12
+    assert (np.linalg.norm(residual, axis=1) / scale).max() < 1e-6
+
+
+def test_curvature_of_plane_and_blob():
+    _, kappa, _ = pca_features(flat_patch(), 30)
+    np.testing.assert_allclose(kappa, 0, atol=1e-12)
+    blob = np.random.default_rng(0).normal(size=(3000, 3))
+    _, kappa, _ = pca_features(blob, 30)
+    assert 0.15 < np.median(kappa) <= 1 / 3  # isotropic neighbourhoods approach 1/3 (eq. 7)
+
+
+def test_peak_rule_counts_separated_peaks():
+    n = 1000  # 2% of the points: 20
+    two = np.array([0, 10, 60, 120, 60, 10, 0, 0, 10, 60, 120, 60, 10, 0])
+    assert len(significant_peaks(two, n)) == 2
+    shallow = np.array([0, 10, 60, 120, 110, 120, 60, 10, 0])  # dip of 10 < 20
+    assert len(significant_peaks(shallow, n)) == 1
+    deep = np.array([0, 10, 60, 120, 95, 120, 60, 10, 0])  # dip of 25 >= 20
+    assert len(significant_peaks(deep, n)) == 2
+    assert significant_peaks(np.array([500, 20, 0, 0]), n).tolist() == [0]  # a peak at the edge counts
+
+
+def test_distribution_statistics():
+    rng = np.random.default_rng(1)
+    normal = distribution_stats(rng.normal(0.5, 0.1, 20000), D_THETA_RANGE)
+    assert normal["peaks"]["count"] == 1
+    assert abs(normal["skewness"]) < 0.1 and abs(normal["kurtosis"]) < 0.2
+    assert normal["symmetry"] > 0.95 and abs(normal["unimodality"] - 2 / 3) < 0.03
+    assert abs(normal["mean"] - 0.5) < 0.01 and abs(normal["std"] - 0.1) < 0.01
+    two = distribution_stats(np.concatenate([rng.normal(0.2, 0.03, 5000), rng.normal(0.8, 0.03, 5000)]), D_THETA_RANGE)
+    assert two["peaks"]["count"] == 2 and two["unimodality"] < 0.2
+    skewed = distribution_stats(rng.exponential(0.1, 20000), D_THETA_RANGE)
+    assert skewed["skewness"] > 1.5 and skewed["symmetry"] < 0.7
+    nan = distribution_stats(np.array([np.nan, 0.5, 0.5, 0.5]), D_THETA_RANGE)
+    assert nan["n"] == 3 and nan["n_undefined"] == 1 and nan["skewness"] is None and nan["symmetry"] == 1.0
+    json.dumps(nan)
+
+
+def test_torus_normals_are_oriented_outward():
+    points, normals, _ = torus()
+    estimated, _, idx = pca_features(points, 30)
+    oriented = orient_outward(points, estimated, idx)
+    assert np.mean(np.einsum("ij,ij->i", oriented, normals) > 0) > 0.99
+
+
+def test_cloud_contracted_onto_its_core_is_bounded():
+    points, normals, core = torus()
+    reference = MetricsReference.from_points(points)
+    onto_core = reference.evaluate(core)
+    assert onto_core.boundedness["inside_share"] == 1.0
+    assert onto_core.boundedness["spread_ratio"] < 1
+    # The hole is outside the shape, and so is a cloud blown up beyond it.
+    hole = reference.evaluate(0.05 * points)
+    assert hole.boundedness["inside_share"] == 0.0 and hole.verdict["label"] == "unstable"
+    grown = reference.evaluate(points + 0.2 * normals)
+    assert grown.boundedness["inside_share"] == 0.0 and not grown.boundedness["shrinking"]
+
+
+def test_mesh_reference_is_bounded_by_its_surface():
+    import trimesh
+
+    mesh = trimesh.creation.capsule(height=2.0, radius=0.3, count=[24, 24])
+    vertices = np.asarray(mesh.vertices)
+    reference = MetricsReference.from_points(vertices, faces=np.asarray(mesh.faces)[:, ::-1])  # inverted winding
+    axis = vertices * [0.0, 0.0, 1.0] * 0.9
+    assert reference.evaluate(axis).boundedness["inside_share"] == 1.0
+    assert reference.evaluate(vertices * 3.0).boundedness["inside_share"] == 0.0
+
+
+def test_point_ids_compare_with_the_same_input_points():
+    points = capsule()
+    reference = MetricsReference.from_points(points)
+    ids = np.arange(0, len(points), 2)
+    shifted = points[ids] + [0.0, 0.0, 0.01]  # translation: same normals and curvature at those ids
+    result = reference.evaluate(shifted, ids)
+    assert result.point_ids.tolist() == ids.tolist() and len(result.d_theta) == len(ids)
+    assert np.nanmean(result.d_theta) < 0.05  # only the halved sampling changes the neighbourhoods
+    with pytest.raises(InputError, match="point_ids"):
+        reference.evaluate(shifted, np.zeros(len(ids), int))
+    with pytest.raises(InputError, match="point_ids"):
+        reference.evaluate(shifted, ids + len(points))
+    with pytest.raises(InputError, match="not finite"):
+        reference.evaluate(np.full((10, 3), np.nan), np.arange(10))
+    with pytest.raises(ParameterError, match="k="):
+        MetricsReference.from_points(points, k=2)
+    with pytest.raises(InputError, match="faces"):
+        MetricsReference.from_points(points, faces=np.array([[0, 1, len(points)]]))
+
+
+def test_large_clouds_are_judged_on_a_fixed_sample():
+    points = capsule(800)
+    reference = MetricsReference.from_points(points, max_points=200)
+    result = reference.evaluate(points)
+    assert result.d_theta_stats["n"] == 200 and len(result.rows) == 200
+    values = result.per_point("d_theta")
+    assert values.shape == (800,) and np.isnan(values).sum() == 600
+    assert np.all(values[result.rows] == 0)
+
+
+def test_to_dict_is_json_and_run_verdict_reads_both_forms():
+    points, _, core = torus(800)
+    reference = MetricsReference.from_points(points)
+    history = [reference.evaluate(points, iteration=0)]
+    for share in (0.6, 0.3, 0.1):
+        history.append(reference.evaluate(core + share * (points - core), previous=history[-1]))
+    document = json.loads(json.dumps([{"iteration": m.iteration, **m.to_dict()} for m in history]))
+    entry = document[1]
+    assert set(entry) == {"iteration", "d_theta", "delta_kappa", "boundedness", "verdict"}
+    assert {"histogram", "mean", "median", "std", "skewness", "kurtosis", "peaks", "symmetry",
+            "unimodality"} <= set(entry["d_theta"])
+    assert {"inside_share", "shrinking"} <= set(entry["boundedness"])
+    assert entry["verdict"]["label"] in ("stable", "not yet converged", "unstable")
+    from_objects, from_dicts = run_verdict(history), run_verdict(document)
+    assert from_objects == from_dicts
+    assert from_objects["convergence"]["iteration"] == [0, 1, 2, 3]
+    assert isinstance(history[1], IterationMetrics) and history[1].boundedness["shrinking"]
+    with pytest.raises(InputError, match="iterations"):
+        run_verdict([{"d_theta": {}}])
+    with pytest.raises(ParameterError, match="min_inside_share"):
+        StabilityThresholds(min_inside_share=2.0).validated()
+
+
+def test_default_and_bad_contractions_get_different_verdicts():
+    from skelcore.contraction import run_contraction
+    from skelcore.params import ContractionParams
+
+    points, _, _ = torus(1200)
+    reference = MetricsReference.from_points(points)
+
+    def verdict(params):
+        history = []
+        for state in run_contraction(points, params):
+            history.append(reference.evaluate(state.points, state.point_ids, previous=history[-1] if history else None,
+                                              iteration=state.iteration))
+        return run_verdict(history)
+
+    good, bad = verdict(ContractionParams()), verdict(ContractionParams(wl0=1e4))
+    assert bad["label"] == "unstable", bad
+    assert good["label"] != bad["label"], good
