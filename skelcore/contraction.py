@@ -89,22 +89,9 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
             params, note = retune(params, sent)
             notes.append(note)
         step_start = time.perf_counter()
-        wl = min((params.wl0 or auto_wl0) * params.sl ** (iteration - 1), params.wl_max)
-        wh = np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
-        laplacian_start = time.perf_counter()
-        system = system_builder.normal_matrix(current, wl, wh)
-        solve_start = time.perf_counter()
-        failure = None
-        try:
-            candidate = solver.solve(system, wh[:, None] ** 2 * current)
-        except SolverError as error:
-            failure, candidate = ("solver_failure", str(error)), None
-        solve_end = time.perf_counter()
-        timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
-        if failure is None and not np.isfinite(candidate).all():
-            failure = ("nan", "")
-        if failure is None and (np.ptp(candidate, axis=0) > params.bbox_growth * extent0).any():
-            failure = ("bbox_growth", "")
+        wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
+        candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh,
+                                                 params.bbox_growth * extent0)
         if failure is None:
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
@@ -127,6 +114,35 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
         if termination:
             yield state
             return
+
+
+def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,
+             sizes: np.ndarray) -> tuple[float, np.ndarray]:
+    """W_L = W_L0 s_L^(t-1), capped; W_H,i = W_H0 s_i^0 / s_i^t, capped (DESIGN.md section 3, step 6)."""
+    wl = min((params.wl0 or auto_wl0) * params.sl ** (iteration - 1), params.wl_max)
+    return wl, np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
+
+
+def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
+               wh: np.ndarray, max_extent: np.ndarray) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
+    """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth.
+
+    Returns (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
+    laplacian_start = time.perf_counter()
+    system = system_builder.normal_matrix(current, wl, wh)
+    solve_start = time.perf_counter()
+    failure = None
+    try:
+        candidate = solver.solve(system, wh[:, None] ** 2 * current)
+    except SolverError as error:
+        failure, candidate = ("solver_failure", str(error)), None
+    solve_end = time.perf_counter()
+    timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
+    if failure is None and not np.isfinite(candidate).all():
+        failure = ("nan", "")
+    if failure is None and (np.ptp(candidate, axis=0) > max_extent).any():
+        failure = ("bbox_growth", "")
+    return candidate, failure, timings
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams()) -> list[IterationState]:

@@ -28,6 +28,9 @@ class ContractionParams:
     termination: float = 0.01  # stop when the ring-size ratio falls by less than this
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
+    # GLSkeleton only (skelcore.glskeleton; defaults from the authors' MATLAB):
+    gl_merge: float = 1e5  # a point absorbs its nearest ring neighbour when its merge score < gl_merge * s_i^2
+    gl_covariance: float = 0.02  # stop when the covariance score changes by less than this (from iteration 3)
 
     def validated(self) -> "ContractionParams":
         def positive(name: str, value: float | None, allow_none: bool = False) -> None:
@@ -41,7 +44,7 @@ class ContractionParams:
         if self.k is not None and (int(self.k) != self.k or not 3 <= self.k <= 200):
             raise ParameterError(f"parameter k={self.k!r}: must be an integer between 3 and 200")
         positive("wl0", self.wl0, allow_none=True)
-        for name in ("wh0", "wl_max", "wh_max", "termination"):
+        for name in ("wh0", "wl_max", "wh_max", "termination", "gl_merge", "gl_covariance"):
             positive(name, getattr(self, name))
         if not math.isfinite(self.sl) or self.sl < 1:
             raise ParameterError(f"parameter sl={self.sl!r}: must be a finite number >= 1")

@@ -1,0 +1,329 @@
+"""GLSkeleton (Wen et al., RA-L 2024): Laplacian-based contraction with in-loop point reduction.
+
+Each step is an LBC solve (Cao et al. 2010, eq. 2; same weights and schedule as skelcore.contraction). After
+it, points whose local contraction has converged absorb their nearest ring neighbour, so the next system is
+smaller. The rules follow the authors' MATLAB (weiqimeng1/GLSkeleton, Source/
+laplacian_contraction_with_reduction.m, "LCWR" below, and the files it calls); in the run's frame:
+
+Merge rule, after solve t (LCWR lines 96-104 for t = 1, 158-166 after; Remove_points_in_rings.m lines 14-17):
+  G_i = (L(x_{t-1}) x_{t-1})_i, the Laplacian vector that drove the step; d_i = p_i^0 - x_i^t;
+  s_i^0, s_i^t the ring sizes (smallest distance to the ring) at the input and now; a_t = sum s^t / sum s^0;
+  c = CONTROL a_1 at t = 1, CONTROL (a_{t-1} - a_t) after;  rho_i = max(s_i^t - c s_i^0, S_FLOOR) / s_i^0;
+  score_i = |s_L^(t+1) W_L0 rho_i G_i|^2 - |c s_i^0 / (s_i^0 - s_i^t) / rho_i d_i|^2 + SMOOTH |G_i - mean_ring G|^2
+  and point i absorbs its nearest ring neighbour j when score_i < gl_merge (s_i^t)^2 (a NaN score never
+  merges, as in MATLAB). MATLAB's smoothness term reads G of row 1 instead of G_i, an evident slip:
+  we use G_i. A point takes part in at most one merge per step; the MATLAB pairs them greedily in
+  index order, we pair them greedily in a fixed random order of the input ids (parallel rounds; index
+  order makes long chains, hence many rounds, on spatially sorted files).
+Merged ring (Ring_combination.m): ring(i) U ring(j) minus i and j, at the INPUT positions, projected on the
+  plane normal to G_i (PCA plane of the candidates when G_i vanishes), 2-D Delaunay fan of i. A fan with
+  fewer than 3 triangles cancels the merge (MATLAB: a ring list of <= 3 entries; here its two points wait
+  for the next step instead of pairing with others). Every other ring renames j to i and drops the
+  triangles that degenerate (update_rings_after_manipulation.m). The absorbed point leaves the system;
+  the absorber keeps its position and its weights (LCWR lines 110-111, 124).
+  The first step that merges nothing ends the reduction for the run (`cflag`).
+Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 sum lambda), lambda the
+  eigenvalues (ascending) of the covariance of the present points, tends to 1 as the cloud becomes a line.
+  From step COVARIANCE_FROM on, stop when |e_t - e_{t-1}| (1 - removed share of the input in step t)
+  < gl_covariance ('covariance'). MATLAB keeps the factor of the last reducing step once reduction has
+  stopped; we use the step's own share (0 once nothing merges). MATLAB tests the two states before its
+  new solve and discards that solve; testing right after the reduction gives the same final state.
+  Also as in LCWR: NaN, bounding-box growth past bbox_growth (lines 137-143), max_iterations; and the
+  solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
+  falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
+  rule on what one step does to the rings it solved with: from step 2, stop ('ring_ratio', the step
+  discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination. Without it a thin
+  coil (the helix shape) contracts on past its curve and collapses, as the covariance rule waits for a line.
+The constants assume the normalised frame (bounding box 1.6), as the MATLAB does.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import time
+from typing import Generator
+
+import numpy as np
+
+from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
+from .laplacian import LaplacianSystem
+from .neighbours import OneRings, _graham_scan, one_rings
+from .normalise import Normalisation
+from .params import ContractionParams, default_k
+from .solver import CholeskySolver
+
+CONTROL = 1.2  # LCWR `Controled_ratio` factor
+S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
+SMOOTH = 3.0  # weight of the Laplacian-difference term (Remove_points_in_rings.m line 15)
+COVARIANCE_FROM = 3  # LCWR `t>=3`: the covariance rule is tested from the third step on
+MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed fan repeats its first one)
+PRIORITY_SEED = 0
+
+
+def contract_with_reduction(points: np.ndarray, params: ContractionParams
+                            ) -> Generator[IterationState, ContractionParams | None, None]:
+    """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract."""
+    points = np.asarray(points, dtype=np.float64)
+    n = len(points)
+    normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
+    unit = normalisation.forward(points)
+    started = time.perf_counter()
+    rings = one_rings(unit, params.k or default_k(n))
+    builder = LaplacianSystem(rings)
+    rings_time = time.perf_counter() - started
+    sizes0 = rings.sizes(unit)
+    auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
+    extent0 = np.ptp(unit, axis=0)
+    ids = np.arange(n)
+    priority = np.random.default_rng(PRIORITY_SEED).permutation(n)  # merge order, by input id
+
+    state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
+                           wl=params.wl0 or auto_wl0, wh=np.full(n, params.wh0), ring_ratio=1.0,
+                           params=params, timings={"rings": rings_time})
+    current, sizes, start_sizes, ratio, owner = unit, sizes0, sizes0, 1.0, ids
+    score, reducing = _covariance_score(unit), True
+    solver = CholeskySolver()
+    for iteration in itertools.count(1):
+        sent = yield state
+        notes = []
+        if sent is not None:
+            params, note = retune(params, sent)
+            notes.append(note)
+        step_start = time.perf_counter()
+        wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
+        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params.bbox_growth * extent0)
+        if failure is not None:
+            reason, detail = failure
+            message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))
+            yield dataclasses.replace(state, termination=reason, message=message)
+            return
+        new_sizes, nearest = _nearest_in_ring(rings, candidate)
+        new_ratio = float(new_sizes.sum() / sizes0.sum())
+        # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
+        drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
+        if iteration > 1 and drop < params.termination:
+            message = "; ".join([TERMINATION_MESSAGES["ring_ratio"],
+                                 f"the step shrank the rings by {drop:.4f} < {params.termination:g}", *notes])
+            yield dataclasses.replace(state, termination="ring_ratio", message=message)
+            return
+
+        keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
+        reduce_start = time.perf_counter()
+        if reducing:
+            gamma = builder.laplacian(current) @ current
+            control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
+            force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
+            merging = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,
+                                 params.gl_merge)
+            absorbers = np.flatnonzero(merging)
+            pairs = greedy_matching(absorbers, nearest[absorbers], priority[ids[absorbers]], len(ids))
+            merged = merge_rings(rings, absorbers[pairs], nearest[absorbers[pairs]], gamma, unit[ids])
+            if merged is None:
+                reducing = False
+                notes.append("point reduction stopped: no point met the merge rule")
+            else:
+                rings, keep, new_row = merged
+                builder = LaplacianSystem(rings)
+        timings["rings"] = time.perf_counter() - reduce_start
+
+        current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
+        start_sizes = rings.sizes(current) if len(current) < len(keep) else sizes
+        share_removed = (len(ids) - len(current)) / n
+        ids, owner, ratio = ids[keep], new_row[owner], new_ratio
+        previous, score = score, _covariance_score(current)
+        change = abs(score - previous) * (1.0 - share_removed)
+        termination, detail = None, ""
+        if iteration >= COVARIANCE_FROM and change < params.gl_covariance:
+            termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
+        elif iteration >= params.max_iterations:
+            termination = "max_iterations"
+        message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
+        timings["rest"] = time.perf_counter() - step_start - sum(timings.values())
+        state = IterationState(iteration=iteration, points=normalisation.inverse(current), point_ids=ids,
+                               owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
+                               timings=timings, termination=termination, message=message)
+        if termination:
+            yield state
+            return
+
+
+def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,
+               control: float, force: float, threshold: float) -> np.ndarray:
+    """Which points absorb their nearest ring neighbour (module docstring, merge rule); `moved` = p^0 - x^t."""
+    rho = np.where(sizes - control * sizes0 > 0, sizes - control * sizes0, S_FLOOR) / sizes0
+    counts = np.diff(rings.indptr)
+    ring_mean = np.add.reduceat(gamma[rings.indices], rings.indptr[:-1]) / counts[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):  # a ring that has not shrunk: infinite push
+        push = (control * sizes0 / (sizes0 - sizes) / rho)[:, None] * moved
+        score = (_square(force * rho[:, None] * gamma) - _square(push)
+                 + SMOOTH * _square(gamma - ring_mean))
+        return score < threshold * sizes**2
+
+
+def greedy_matching(source: np.ndarray, target: np.ndarray, priority: np.ndarray, n: int) -> np.ndarray:
+    """Greedy matching: take the pairs (source, target) by increasing priority, skipping any pair that touches
+    a point already taken. Done in rounds: a pair is taken once it has the lowest priority of the pairs left
+    at both its ends. Returns the mask of pairs taken."""
+    taken = np.zeros(len(source), dtype=bool)
+    left = np.arange(len(source))
+    while len(left):
+        lowest = np.full(n, np.iinfo(np.int64).max)
+        np.minimum.at(lowest, source[left], priority[left])
+        np.minimum.at(lowest, target[left], priority[left])
+        wins = left[(lowest[source[left]] == priority[left]) & (lowest[target[left]] == priority[left])]
+        taken[wins] = True
+        used = np.zeros(n, dtype=bool)
+        used[source[wins]] = used[target[wins]] = True
+        left = left[~(used[source[left]] | used[target[left]])]
+    return taken
+
+
+def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, gamma: np.ndarray,
+                origin: np.ndarray) -> tuple[OneRings, np.ndarray, np.ndarray] | None:
+    """Merge each absorbed point into its absorber: the absorber's ring becomes the Delaunay fan of both rings
+    (module docstring), the other rings rename the absorbed point. `origin`: the input positions of the
+    present points. Returns the new rings, the mask of points kept and the new row of every old row; None when
+    no merge is valid."""
+    if not len(absorbers):
+        return None
+    n = rings.n_points
+    counts = np.diff(rings.indptr)
+    pair, entry = _ranges(np.concatenate([rings.indptr[absorbers], rings.indptr[absorbed]]),
+                          np.concatenate([counts[absorbers], counts[absorbed]]))
+    pair %= len(absorbers)
+    candidate = rings.indices[entry]
+    useful = (candidate != absorbers[pair]) & (candidate != absorbed[pair])
+    key = np.unique(pair[useful] * n + candidate[useful])
+    pair, candidate = key // n, key % n
+    lengths = np.bincount(pair, minlength=len(absorbers))
+    enough = np.flatnonzero(lengths >= 3)
+    if not len(enough):
+        return None
+    ids = np.zeros((len(absorbers), int(lengths.max())), dtype=np.int64)
+    valid = np.zeros(ids.shape, dtype=bool)
+    column = np.arange(len(pair)) - (np.cumsum(lengths) - lengths)[pair]
+    ids[pair, column], valid[pair, column] = candidate, True
+    ids, valid = ids[enough], valid[enough]
+
+    offsets = origin[ids] - origin[absorbers[enough]][:, None, :]
+    u, v = _plane_basis(_fan_normals(gamma[absorbers[enough]], offsets, valid))
+    planar = np.stack([np.einsum("pwc,pc->pw", offsets, u), np.einsum("pwc,pc->pw", offsets, v)], axis=-1)
+    ring_row, ring_slot, tri_row, tri_j, tri_l = _delaunay_fans(planar, valid)
+    good = np.bincount(tri_row, minlength=len(enough)) >= MIN_FAN_TRIANGLES
+    if not good.any():
+        return None
+    entries, triangles = good[ring_row], good[tri_row]
+    fan_centre, fan_id = absorbers[enough][ring_row[entries]], ids[ring_row[entries], ring_slot[entries]]
+    tri_row, tri_j, tri_l = tri_row[triangles], tri_j[triangles], tri_l[triangles]
+    fan_triangles = np.column_stack([absorbers[enough][tri_row], ids[tri_row, tri_j], ids[tri_row, tri_l]])
+    absorbers, absorbed = absorbers[enough][good], absorbed[enough][good]
+
+    keep = np.ones(n, dtype=bool)
+    keep[absorbed] = False
+    target = np.arange(n)
+    target[absorbed] = absorbers
+    new_row = (np.cumsum(keep) - 1)[target]
+    changed = np.zeros(n, dtype=bool)
+    changed[absorbers] = changed[absorbed] = True
+
+    triangles = new_row[np.concatenate([rings.triangles[~changed[rings.triangles[:, 0]]], fan_triangles])]
+    i, j, l = triangles.T
+    triangles = triangles[(i != j) & (j != l) & (l != i)]  # collapsed onto the absorber
+
+    centres = rings.centres()
+    old = ~changed[centres]
+    centre = new_row[np.concatenate([centres[old], fan_centre])]
+    neighbour = new_row[np.concatenate([rings.indices[old], fan_id])]
+    order = np.argsort(centre, kind="stable")
+    centre, neighbour = centre[order], neighbour[order]
+    m = int(keep.sum())
+    _, first = np.unique(centre * m + neighbour, return_index=True)  # drop repeats, keep the fan order
+    first.sort()
+    centre, neighbour = centre[first], neighbour[first]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(centre, minlength=m))])
+    return OneRings(indptr=indptr, indices=neighbour, triangles=triangles), keep, new_row
+
+
+def _delaunay_fans(planar: np.ndarray, valid: np.ndarray):
+    """Delaunay fan of the origin among each row's valid 2-D points, by the inversion and convex chain of
+    skelcore.neighbours.one_rings. Rows differ in length: the empty slots repeat the row's nearest point,
+    always a vertex of the inverted hull, so they only add repeated entries and degenerate triangles (dropped).
+    Returns (row, slot) of the ring entries in fan order and (row, slot_j, slot_l) of the triangles."""
+    count, width = valid.shape
+    rows = np.arange(count)
+    radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
+    nearest = np.argmin(np.where(valid, radius2, np.inf), axis=1)
+    slot = np.where(valid, np.arange(width), nearest[:, None])
+    planar, radius2 = planar[rows[:, None], slot], radius2[rows[:, None], slot]
+    angle = np.arctan2(planar[..., 1], planar[..., 0])
+    order = np.argsort(angle, axis=1, kind="stable")
+    angle, slot = np.take_along_axis(angle, order, axis=1), np.take_along_axis(slot, order, axis=1)
+    inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
+    gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
+    widest = np.argmax(gaps, axis=1)
+    is_open = gaps[rows, widest] >= np.pi
+    start = np.where(is_open, widest + 1, np.argmin(np.take_along_axis(radius2, order, axis=1), axis=1))
+    sequence = np.mod(start[:, None] + np.arange(width + 1), width)
+    sequence[is_open] = np.concatenate([np.full((is_open.sum(), 1), width), sequence[is_open, :width]], axis=1)
+    hull, size = _graham_scan(np.concatenate([inverted, np.zeros((count, 1, 2))], axis=1), sequence)
+
+    # As in one_rings: drop the closing repeat (closed) or the centre (open); consecutive slots are triangles.
+    first, length = np.where(is_open, 1, 0), size - 1
+    steps = np.arange(width + 1)
+    in_ring = (steps >= first[:, None]) & (steps < (first + length)[:, None])
+    ring_row = np.repeat(rows, length)
+    in_pairs = (steps[:-1] >= first[:, None]) & (steps[:-1] < (first + length - is_open)[:, None])
+    tri_row = np.repeat(rows, length - is_open)
+    tri_j, tri_l = slot[tri_row, hull[:, :-1][in_pairs]], slot[tri_row, hull[:, 1:][in_pairs]]
+    proper = tri_j != tri_l
+    return ring_row, slot[ring_row, hull[in_ring]], tri_row[proper], tri_j[proper], tri_l[proper]
+
+
+def _fan_normals(gamma: np.ndarray, offsets: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Unit normals of the merged rings' planes: G_i, or the PCA normal of the candidates and the centre
+    where G_i vanishes (Ring_combination.m)."""
+    length = np.linalg.norm(gamma, axis=1)
+    normals = gamma / np.maximum(length, 1e-300)[:, None]
+    flat = np.flatnonzero(length < 1e-12)
+    if len(flat):
+        weight = valid[flat][..., None]
+        mean = (offsets[flat] * weight).sum(axis=1) / (weight.sum(axis=1) + 1)
+        centred = (offsets[flat] - mean[:, None]) * weight
+        covariance = np.einsum("pwa,pwb->pab", centred, centred) + np.einsum("pa,pb->pab", mean, mean)
+        normals[flat] = np.linalg.eigh(covariance)[1][:, :, 0]
+    return normals
+
+
+def _plane_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning the plane normal to each unit normal."""
+    axis = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
+    u = np.cross(normals, axis)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(normals, u)
+
+
+def _nearest_in_ring(rings: OneRings, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ring size s_i (smallest distance to the ring) and the row of that nearest ring neighbour (get_ring_size.m)."""
+    centres = rings.centres()
+    lengths = np.linalg.norm(points[rings.indices] - points[centres], axis=1)
+    sizes = np.minimum.reduceat(lengths, rings.indptr[:-1])
+    hits = np.flatnonzero(lengths == sizes[centres])
+    _, first = np.unique(centres[hits], return_index=True)
+    return sizes, rings.indices[hits[first]]
+
+
+def _covariance_score(points: np.ndarray) -> float:
+    """(lambda_1 + lambda_2 + 2 lambda_3) / (2 sum lambda) of the covariance (LCWR lines 146-148)."""
+    eigenvalues = np.linalg.eigvalsh(np.cov(points.T))
+    return float((eigenvalues.sum() + eigenvalues[-1]) / (2.0 * eigenvalues.sum()))
+
+
+def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For ranges [start, start + count): the range of every position, and the positions."""
+    which = np.repeat(np.arange(len(starts)), counts)
+    offsets = np.arange(len(which)) - np.repeat(np.cumsum(counts) - counts, counts)
+    return which, starts[which] + offsets
+
+
+def _square(vectors: np.ndarray) -> np.ndarray:
+    return (vectors * vectors).sum(axis=1)
