@@ -47,7 +47,7 @@ import numpy as np
 
 from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
 from .laplacian import LaplacianSystem
-from .neighbours import OneRings, _graham_scan, one_rings
+from .neighbours import OneRings, delaunay_fans, one_rings
 from .normalise import Normalisation
 from .params import ContractionParams, default_k
 from .solver import CholeskySolver
@@ -208,7 +208,7 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
     offsets = origin[ids] - origin[absorbers[enough]][:, None, :]
     u, v = _plane_basis(_fan_normals(gamma[absorbers[enough]], offsets, valid))
     planar = np.stack([np.einsum("pwc,pc->pw", offsets, u), np.einsum("pwc,pc->pw", offsets, v)], axis=-1)
-    ring_row, ring_slot, tri_row, tri_j, tri_l = _delaunay_fans(planar, valid)
+    ring_row, ring_slot, tri_row, tri_j, tri_l = delaunay_fans(planar, valid)
     good = np.bincount(tri_row, minlength=len(enough)) >= MIN_FAN_TRIANGLES
     if not good.any():
         return None
@@ -242,41 +242,6 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
     centre, neighbour = centre[first], neighbour[first]
     indptr = np.concatenate([[0], np.cumsum(np.bincount(centre, minlength=m))])
     return OneRings(indptr=indptr, indices=neighbour, triangles=triangles), keep, new_row
-
-
-def _delaunay_fans(planar: np.ndarray, valid: np.ndarray):
-    """Delaunay fan of the origin among each row's valid 2-D points, by the inversion and convex chain of
-    skelcore.neighbours.one_rings. Rows differ in length: the empty slots repeat the row's nearest point,
-    always a vertex of the inverted hull, so they only add repeated entries and degenerate triangles (dropped).
-    Returns (row, slot) of the ring entries in fan order and (row, slot_j, slot_l) of the triangles."""
-    count, width = valid.shape
-    rows = np.arange(count)
-    radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
-    nearest = np.argmin(np.where(valid, radius2, np.inf), axis=1)
-    slot = np.where(valid, np.arange(width), nearest[:, None])
-    planar, radius2 = planar[rows[:, None], slot], radius2[rows[:, None], slot]
-    angle = np.arctan2(planar[..., 1], planar[..., 0])
-    order = np.argsort(angle, axis=1, kind="stable")
-    angle, slot = np.take_along_axis(angle, order, axis=1), np.take_along_axis(slot, order, axis=1)
-    inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
-    gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
-    widest = np.argmax(gaps, axis=1)
-    is_open = gaps[rows, widest] >= np.pi
-    start = np.where(is_open, widest + 1, np.argmin(np.take_along_axis(radius2, order, axis=1), axis=1))
-    sequence = np.mod(start[:, None] + np.arange(width + 1), width)
-    sequence[is_open] = np.concatenate([np.full((is_open.sum(), 1), width), sequence[is_open, :width]], axis=1)
-    hull, size = _graham_scan(np.concatenate([inverted, np.zeros((count, 1, 2))], axis=1), sequence)
-
-    # As in one_rings: drop the closing repeat (closed) or the centre (open); consecutive slots are triangles.
-    first, length = np.where(is_open, 1, 0), size - 1
-    steps = np.arange(width + 1)
-    in_ring = (steps >= first[:, None]) & (steps < (first + length)[:, None])
-    ring_row = np.repeat(rows, length)
-    in_pairs = (steps[:-1] >= first[:, None]) & (steps[:-1] < (first + length - is_open)[:, None])
-    tri_row = np.repeat(rows, length - is_open)
-    tri_j, tri_l = slot[tri_row, hull[:, :-1][in_pairs]], slot[tri_row, hull[:, 1:][in_pairs]]
-    proper = tri_j != tri_l
-    return ring_row, slot[ring_row, hull[in_ring]], tri_row[proper], tri_j[proper], tri_l[proper]
 
 
 def _fan_normals(gamma: np.ndarray, offsets: np.ndarray, valid: np.ndarray) -> np.ndarray:

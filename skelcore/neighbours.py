@@ -66,43 +66,49 @@ def one_rings(points: np.ndarray, k: int) -> OneRings:
     n = len(points)
     _, idx = knn(points, k)
     _, frames = pca_frames(points, idx)
-    offsets = points[idx[:, 1:]] - points[:, None, :]
+    neighbours = idx[:, 1:]
     # Coordinates in the plane of the two largest principal components.
-    planar = np.matmul(offsets, frames[:, :, [2, 1]])
+    planar = np.matmul(points[neighbours] - points[:, None, :], frames[:, :, [2, 1]])
+    ring_row, ring_slot, centre, j_slot, l_slot = delaunay_fans(planar)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(ring_row, minlength=n))])
+    triangles = np.column_stack([centre, neighbours[centre, j_slot], neighbours[centre, l_slot]])
+    return OneRings(indptr=indptr, indices=neighbours[ring_row, ring_slot], triangles=triangles)
+
+
+def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):
+    """Delaunay fan of the origin among each row's valid 2-D points (planar (rows, w, 2)), by inversion and
+    a convex chain (module docstring). Rows may differ in length: the empty slots repeat the row's nearest point,
+    always a vertex of the inverted hull, so they only add repeated entries and degenerate triangles (dropped).
+    Returns (row, slot) of the ring entries in fan order and (row, slot_j, slot_l) of the triangles."""
+    count, width = planar.shape[:2]
+    valid = np.ones((count, width), dtype=bool) if valid is None else valid
+    rows = np.arange(count)
     radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
+    nearest = np.argmin(np.where(valid, radius2, np.inf), axis=1)
+    slot = np.where(valid, np.arange(width), nearest[:, None])
+    planar, radius2 = planar[rows[:, None], slot], radius2[rows[:, None], slot]
     angle = np.arctan2(planar[..., 1], planar[..., 0])
     order = np.argsort(angle, axis=1, kind="stable")
-    angle = np.take_along_axis(angle, order, axis=1)
-    neighbour_ids = np.take_along_axis(idx[:, 1:], order, axis=1)
+    angle, slot = np.take_along_axis(angle, order, axis=1), np.take_along_axis(slot, order, axis=1)
     inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
-    width = inverted.shape[1]
-    rows = np.arange(n)
-
-    # A gap of pi or more between neighbours puts the centre on the hull: an open fan that starts after it.
     gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
     widest = np.argmax(gaps, axis=1)
     is_open = gaps[rows, widest] >= np.pi
-    # A closed scan starts at the nearest neighbour (always a hull vertex) and returns to it;
-    # an open scan starts at the centre itself (slot `width`, the origin of the inverted plane).
     start = np.where(is_open, widest + 1, np.argmin(np.take_along_axis(radius2, order, axis=1), axis=1))
     sequence = np.mod(start[:, None] + np.arange(width + 1), width)
     sequence[is_open] = np.concatenate([np.full((is_open.sum(), 1), width), sequence[is_open, :width]], axis=1)
-    plane = np.concatenate([inverted, np.zeros((n, 1, 2))], axis=1)
-    hull, size = _graham_scan(plane, sequence)
+    hull, size = _graham_scan(np.concatenate([inverted, np.zeros((count, 1, 2))], axis=1), sequence)
 
-    # Drop the closing repeat (closed) or the centre (open); consecutive hull slots form the fan triangles.
-    first = np.where(is_open, 1, 0)
-    length = size - 1
-    slots = np.arange(width + 1)
-    keep = (slots >= first[:, None]) & (slots < (first + length)[:, None])
-    ring_slots = hull[keep]
-    ring_ids = neighbour_ids[np.repeat(rows, length), ring_slots]
-    indptr = np.concatenate([[0], np.cumsum(length)])
-    pair_keep = (slots[:-1] >= first[:, None]) & (slots[:-1] < (first + length - is_open)[:, None])
-    j_slots, l_slots = hull[:, :-1][pair_keep], hull[:, 1:][pair_keep]
-    centres = np.repeat(rows, length - is_open)
-    triangles = np.column_stack([centres, neighbour_ids[centres, j_slots], neighbour_ids[centres, l_slots]])
-    return OneRings(indptr=indptr, indices=ring_ids.astype(np.int64), triangles=triangles.astype(np.int64))
+    # Drop the closing repeat (closed) or the centre (open); consecutive slots are triangles.
+    first, length = np.where(is_open, 1, 0), size - 1
+    steps = np.arange(width + 1)
+    in_ring = (steps >= first[:, None]) & (steps < (first + length)[:, None])
+    ring_row = np.repeat(rows, length)
+    in_pairs = (steps[:-1] >= first[:, None]) & (steps[:-1] < (first + length - is_open)[:, None])
+    tri_row = np.repeat(rows, length - is_open)
+    tri_j, tri_l = slot[tri_row, hull[:, :-1][in_pairs]], slot[tri_row, hull[:, 1:][in_pairs]]
+    proper = tri_j != tri_l
+    return ring_row, slot[ring_row, hull[in_ring]], tri_row[proper], tri_j[proper], tri_l[proper]
 
 
 def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -8,7 +8,8 @@ from scipy.spatial import Delaunay
 from skelcore.contraction import contract, run_contraction
 from skelcore.errors import ParameterError
 from skelcore.evaluate import evaluate, make_graph
-from skelcore.glskeleton import _delaunay_fans, greedy_matching
+from skelcore.glskeleton import greedy_matching
+from skelcore.neighbours import delaunay_fans
 from skelcore.params import ContractionParams
 from skelcore.io import Cloud
 from skelcore.pipeline import IterationMetricsCache, RunOptions, run_pipeline, skeleton_of_state
@@ -102,7 +103,7 @@ def test_merged_fans_are_local_delaunay():
     planar[::2, :, 0] = np.abs(planar[::2, :, 0]) + 0.01  # even rows: the centre on the boundary (open fans)
     lengths = rng.integers(3, width + 1, rows)
     valid = np.arange(width) < lengths[:, None]
-    ring_row, ring_slot, tri_row, tri_j, tri_l = _delaunay_fans(planar, valid)
+    ring_row, ring_slot, tri_row, tri_j, tri_l = delaunay_fans(planar, valid)
     for row in range(rows):
         simplices = Delaunay(np.concatenate([[[0.0, 0.0]], planar[row, :lengths[row]]])).simplices
         expected = {frozenset(t) for t in simplices[(simplices == 0).any(axis=1)]}
