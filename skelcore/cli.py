@@ -31,6 +31,12 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="most contraction iterations (default: %(default)s)")
     group.add_argument("--termination", type=float, default=defaults.termination,
                        help="stop when the one-ring size ratio falls by less than this (default: %(default)s)")
+    group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
+                       help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
+                            "this times its squared ring size (default: %(default)s)")
+    group.add_argument("--gl-covariance", type=float, default=defaults.gl_covariance,
+                       help="glskeleton: stop when the cloud's covariance score changes by less than this "
+                            "(default: %(default)s)")
     group.add_argument("--sample-radius", type=float, default=0.02,
                        help="skeleton sample radius, a fraction of the bounding-box diagonal (default: %(default)s)")
     group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
@@ -42,7 +48,15 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
-                             max_iterations=args.max_iterations, termination=args.termination).validated()
+                             max_iterations=args.max_iterations, termination=args.termination,
+                             gl_merge=args.gl_merge, gl_covariance=args.gl_covariance).validated()
+
+
+def run_options(args: argparse.Namespace):
+    from .pipeline import RunOptions
+
+    return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
+                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -112,10 +126,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .pipeline import RunOptions, run_pipeline
+    from .pipeline import run_pipeline
 
-    options = RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                         sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
+    options = run_options(args)
     progress = None if args.quiet else print
     result = run_pipeline(args.input, args.out, options, progress=progress)
     if not args.quiet:
@@ -158,11 +171,8 @@ def _report(args: argparse.Namespace) -> int:
 
 def _batch(args: argparse.Namespace) -> int:
     from .batch import run_batch
-    from .pipeline import RunOptions
 
-    options = RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                         sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
-    result = run_batch(args.inputs, args.out, options, workers=args.workers, scheduler=args.scheduler,
+    result = run_batch(args.inputs, args.out, run_options(args), workers=args.workers, scheduler=args.scheduler,
                        force=args.force, progress=not args.quiet, report=not args.no_report)
     print(result.summary_line())
     return 1 if result.failed else 0

@@ -38,7 +38,9 @@ class RunOptions:
     metrics_k: int = METRICS_K
 
     def skeleton_params(self) -> SkeletonParams:
-        return SkeletonParams(sample_radius=self.sample_radius).validated()
+        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
+        return SkeletonParams(sample_radius=self.sample_radius,
+                              drop_collinear=self.params.method == "glskeleton").validated()
 
 
 @dataclass
@@ -108,10 +110,10 @@ def run_states(cloud: io.Cloud, params: ContractionParams,
     states: list[IterationState] = []
     for state in contract(cloud.points, params):
         if states and states[-1].iteration == state.iteration:
-            states[-1] = state
-        else:
-            states.append(state)
-        if state.iteration > 0 and state.termination is None or state.termination == "max_iterations":
+            states[-1] = state  # a rejected step: the last state again, with the reason
+            continue
+        states.append(state)
+        if state.iteration > 0:
             seconds = sum(state.timings.values())
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
                            f"points={state.n_points} ({seconds:.2f} s)")
