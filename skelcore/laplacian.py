@@ -52,10 +52,15 @@ class LaplacianSystem:
                                                    row_length[l_rows])
         second = self._l_indptr[l_rows[first]] + offset
         product_keys = self._l_indices[first] * n + self._l_indices[second]
-        m_keys, self._pair_slots = np.unique(product_keys, return_inverse=True)
+        # The pattern of L^T L from scipy's sparse product; each pair finds its slot by binary search.
+        ones = sp.csr_matrix((np.ones(len(unique_keys)), self._l_indices, self._l_indptr), shape=(n, n))
+        pattern = (ones.T @ ones).tocsr()
+        pattern.sort_indices()
+        m_keys = np.repeat(np.arange(n), np.diff(pattern.indptr)) * n + pattern.indices
+        self._pair_slots = np.searchsorted(m_keys, product_keys)
         self._pair_first, self._pair_second = first, second
-        self._m_indices = m_keys % n
-        self._m_indptr = np.searchsorted(m_keys // n, np.arange(n + 1))
+        self._m_indices = pattern.indices.astype(np.int64)
+        self._m_indptr = pattern.indptr.astype(np.int64)
         self._m_diagonal = np.searchsorted(m_keys, np.arange(n) * (n + 1))
 
     def laplacian_values(self, points: np.ndarray) -> np.ndarray:
