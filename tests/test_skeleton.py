@@ -308,3 +308,25 @@ def test_write_errors_are_one_line(y_skeleton, tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(SkelError, match="cannot create"):
         write_skeleton(y_skeleton, tmp_path / "file" / "out")
+
+
+def test_whole_pipeline_on_the_cloudcontr_golden_case(reference_dir):
+    """Our contraction AND skeleton on simplejoint_v4770.off (the reference's parameters) against MATLAB's
+    skeleton: one junction, three ends, Chamfer distance to its valid nodes within 2% of the diagonal."""
+    from skelcore.contraction import run_contraction
+    from skelcore.io import load
+    from skelcore.normalise import Normalisation
+    from skelcore.params import ContractionParams
+    from skelcore.pipeline import skeleton_of_state
+
+    data = np.load(reference_dir / "cloudcontr_simplejoint_v4770_matlab_result.npz")
+    cloud = load(reference_dir / "cloudcontr_simplejoint_v4770.off")
+    final = run_contraction(cloud.points, ContractionParams(k=30, wl0=9.621282, wh0=1.0, sl=3.0, max_iterations=4))[-1]
+    skeleton = skeleton_of_state(final, cloud.points, SkeletonParams())
+    assert topology(skeleton) == {"components": 1, "cycles": 0, "junctions": 1, "ends": 3}
+    nodes = Normalisation.fit(cloud.points).forward(skeleton.nodes_array())  # MATLAB's normalised frame
+    reference = data["spls"][~np.isnan(data["spls"]).any(axis=1)]
+    chamfer = (cKDTree(reference).query(nodes)[0].mean() + cKDTree(nodes).query(reference)[0].mean()) / 2
+    diagonal = np.linalg.norm(np.ptp(data["pts"], axis=0))
+    print(f"golden skeleton: Chamfer {chamfer / diagonal:.4%} of the diagonal, {len(nodes)} nodes vs {len(reference)}")
+    assert chamfer <= 0.02 * diagonal
