@@ -356,16 +356,16 @@ def write_summary(out_dir, rows: list[dict], options: RunOptions) -> None:
 
 
 def _write_report(out_dir: Path, rows: list[dict]) -> Path | None:
-    """report.html over the objects that succeeded; a report failure is one line and leaves the summary."""
+    """report.html: the table of every object (failed ones with their error), the figures comparing those that
+    succeeded and, for a batch of moderate size, each one's figures; a report failure is one line and leaves
+    the summary."""
     run_dirs = [out_dir / row["name"] for row in rows if row["status"] == "ok"]
     path = out_dir / "report.html"
-    if not run_dirs:
-        return None
     temporary = path.with_name(f".report.{os.getpid()}.tmp.html")
     try:
         from .report import write_report
 
-        write_report(run_dirs, temporary)
+        write_report(run_dirs, temporary, rows=rows)
         os.replace(temporary, path)
     except Exception as error:
         print(f"report.html not written: {_one_line(error)}", file=sys.stderr)

@@ -61,18 +61,54 @@ def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, 
     return np.linalg.eigh(covariance)
 
 
+NEAREST_FIRST = 12  # most fans lie among the nearest dozen neighbours; a check finds the rows that need all k
+
+
 def one_rings(points: np.ndarray, k: int) -> OneRings:
     """The Delaunay fan of every point among its k nearest neighbours (itself included in k)."""
     n = len(points)
     _, idx = knn(points, k)
     _, frames = pca_frames(points, idx)
-    neighbours = idx[:, 1:]
+    neighbours = idx[:, 1:]  # nearest first
     # Coordinates in the plane of the two largest principal components.
     planar = np.matmul(points[neighbours] - points[:, None, :], frames[:, :, [2, 1]])
-    ring_row, ring_slot, centre, j_slot, l_slot = delaunay_fans(planar)
+    ring_row, ring_slot, centre, j_slot, l_slot = _fans_nearest_first(planar)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(ring_row, minlength=n))])
     triangles = np.column_stack([centre, neighbours[centre, j_slot], neighbours[centre, l_slot]])
     return OneRings(indptr=indptr, indices=neighbours[ring_row, ring_slot], triangles=triangles)
+
+
+def _fans_nearest_first(planar: np.ndarray):
+    """delaunay_fans of rows sorted nearest first, scanning only the nearest few where that is exact.
+
+    Inversion puts every farther neighbour inside the disc of radius 1/d, d the smallest planar distance of
+    those left out; where the closed hull of the inverted nearest ones encloses that disc, the farther ones lie
+    inside it and cannot be Delaunay neighbours. The other rows are scanned in full.
+    """
+    count, width = planar.shape[:2]
+    near = min(NEAREST_FIRST, width)
+    fans = delaunay_fans(planar[:, :near])
+    if near == width:
+        return fans
+    ring_row, _, tri_row, j_slot, l_slot = fans
+    inverted = planar / np.maximum((planar**2).sum(axis=-1), 1e-300)[..., None]
+    a, b = inverted[tri_row, j_slot], inverted[tri_row, l_slot]
+    edge_reach = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / np.maximum(np.linalg.norm(a - b, axis=1), 1e-300)
+    reach = np.full(count, np.inf)
+    np.minimum.at(reach, tri_row, edge_reach)
+    closed = np.bincount(tri_row, minlength=count) == np.bincount(ring_row, minlength=count)
+    excluded = np.linalg.norm(inverted[:, near:], axis=-1).max(axis=1)  # projection can reorder distances
+    redo = np.flatnonzero(~(closed & (reach > excluded)))
+    if len(redo) == 0:
+        return fans
+    full = delaunay_fans(planar[redo])
+    keep_ring, keep_tri = ~np.isin(ring_row, redo), ~np.isin(tri_row, redo)
+    ring_rows = np.concatenate([ring_row[keep_ring], redo[full[0]]])
+    tri_rows = np.concatenate([tri_row[keep_tri], redo[full[2]]])
+    ring_order, tri_order = np.argsort(ring_rows, kind="stable"), np.argsort(tri_rows, kind="stable")
+    return (ring_rows[ring_order], np.concatenate([fans[1][keep_ring], full[1]])[ring_order],
+            tri_rows[tri_order], np.concatenate([j_slot[keep_tri], full[3]])[tri_order],
+            np.concatenate([l_slot[keep_tri], full[4]])[tri_order])
 
 
 def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):

@@ -7,7 +7,11 @@ plotly is imported inside the functions: importing skelcore never loads it.
 `skelcore report RUN_DIR... --out report.html` reproduces, per run, the seed paper's figures: the
 histograms of D_theta and delta_kappa across iterations (Fig. 2), the final histograms beside the
 original and contracted clouds (Figs. 3-4), the curve skeleton (Fig. 5), and the convergence of the
-means with the verdicts. plotly.js is embedded once, so the page opens offline.
+means with the verdicts. With several runs (and for `skelcore batch`, which also passes its summary
+rows, failed objects included) the page opens with a sortable table of all objects and figures that
+compare them: final means against their targets, the means' convergence, the final histograms.
+plotly.js is embedded once, so the page opens offline; clouds are subsampled and large batches keep
+only the table and the comparison, so the page stays small.
 """
 from __future__ import annotations
 
@@ -26,7 +30,18 @@ MEASURES = {
     "delta_kappa": ("delta_kappa", "Δκ = κ<sub>k</sub> − κ<sub>0</sub>", DELTA_KAPPA_RANGE, 0.0),
 }
 LABEL_COLOURS = {"stable": "#2a9d3f", "not yet converged": "#e08a00", "unstable": "#d1342f"}
-MAX_CLOUD_POINTS = 8000  # per cloud drawn in the report: enough to see the shape, keeps the page small
+FAILED_COLOUR = "#8b1a1a"
+MAX_CLOUD_POINTS = 4000  # per cloud drawn in the report: enough to see the shape, about 90 kB of page each
+MAX_DETAILED_RUNS = 50  # more runs than this: only the table and the comparison figures (no per-run sections)
+# summary-row key -> table header; a column that no row fills is left out
+TABLE_COLUMNS = {
+    "name": "object", "status": "status", "verdict": "verdict", "error": "error", "method": "method", "points": "points",
+    "iterations": "iterations", "termination": "termination", "seconds": "seconds", "nodes": "nodes",
+    "edges": "edges", "components": "components", "cycles": "cycles", "ends": "ends", "junctions": "junctions",
+    "d_theta_mean": "mean D<sub>θ</sub>", "delta_kappa_mean": "mean Δκ", "d_theta_skewness": "skew D<sub>θ</sub>",
+    "delta_kappa_skewness": "skew Δκ", "d_theta_peaks": "peaks D<sub>θ</sub>", "delta_kappa_peaks": "peaks Δκ",
+    "inside_share": "inside share", "spread_ratio": "spread ratio", "bounded": "bounded", "reused": "reused",
+}
 FIGURE_HEIGHT = 340
 
 
@@ -94,11 +109,8 @@ def histograms_over_iterations_figure(iterations, measure: str, title: str | Non
     colours = sample_colorscale("Viridis", np.linspace(0, 0.9, max(len(entries), 2)).tolist())
     figure = go.Figure()
     for entry, colour in zip(entries, colours):
-        edges = np.asarray(entry[key]["histogram"]["edges"], float)
-        counts = np.asarray(entry[key]["histogram"]["counts"], float)
-        share = counts / max(counts.sum(), 1)
-        figure.add_trace(go.Scatter(x=(edges[:-1] + edges[1:]) / 2, y=share, mode="lines", line_shape="hvh",
-                                    line=dict(color=colour, width=1.6), name=f"iteration {entry['iteration']}"))
+        figure.add_trace(_share_trace(entry, key, line=dict(color=colour, width=1.6),
+                                      name=f"iteration {entry['iteration']}"))
     figure.add_vline(x=target, line_dash="dash", line_color="#888888")
     figure.update_layout(title=title or f"{name} across iterations", height=FIGURE_HEIGHT,
                          margin=dict(l=50, r=20, t=50, b=50), xaxis=dict(title=axis_label, range=list(value_range)),
@@ -129,8 +141,7 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
                                     marker=dict(size=10, color=colours),
                                     text=labels, hovertemplate="iteration %{x}: %{y:.4f} (%{text})<extra></extra>"),
                          row=row, col=1)
-    for label, colour in LABEL_COLOURS.items():  # legend of the verdict colours
-        figure.add_trace(go.Scatter(x=[None], y=[None], mode="markers", marker=dict(size=10, color=colour), name=label))
+    _verdict_legend(figure)
     figure.update_yaxes(range=list(D_THETA_RANGE), row=1, col=1)
     figure.update_yaxes(range=[-0.15, 0.15], row=2, col=1)
     figure.update_xaxes(title_text="iteration", dtick=1, row=2, col=1)
@@ -182,6 +193,85 @@ def skeleton_figure(skeleton: dict, contracted: np.ndarray | None = None, title:
     return figure
 
 
+# --- comparison across runs: each takes load_run dicts (only "name", "iterations" and "verdict" are used) ---------
+
+def final_means_figure(runs, thresholds: StabilityThresholds = StabilityThresholds(),
+                       title: str = "Final means against their targets"):
+    """One marker per run at its last iteration's (mean D_theta, mean delta_kappa), coloured by the run's verdict;
+    the targets (0.5, 0) are marked and the tolerance box around them shaded."""
+    import plotly.graph_objects as go
+
+    t = thresholds
+    figure = go.Figure()
+    figure.add_shape(type="rect", x0=t.d_theta_target - t.d_theta_tolerance, x1=t.d_theta_target + t.d_theta_tolerance,
+                     y0=-t.delta_kappa_tolerance, y1=t.delta_kappa_tolerance, fillcolor="#2a9d3f", opacity=0.12,
+                     line_width=0)
+    figure.add_vline(x=t.d_theta_target, line_dash="dash", line_color="#888888",
+                     annotation_text=f"D<sub>θ</sub> target {t.d_theta_target:g}")
+    figure.add_hline(y=0.0, line_dash="dash", line_color="#888888", annotation_text="Δκ target 0")
+    for label, group in _by_verdict(runs).items():
+        finals = [run["iterations"][-1] for run in group]
+        figure.add_trace(go.Scatter(
+            x=[entry["d_theta"]["mean"] for entry in finals], y=[entry["delta_kappa"]["mean"] for entry in finals],
+            mode="markers+text" if len(runs) <= 20 else "markers", name=label, textposition="top center",
+            text=[run["name"] for run in group], marker=dict(size=10, color=_verdict_colour(label)),
+            hovertemplate="%{text}: D<sub>θ</sub> %{x:.4f}, Δκ %{y:.4f}<extra>" + html.escape(label) + "</extra>"))
+    figure.update_layout(title=title, height=FIGURE_HEIGHT + 120, margin=dict(l=50, r=20, t=50, b=50),
+                         xaxis_title="final mean D<sub>θ</sub>", yaxis_title="final mean Δκ", showlegend=True,
+                         legend=dict(orientation="h", y=-0.2))
+    return figure
+
+
+def convergence_comparison_figure(runs, thresholds: StabilityThresholds = StabilityThresholds(),
+                                  title: str = "Convergence of the means, all objects"):
+    """The means of D_theta and delta_kappa per iteration, one line per run on shared axes, coloured by verdict."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    figure = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.12,
+                           subplot_titles=("mean D<sub>θ</sub> → 0.5", "mean Δκ → 0"))
+    rows = (("d_theta", thresholds.d_theta_target, thresholds.d_theta_tolerance),
+            ("delta_kappa", 0.0, thresholds.delta_kappa_tolerance))
+    for row, (key, target, tolerance) in enumerate(rows, start=1):
+        figure.add_hrect(y0=target - tolerance, y1=target + tolerance, fillcolor="#2a9d3f", opacity=0.12,
+                         line_width=0, row=row, col=1)
+        figure.add_hline(y=target, line_dash="dash", line_color="#888888", row=row, col=1)
+    for run in runs:
+        trend = convergence(run["iterations"], thresholds)
+        colour = _verdict_colour(run["verdict"]["label"])
+        for row, (key, _, _) in enumerate(rows, start=1):
+            figure.add_trace(go.Scatter(x=trend["iteration"], y=trend[f"{key}_mean"], mode="lines+markers",
+                                        name=run["name"], showlegend=False, opacity=0.75,
+                                        line=dict(color=colour, width=1.5), marker=dict(size=4, color=colour),
+                                        hovertemplate="iteration %{x}: %{y:.4f}"),
+                             row=row, col=1)
+    _verdict_legend(figure)
+    figure.update_xaxes(title_text="iteration", row=2, col=1)
+    figure.update_layout(title=title, height=FIGURE_HEIGHT + 120, margin=dict(l=50, r=20, t=70, b=50),
+                         legend=dict(orientation="h", y=-0.2))
+    return figure
+
+
+def final_histograms_figure(runs, measure: str, title: str | None = None):
+    """The last iteration's histogram of one measure for every run, overlaid as shares of the points and
+    coloured by verdict (paper Figs. 3-4 across objects)."""
+    import plotly.graph_objects as go
+
+    key = measure_key(measure)
+    name, axis_label, value_range, target = MEASURES[key]
+    figure = go.Figure()
+    for run in runs:
+        colour = _verdict_colour(run["verdict"]["label"])
+        figure.add_trace(_share_trace(run["iterations"][-1], key, name=run["name"], showlegend=False, opacity=0.7,
+                                      line=dict(color=colour, width=1.4)))
+    figure.add_vline(x=target, line_dash="dash", line_color="#888888", annotation_text=f"target {target:g}")
+    _verdict_legend(figure)
+    figure.update_layout(title=title or f"Final {name} histograms, all objects", height=FIGURE_HEIGHT,
+                         margin=dict(l=50, r=20, t=50, b=50), xaxis=dict(title=axis_label, range=list(value_range)),
+                         yaxis_title="share of points", legend=dict(orientation="h", y=-0.3))
+    return figure
+
+
 def verdict_text(verdict: dict, max_reasons: int = 6) -> str:
     """Markdown: the label in bold and its reasons as a list."""
     reasons = verdict.get("reasons", [])
@@ -202,15 +292,14 @@ def per_point_values(metrics: IterationMetrics, measure: str) -> np.ndarray:
 def histograms_html(metrics, iteration: int | None = None) -> str:
     """A self-contained page with the two histograms of one iteration."""
     figures = [histogram_figure(metrics, key, iteration=iteration) for key in MEASURES]
-    return _page("Histograms", "".join(_figure_html(figure, first=i == 0) for i, figure in enumerate(figures)))
+    return _page("Histograms", "".join(_figure_html(figure) for figure in figures), plotly=True)
 
 
 # --- the report of run folders ------------------------------------------------------------------
 
-def load_run(run_dir) -> dict:
-    """The contents of one `skelcore run` output folder; problems raise InputError naming the folder."""
-    from . import io
-
+def load_run(run_dir, clouds: bool = True) -> dict:
+    """The contents of one `skelcore run` output folder; problems raise InputError naming the folder.
+    clouds=False leaves the original and contracted clouds unread (None), for the table and comparison only."""
     folder = Path(run_dir)
     if not folder.is_dir():
         raise InputError(f"{folder}: not a run folder (no such directory)")
@@ -225,7 +314,8 @@ def load_run(run_dir) -> dict:
     verdict = metrics.get("verdict")
     if not isinstance(verdict, dict) or "label" not in verdict:
         verdict = run_verdict(iterations)
-    params = _read_json(folder, "params.json") or {}
+    params = _read_json(folder, "params.json")
+    params = params if isinstance(params, dict) else {}
     skeleton = _read_json(folder, "skeleton.json")
     notes = []
     if skeleton is not None:
@@ -234,6 +324,16 @@ def load_run(run_dir) -> dict:
             raise InputError(f"{folder / 'skeleton.json'}: {problem}")
     else:
         notes.append("no skeleton.json")
+    original, contracted = _load_clouds(folder, params, notes) if clouds else (None, None)
+    return {"folder": folder, "name": folder.resolve().name, "metrics": metrics, "iterations": iterations,
+            "verdict": verdict, "params": params, "skeleton": skeleton, "contracted": contracted,
+            "original": original, "notes": notes}
+
+
+def _load_clouds(folder: Path, params: dict, notes: list[str]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The original cloud (read again as the run read it) and the contracted one; what is missing goes to notes."""
+    from . import io
+
     contracted = original = None
     if (folder / "contracted.ply").is_file():
         try:
@@ -242,7 +342,7 @@ def load_run(run_dir) -> dict:
             notes.append(f"contracted cloud not shown: {error}")
     else:
         notes.append("no contracted.ply")
-    source = params.get("input") if isinstance(params, dict) else None
+    source = params.get("input")
     if source:
         try:
             original = io.load(source, sample=params.get("sample"), voxel_size=params.get("voxel_size"),
@@ -251,64 +351,166 @@ def load_run(run_dir) -> dict:
             notes.append(f"original cloud not shown: {error}")
     else:
         notes.append("params.json names no input: original cloud not shown")
-    return {"folder": folder, "name": folder.resolve().name, "metrics": metrics, "iterations": iterations,
-            "verdict": verdict, "params": params, "skeleton": skeleton, "contracted": contracted,
-            "original": original, "notes": notes}
+    return original, contracted
 
 
-def write_report(run_dirs, out_path) -> Path:
-    """Write one self-contained HTML page reproducing the paper's figures for each run folder."""
+def write_report(run_dirs, out_path, rows=None) -> Path:
+    """Write one self-contained HTML page: a table of the objects, with several runs figures comparing them,
+    then the paper's figures for each run folder.
+
+    rows: the summary rows of a batch (skelcore.batch.SUMMARY_COLUMNS), one per object, failed ones included: the
+    table lists them all, with each failure's one-line error; run folders match rows by folder name. A run folder
+    that cannot be read is then an error in its row instead of stopping the page. Without rows, the table is built
+    from the run folders and any unreadable one raises InputError before anything is written.
+    """
     run_dirs = [run_dirs] if isinstance(run_dirs, (str, Path)) else list(run_dirs)
-    if not run_dirs:
+    rows = None if rows is None else [dict(row) for row in rows]
+    if not run_dirs and not rows:
         raise ParameterError("report: no run folders given")
-    runs = [load_run(folder) for folder in run_dirs]  # every folder is checked before anything is written
+    detailed = len(run_dirs) <= MAX_DETAILED_RUNS  # above: neither clouds nor per-run sections, the page stays small
+    runs, problems = [], {}
+    for folder in run_dirs:
+        try:
+            runs.append(load_run(folder, clouds=detailed))
+        except InputError as error:
+            if rows is None:
+                raise
+            problems[Path(folder).resolve().name] = f"not in the report: {error}"
+    if rows is None:
+        rows = [_run_row(run) for run in runs]
+    for row in rows:
+        if row.get("name") in problems:
+            row["error"] = problems[row["name"]]
     out_path = Path(out_path)
-    body = [f"<h1>Contraction stability report</h1><p>{len(runs)} run(s). Criteria of the seed paper: bell-shaped "
+    failed = sum(row.get("status") == "failed" for row in rows)
+    count = f"{len(rows)} object(s), {failed} failed" if failed else f"{len(rows)} object(s)"
+    body = [f"<h1>Contraction stability report</h1><p>{count}. Criteria of the seed paper: bell-shaped "
             "(unimodal, symmetric) histograms whose means move toward 0.5 (D<sub>θ</sub>) and 0 (Δκ), a contracted "
-            "cloud that stays inside the original shape and keeps shrinking.</p>", _summary_table(runs)]
-    first = True
-    for run in runs:
-        sections = [f"<h2 id='{html.escape(run['name'])}'>{html.escape(run['name'])}</h2>",
-                    f"<p class='muted'>{html.escape(str(run['params'].get('input', '')))}</p>",
-                    _verdict_html(run["verdict"])]
-        if run["notes"]:
-            sections.append("<p class='muted'>" + "; ".join(html.escape(n) for n in run["notes"]) + "</p>")
-        iterations, final = run["iterations"], run["iterations"][-1]
-        figures = [
-            ("Convergence", [convergence_figure(iterations)]),
-            ("Histograms across iterations (paper Fig. 2)",
-             [histograms_over_iterations_figure(iterations, key) for key in MEASURES]),
-            ("Final iteration: histograms and clouds (paper Figs. 3-4)",
-             [histogram_figure(final, key) for key in MEASURES] + [cloud_figure(run["original"], run["contracted"])]),
-        ]
-        if run["skeleton"] is not None:
-            figures.append(("Curve skeleton (paper Fig. 5)", [skeleton_figure(run["skeleton"], run["contracted"])]))
-        for heading, row in figures:
-            cells = []
-            for figure in row:
-                cells.append(f"<div class='cell'>{_figure_html(figure, first)}</div>")
-                first = False
-            sections.append(f"<h3>{heading}</h3><div class='row'>{''.join(cells)}</div>")
-        body.append(f"<section>{''.join(sections)}</section>")
+            "cloud that stays inside the original shape and keeps shrinking. Click a column header to sort.</p>",
+            _table(rows, {run["name"]: run for run in runs}, linked=detailed)]
+    if len(runs) > 1:
+        body.append(_figures_html("Comparison across objects", [
+            [final_means_figure(runs), convergence_comparison_figure(runs)],
+            [final_histograms_figure(runs, key) for key in MEASURES]]))
+    if detailed:
+        body += [_run_section(run) for run in runs]
+    else:
+        body.append(f"<p class='muted'>{len(runs)} runs, more than {MAX_DETAILED_RUNS}: the per-object figures and "
+                    "clouds are left out to keep this page small; <code>skelcore report OUT/&lt;name&gt;</code> draws "
+                    "one object's.</p>")
     try:
         out_path.parent.mkdir(parents=True, exist_ok=True)
-        out_path.write_text(_page("Contraction stability report", "".join(body)), encoding="utf-8")
+        out_path.write_text(_page("Contraction stability report", "".join(body), plotly=bool(runs)), encoding="utf-8")
     except OSError as error:
         raise InputError(f"{out_path}: cannot write the report ({error.strerror})") from None
     return out_path
 
 
-def _summary_table(runs: list[dict]) -> str:
-    rows = []
-    for run in runs:
-        metrics, label = run["metrics"], run["verdict"]["label"]
-        rows.append(f"<tr><td><a href='#{html.escape(run['name'])}'>{html.escape(run['name'])}</a></td>"
-                    f"<td>{html.escape(str(metrics.get('method', '')))}</td><td>{metrics.get('n_points', '')}</td>"
-                    f"<td>{run['iterations'][-1].get('iteration', len(run['iterations']) - 1)}</td>"
-                    f"<td>{html.escape(str(metrics.get('termination', '')))}</td>"
-                    f"<td style='color:{LABEL_COLOURS.get(label, '#000')}'><b>{html.escape(label)}</b></td></tr>")
-    return ("<table><tr><th>run</th><th>method</th><th>points</th><th>last iteration</th><th>termination</th>"
-            f"<th>verdict</th></tr>{''.join(rows)}</table>")
+def _run_section(run: dict) -> str:
+    """Per run: the verdict and the paper's figures."""
+    sections = [f"<h2 id='{html.escape(run['name'])}'>{html.escape(run['name'])}</h2>",
+                f"<p class='muted'>{html.escape(str(run['params'].get('input', '')))}</p>",
+                _verdict_html(run["verdict"])]
+    if run["notes"]:
+        sections.append("<p class='muted'>" + "; ".join(html.escape(n) for n in run["notes"]) + "</p>")
+    iterations, final = run["iterations"], run["iterations"][-1]
+    figures = [
+        ("Convergence", [convergence_figure(iterations)]),
+        ("Histograms across iterations (paper Fig. 2)",
+         [histograms_over_iterations_figure(iterations, key) for key in MEASURES]),
+        ("Final iteration: histograms and clouds (paper Figs. 3-4)",
+         [histogram_figure(final, key) for key in MEASURES] + [cloud_figure(run["original"], run["contracted"])]),
+    ]
+    if run["skeleton"] is not None:
+        figures.append(("Curve skeleton (paper Fig. 5)", [skeleton_figure(run["skeleton"], run["contracted"])]))
+    for heading, row in figures:
+        sections.append(f"<h3>{heading}</h3>{_row_html(row)}")
+    return f"<section>{''.join(sections)}</section>"
+
+
+def _figures_html(heading: str, rows: list[list]) -> str:
+    return f"<section><h2>{heading}</h2>{''.join(_row_html(row) for row in rows)}</section>"
+
+
+def _row_html(figures: list) -> str:
+    # Columns fixed before any figure draws: plotly sizes a figure once, when its div is parsed.
+    cells = "".join(f"<div>{_figure_html(figure)}</div>" for figure in figures)
+    return f"<div class='row' style='grid-template-columns:repeat({len(figures)},minmax(340px,1fr))'>{cells}</div>"
+
+
+def _run_row(run: dict) -> dict:
+    """A summary row (as skelcore.batch writes) from a run folder, for `skelcore report` without a batch."""
+    metrics, final = run["metrics"], run["iterations"][-1]
+    skeleton = run["skeleton"] or {}
+    return {
+        "name": run["name"], "input": run["params"].get("input"), "status": "ok", "verdict": run["verdict"]["label"],
+        "method": metrics.get("method"), "points": metrics.get("n_points"),
+        "iterations": final.get("iteration", len(run["iterations"]) - 1), "termination": metrics.get("termination"),
+        "nodes": len(skeleton["nodes"]) if "nodes" in skeleton else None,
+        "edges": len(skeleton["edges"]) if "edges" in skeleton else None,
+        **{f"{key}_{field}": final[key][field] for key in MEASURES for field in ("mean", "skewness")},
+        **{f"{key}_peaks": final[key]["peaks"].get("count") for key in MEASURES},
+        "inside_share": final["boundedness"].get("inside_share"),
+        "spread_ratio": final["boundedness"].get("spread_ratio"),
+    }
+
+
+def _table(rows: list[dict], runs: dict, linked: bool) -> str:
+    """All objects, one row each, failed ones shaded with their error; the verdict coloured, its reasons on hover."""
+    columns = [key for key in TABLE_COLUMNS if any(row.get(key) not in (None, "") for row in rows)]
+    lines = []
+    for row in rows:
+        name, status, run = str(row.get("name", "")), row.get("status"), runs.get(row.get("name"))
+        cells = []
+        for key in columns:
+            value = row.get(key)
+            text = html.escape(_cell(value))
+            numeric = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+            if key == "name":
+                title = html.escape(str(row.get("input") or ""))
+                text = f"<a href='#{html.escape(name)}'>{text}</a>" if run is not None and linked else text
+                cells.append(f"<td title='{title}'>{text}</td>")
+            elif key == "verdict" and value:
+                reasons = html.escape("; ".join(run["verdict"].get("reasons", [])[:6])) if run is not None else ""
+                cells.append(f"<td title='{reasons}' style='color:{_verdict_colour(value)}'><b>{text}</b></td>")
+            elif key == "status" and status == "failed":
+                cells.append(f"<td style='color:{FAILED_COLOUR}'><b>{text}</b></td>")
+            elif key == "error":
+                cells.append(f"<td class='error'>{text}</td>")
+            else:
+                cells.append(f"<td data-v='{float(value)!r}'>{text}</td>" if numeric else f"<td>{text}</td>")
+        lines.append(f"<tr{' class=failed' if status == 'failed' else ''}>{''.join(cells)}</tr>")
+    header = "".join(f"<th>{TABLE_COLUMNS[key]}</th>" for key in columns)
+    return (f"<div class='scroll'><table class='sortable'><thead><tr>{header}</tr></thead><tbody>{''.join(lines)}"
+            f"</tbody></table></div><script>{_SORT_SCRIPT}</script>")
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    return str(value)
+
+
+# Sort a table by the clicked column: numbers (data-v) as numbers, the rest as text, empty cells last.
+_SORT_SCRIPT = """
+document.querySelectorAll('table.sortable th').forEach((th, column) => th.addEventListener('click', () => {
+  const body = th.closest('table').tBodies[0], ascending = th.dataset.order !== 'asc';
+  th.parentNode.querySelectorAll('th').forEach(other => delete other.dataset.order);
+  th.dataset.order = ascending ? 'asc' : 'desc';
+  const key = row => { const cell = row.cells[column];
+    return cell.dataset.v !== undefined ? Number(cell.dataset.v) : cell.textContent.trim(); };
+  const rows = [...body.rows].sort((a, b) => {
+    const x = key(a), y = key(b);
+    if (x === '' || y === '') return (x === '') - (y === '');
+    const order = typeof x === 'number' && typeof y === 'number' ? x - y : String(x).localeCompare(String(y));
+    return ascending ? order : -order; });
+  rows.forEach(row => body.appendChild(row));
+}));
+"""
 
 
 def _verdict_html(verdict: dict) -> str:
@@ -318,17 +520,25 @@ def _verdict_html(verdict: dict) -> str:
             f"<ul>{reasons}</ul>")
 
 
-def _figure_html(figure, first: bool) -> str:
-    # plotly.js goes inline with the first figure only: the page opens offline and stays one file.
-    return figure.to_html(full_html=False, include_plotlyjs=bool(first), config={"displaylogo": False})
+def _figure_html(figure) -> str:
+    return figure.to_html(full_html=False, include_plotlyjs=False, config={"displaylogo": False})
 
 
-def _page(title: str, body: str) -> str:
-    style = ("body{font-family:system-ui,sans-serif;margin:24px;color:#222}.row{display:flex;flex-wrap:wrap;gap:8px}"
-             ".cell{flex:1 1 440px;min-width:340px}.muted{color:#666;font-size:90%}table{border-collapse:collapse}"
-             "td,th{border:1px solid #ddd;padding:4px 8px;text-align:left}section{margin-top:32px}")
+def _page(title: str, body: str, plotly: bool) -> str:
+    """The page; plotly=True embeds plotly.js once in the head, so it opens offline and stays one file."""
+    style = ("body{font-family:system-ui,sans-serif;margin:24px;color:#222}.row{display:grid;gap:8px}"
+             ".muted{color:#666;font-size:90%}table{border-collapse:collapse}.scroll{overflow-x:auto}"
+             "td,th{border:1px solid #ddd;padding:4px 8px;text-align:left}section{margin-top:32px}"
+             "th{cursor:pointer;background:#f4f4f4}th[data-order=asc]::after{content:' ▲'}"
+             "th[data-order=desc]::after{content:' ▼'}tr.failed{background:#fbeaea}"
+             "td.error{min-width:24em;max-width:48em;font-size:90%;overflow-wrap:anywhere}")
+    script = ""
+    if plotly:
+        from plotly.offline import get_plotlyjs
+
+        script = f"<script>{get_plotlyjs()}</script>"
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-            f"<style>{style}</style></head><body>{body}</body></html>")
+            f"<style>{style}</style>{script}</head><body>{body}</body></html>")
 
 
 def _read_json(folder: Path, name: str, required: bool = False):
@@ -394,10 +604,40 @@ def _entries(iterations) -> list[dict]:
 
 
 def _thin(points: np.ndarray) -> np.ndarray:
+    """At most MAX_CLOUD_POINTS evenly spread rows, as float32: half the page bytes, no visible difference."""
     points = np.asarray(points, float)
-    if len(points) <= MAX_CLOUD_POINTS:
-        return points
-    return points[np.linspace(0, len(points) - 1, MAX_CLOUD_POINTS).astype(np.int64)]
+    if len(points) > MAX_CLOUD_POINTS:
+        points = points[np.linspace(0, len(points) - 1, MAX_CLOUD_POINTS).astype(np.int64)]
+    return points.astype(np.float32)
+
+
+def _share_trace(entry: dict, key: str, **style):
+    """One histogram of a metrics entry as a step line of shares of the points."""
+    import plotly.graph_objects as go
+
+    edges = np.asarray(entry[key]["histogram"]["edges"], float)
+    counts = np.asarray(entry[key]["histogram"]["counts"], float)
+    return go.Scatter(x=(edges[:-1] + edges[1:]) / 2, y=counts / max(counts.sum(), 1), mode="lines",
+                      line_shape="hvh", **style)
+
+
+def _by_verdict(runs) -> dict[str, list[dict]]:
+    groups: dict[str, list[dict]] = {label: [] for label in LABEL_COLOURS}
+    for run in runs:
+        groups.setdefault(run["verdict"]["label"], []).append(run)
+    return {label: group for label, group in groups.items() if group}
+
+
+def _verdict_colour(label: str) -> str:
+    return LABEL_COLOURS.get(label, "#555555")
+
+
+def _verdict_legend(figure) -> None:
+    """Legend entries for the verdict colours (the traces themselves stay out of the legend)."""
+    import plotly.graph_objects as go
+
+    for label, colour in LABEL_COLOURS.items():
+        figure.add_trace(go.Scatter(x=[None], y=[None], mode="markers", marker=dict(size=10, color=colour), name=label))
 
 
 def _number(value) -> str:

@@ -1,3 +1,4 @@
+import html
 import json
 import math
 import shutil
@@ -73,7 +74,10 @@ def test_layout_and_summary(serial_out, shapes_dir):
         assert sorted(p.name for p in folder.iterdir()) == sorted([*RESULT_FILES, batch.DONE_FILE])
     csv_lines = (serial_out / "summary.csv").read_text().splitlines()
     assert csv_lines[0].split(",") == list(batch.SUMMARY_COLUMNS) and len(csv_lines) == 1 + len(NAMES)
-    assert (serial_out / "report.html").stat().st_size > 0
+    page = (serial_out / "report.html").read_text(encoding="utf-8")
+    table = page[page.index("<table"):page.index("</table>")]
+    assert all(f">{name}<" in table for name in NAMES) and "Comparison across objects" in page
+    assert all(f"id='{name}'" in page for name in NAMES)  # and each object's own figures
 
 
 def test_bad_objects_are_recorded_and_do_not_stop_the_batch(shapes_dir, tmp_path, monkeypatch, capsys):
@@ -99,6 +103,11 @@ def test_bad_objects_are_recorded_and_do_not_stop_the_batch(shapes_dir, tmp_path
         assert not (out / name / batch.DONE_FILE).exists()
     assert all(rows[name]["status"] == "ok" for name in ("capsule", "y_branch"))
     assert "Traceback" not in capsys.readouterr().err
+    page = (out / "report.html").read_text(encoding="utf-8")  # every object, the failed ones with their error
+    table = page[page.index("<table"):page.index("</table>")]
+    assert all(f">{name}<" in table for name in rows) and table.count("class=failed") == 2
+    assert all(html.escape(rows[name]["error"]) in table for name in ("broken", "torus"))
+    assert "Comparison across objects" in page and "id='torus'" not in page
     # a rerun tries the failed ones again and reuses the others
     monkeypatch.setattr(batch, "run_pipeline", real)
     assert main(["batch", str(data), "--out", str(out), *FLAGS]) == 1

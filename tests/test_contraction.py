@@ -226,3 +226,14 @@ def test_parameters_are_validated(change, fragment):
 
 def test_default_k_is_cloudcontrs():
     assert default_k(100) == 8 and default_k(1000) == 12 and default_k(100_000) == 30
+
+
+def test_nearest_first_scan_equals_the_full_scan(monkeypatch):
+    import skelcore.neighbours as neighbours
+
+    points = make_shape("animal", 3000, seed=2).points
+    quick = one_rings(points, 30)
+    monkeypatch.setattr(neighbours, "NEAREST_FIRST", 29)
+    full = one_rings(points, 30)
+    assert np.array_equal(quick.indptr, full.indptr) and np.array_equal(quick.indices, full.indices)
+    assert np.array_equal(quick.triangles, full.triangles)

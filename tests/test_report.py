@@ -1,5 +1,7 @@
 """The HTML report of run folders and the figure builders the inspector shares."""
+import html
 import json
+import shutil
 import subprocess
 import sys
 
@@ -10,6 +12,7 @@ from skelcore import report
 from skelcore.cli import main
 from skelcore.errors import SkelError
 from skelcore.metrics import MetricsReference, run_verdict
+from skelcore.shapes import make_shape
 
 
 def write_ply(path, points):
@@ -24,33 +27,49 @@ def capsule(n=600, seed=0):
     return np.column_stack([0.3 * np.cos(angle), 0.3 * np.sin(angle), z])
 
 
-@pytest.fixture(scope="module")
-def history():
-    points = capsule()
+def shrink_history(points, axis, shares):
+    """Metrics of the cloud pulled toward `axis` (same shape as points) by each share in turn."""
     reference = MetricsReference.from_points(points)
-    axis = points * [0.0, 0.0, 1.0]
     metrics = [reference.evaluate(points, iteration=0)]
-    for share in (0.7, 0.4, 0.1):
+    for share in shares:
         metrics.append(reference.evaluate(axis + share * (points - axis), previous=metrics[-1]))
-    return points, axis + 0.1 * (points - axis), metrics
+    return points, axis + shares[-1] * (points - axis), metrics
 
 
-@pytest.fixture
-def run_dir(tmp_path, history):
+def write_run(folder, history, input_path):
+    """A run folder as `skelcore run` writes it, from synthetic metrics."""
     points, contracted, metrics = history
-    write_ply(tmp_path / "input.ply", points)
-    folder = tmp_path / "capsule_run"
+    write_ply(input_path, points)
     folder.mkdir()
     document = {"method": "lbc", "n_points": len(points), "termination": "ring_ratio",
                 "iterations": [{"iteration": m.iteration, "wl": 1.0, "n_points": len(points), **m.to_dict()}
                                for m in metrics],
                 "verdict": run_verdict(metrics)}
     (folder / "metrics.json").write_text(json.dumps(document))
-    (folder / "params.json").write_text(json.dumps({"input": str(tmp_path / "input.ply")}))
+    (folder / "params.json").write_text(json.dumps({"input": str(input_path)}))
     (folder / "skeleton.json").write_text(json.dumps({"nodes": [[0, 0, -1], [0, 0, 0], [0, 0, 1]],
                                                       "edges": [[0, 1], [1, 2]], "degree": [1, 2, 1]}))
     write_ply(folder / "contracted.ply", contracted)
     return folder
+
+
+@pytest.fixture(scope="module")
+def history():
+    points = capsule()
+    return shrink_history(points, points * [0.0, 0.0, 1.0], (0.7, 0.4, 0.1))
+
+
+@pytest.fixture
+def run_dir(tmp_path, history):
+    return write_run(tmp_path / "capsule_run", history, tmp_path / "input.ply")
+
+
+@pytest.fixture
+def branch_dir(tmp_path):
+    """A second object, a different shape pulled toward its centroid: another verdict and histograms."""
+    points = make_shape("y_branch", 800).points
+    return write_run(tmp_path / "y_branch", shrink_history(points, points.mean(axis=0) + 0 * points, (0.6, 0.3)),
+                     tmp_path / "y_branch.ply")
 
 
 def test_report_is_one_offline_page(run_dir, tmp_path):
@@ -63,6 +82,70 @@ def test_report_is_one_offline_page(run_dir, tmp_path):
     verdict = json.loads((run_dir / "metrics.json").read_text())["verdict"]["label"]
     assert f">{verdict}<" in page
     assert "original cloud not shown" not in page
+
+
+def test_report_with_batch_rows_compares_every_object(run_dir, branch_dir, tmp_path):
+    broken = tmp_path / "broken_run"
+    broken.mkdir()
+    (broken / "metrics.json").write_text("{not json")
+    error = "odd.ply: line 5: expected 3 numbers, got 'x <y>'"
+    rows = [{"name": "capsule_run", "input": "capsule.ply", "status": "ok", "error": "", "points": 600,
+             "d_theta_mean": 0.41, "verdict": "unstable", "bounded": True, "reused": False},
+            {"name": "odd", "input": "odd.ply", "status": "failed", "error": error, "points": None, "verdict": None,
+             "reused": False},
+            {"name": "y_branch", "input": "y_branch.ply", "status": "ok", "error": "", "points": 800,
+             "d_theta_mean": 0.52, "verdict": "stable", "bounded": False, "reused": True},
+            {"name": "broken_run", "input": "b.ply", "status": "ok", "error": "", "verdict": "stable", "reused": False}]
+    out = report.write_report([run_dir, branch_dir, broken], tmp_path / "report.html", rows=rows)
+    page = out.read_text(encoding="utf-8")
+    table = page[page.index("<table"):page.index("</table>")]
+    positions = [table.index(f">{row['name']}<") for row in rows]  # every object, failed ones too, in row order
+    assert positions == sorted(positions)
+    assert html.escape(error) in table and "class=failed" in table
+    assert "not in the report" in table and "broken_run" in table and "invalid JSON" in table
+    assert f"color:{report.LABEL_COLOURS['stable']}" in table and f"color:{report.LABEL_COLOURS['unstable']}" in table
+    assert "data-v='0.41'" in table and "table.sortable" in page
+    for title in ("Comparison across objects", "Final means against their targets",
+                  "Convergence of the means, all objects", "Final D_theta histograms, all objects",
+                  "Final delta_kappa histograms, all objects"):
+        assert title in page
+    assert page.count("Plotly.newPlot") == 4 + 2 * 7  # the comparison, then each readable run's figures
+    assert page.count("* plotly.js v") == 1 and "<script src=" not in page  # plotly.js inline, once
+
+
+def test_comparison_figures(run_dir, branch_dir):
+    runs = [report.load_run(folder) for folder in (run_dir, branch_dir)]
+    means = report.final_means_figure(runs)
+    markers = [name for trace in means.data for name in trace.text]
+    assert sorted(markers) == ["capsule_run", "y_branch"]
+    assert {trace.name for trace in means.data} == {run["verdict"]["label"] for run in runs}
+    for figure in (report.convergence_comparison_figure(runs), report.final_histograms_figure(runs, "delta_kappa")):
+        named = [trace.name for trace in figure.data if trace.showlegend is False]
+        assert sorted(set(named)) == ["capsule_run", "y_branch"]
+    lines = [t for t in report.convergence_comparison_figure(runs).data if t.name == "y_branch"]
+    assert [list(line.x) for line in lines] == [[0, 1, 2]] * 2
+
+
+def test_page_size_is_bounded(run_dir, tmp_path, monkeypatch):
+    small = report.write_report([run_dir], tmp_path / "small.html").stat().st_size
+    big_dir = tmp_path / "big_run"
+    shutil.copytree(run_dir, big_dir)
+    dense = capsule(60_000, seed=1)
+    write_ply(tmp_path / "input.ply", dense)  # the original the run folders name
+    write_ply(big_dir / "contracted.ply", 0.1 * dense)
+    big = report.write_report([big_dir], tmp_path / "big.html").stat().st_size
+    # 3 clouds of 60 000 points would add ~5 MB; subsampled to MAX_CLOUD_POINTS they add < 200 kB
+    assert big - small < 3 * report.MAX_CLOUD_POINTS * 3 * 4 * 4 / 3 + 20_000
+    figure = report.cloud_figure(dense, dense)
+    assert [len(trace.x) for trace in figure.data] == [report.MAX_CLOUD_POINTS] * 2
+
+    # many objects: the table and the comparison only, no per-object figures or clouds
+    monkeypatch.setattr(report, "MAX_DETAILED_RUNS", 1)
+    monkeypatch.setattr(report, "_load_clouds", lambda *args: pytest.fail("clouds read for a large batch"))
+    page = report.write_report([run_dir, big_dir], tmp_path / "many.html").read_text(encoding="utf-8")
+    assert "more than 1" in page and "Comparison across objects" in page
+    assert page.count("Plotly.newPlot") == 4 and "Figs. 3-4" not in page and "Fig. 5" not in page
+    assert len(page) < small
 
 
 def test_bad_run_dirs_give_one_line_errors(run_dir, tmp_path):
