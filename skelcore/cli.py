@@ -37,6 +37,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--gl-covariance", type=float, default=defaults.gl_covariance,
                        help="glskeleton: stop when the cloud's covariance score changes by less than this "
                             "(default: %(default)s)")
+    group.add_argument("--gl-merge-share", type=float, default=defaults.gl_merge_share,
+                       help="glskeleton: the largest share of points that may be absorbed in one step (1: the "
+                            "authors' unlimited rule) (default: %(default)s)")
     group.add_argument("--sample-radius", type=float, default=0.02,
                        help="skeleton sample radius, a fraction of the bounding-box diagonal (default: %(default)s)")
     group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
@@ -49,7 +52,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination,
-                             gl_merge=args.gl_merge, gl_covariance=args.gl_covariance).validated()
+                             gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
+                             gl_merge_share=args.gl_merge_share).validated()
 
 
 def run_options(args: argparse.Namespace):

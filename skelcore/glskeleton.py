@@ -15,13 +15,23 @@ Merge rule, after solve t (LCWR lines 96-104 for t = 1, 158-166 after; Remove_po
   we use G_i. A point takes part in at most one merge per step; the MATLAB pairs them greedily in
   index order, we pair them greedily in a fixed random order of the input ids (parallel rounds; index
   order makes long chains, hence many rounds, on spatially sorted files).
+Share cap (not in LCWR): in the first steps the threshold admits every point (the force and smoothness
+  terms are ~1e-3 against gl_merge s^2 ~ 4), so LCWR halves the cloud at step 1 whether or not it has
+  converged there, and the coarse cloud loses thick junctions and thin tips (the animal's legs zip together
+  below its shoulder). The score still ranks the points: at most gl_merge_share of them qualify per step,
+  those furthest below the threshold (gl_merge_share = 1 is LCWR).
 Merged ring (Ring_combination.m): ring(i) U ring(j) minus i and j, at the INPUT positions, projected on the
   plane normal to G_i (PCA plane of the candidates when G_i vanishes), 2-D Delaunay fan of i. A fan with
   fewer than 3 triangles cancels the merge (MATLAB: a ring list of <= 3 entries; here its two points wait
   for the next step instead of pairing with others). Every other ring renames j to i and drops the
   triangles that degenerate (update_rings_after_manipulation.m). The absorbed point leaves the system;
-  the absorber keeps its position and its weights (LCWR lines 110-111, 124).
+  the absorber keeps its position and its ring sizes (LCWR lines 110-111, 124).
   The first step that merges nothing ends the reduction for the run (`cflag`).
+Attraction weights (not in LCWR): LBC's W_H,i times m_i, the number of input points that point i stands
+  for. A cot Laplacian row scales with the area per point, so a merged point is pulled m_i times harder
+  while LCWR leaves its attraction at one point's: every reduction acts as a larger W_L (x2.6 on the helix
+  by step 3, about one s_L step ahead of LBC) and a thin coil shrinks onto its axis. With the weight, eq. 2
+  keeps the balance it has on the input cloud.
 Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 sum lambda), lambda the
   eigenvalues (ascending) of the covariance of the present points, tends to 1 as the cloud becomes a line.
   From step COVARIANCE_FROM on, stop when |e_t - e_{t-1}| (1 - removed share of the input in step t)
@@ -31,9 +41,8 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   Also as in LCWR: NaN, bounding-box growth past bbox_growth (lines 137-143), max_iterations; and the
   solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
-  rule on what one step does to the rings it solved with: from step 2, stop ('ring_ratio', the step
-  discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination. Without it a thin
-  coil (the helix shape) contracts on past its curve and collapses, as the covariance rule waits for a line.
+  rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
+  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
 The constants assume the normalised frame (bounding box 1.6), as the MATLAB does.
 """
 from __future__ import annotations
@@ -91,6 +100,9 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
             notes.append(note)
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
+        # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
+        # per point), so its attraction row is weighted by m to keep eq. 2's balance of the input cloud.
+        wh = np.minimum(wh * np.bincount(owner, minlength=len(ids)), params.wh_max)
         candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params.bbox_growth * extent0)
         if failure is not None:
             reason, detail = failure
@@ -114,7 +126,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
             merging = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,
-                                 params.gl_merge)
+                                 params.gl_merge, params.gl_merge_share)
             absorbers = np.flatnonzero(merging)
             pairs = greedy_matching(absorbers, nearest[absorbers], priority[ids[absorbers]], len(ids))
             merged = merge_rings(rings, absorbers[pairs], nearest[absorbers[pairs]], gamma, unit[ids])
@@ -148,8 +160,9 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,
-               control: float, force: float, threshold: float) -> np.ndarray:
-    """Which points absorb their nearest ring neighbour (module docstring, merge rule); `moved` = p^0 - x^t."""
+               control: float, force: float, threshold: float, share: float = 1.0) -> np.ndarray:
+    """Which points absorb their nearest ring neighbour (module docstring, merge rule); `moved` = p^0 - x^t.
+    At most `share` of the points qualify: those furthest below the threshold."""
     rho = np.where(sizes - control * sizes0 > 0, sizes - control * sizes0, S_FLOOR) / sizes0
     counts = np.diff(rings.indptr)
     ring_mean = np.add.reduceat(gamma[rings.indices], rings.indptr[:-1]) / counts[:, None]
@@ -157,7 +170,13 @@ def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np
         push = (control * sizes0 / (sizes0 - sizes) / rho)[:, None] * moved
         score = (_square(force * rho[:, None] * gamma) - _square(push)
                  + SMOOTH * _square(gamma - ring_mean))
-        return score < threshold * sizes**2
+        margin = np.where(np.isnan(score), np.inf, score - threshold * sizes**2)
+    merging = margin < 0
+    most = int(share * len(margin))
+    if merging.sum() > most:
+        merging[:] = False
+        merging[np.argsort(margin, kind="stable")[:most]] = True
+    return merging
 
 
 def greedy_matching(source: np.ndarray, target: np.ndarray, priority: np.ndarray, n: int) -> np.ndarray:

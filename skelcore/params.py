@@ -31,6 +31,7 @@ class ContractionParams:
     # GLSkeleton only (skelcore.glskeleton; defaults from the authors' MATLAB):
     gl_merge: float = 1e5  # a point absorbs its nearest ring neighbour when its merge score < gl_merge * s_i^2
     gl_covariance: float = 0.02  # stop when the covariance score changes by less than this (from iteration 3)
+    gl_merge_share: float = 0.3  # at most this share of the points may absorb a neighbour per step (1: no cap, as LCWR)
 
     def validated(self) -> "ContractionParams":
         def positive(name: str, value: float | None, allow_none: bool = False) -> None:
@@ -46,6 +47,8 @@ class ContractionParams:
         positive("wl0", self.wl0, allow_none=True)
         for name in ("wh0", "wl_max", "wh_max", "termination", "gl_merge", "gl_covariance"):
             positive(name, getattr(self, name))
+        if not math.isfinite(self.gl_merge_share) or not 0 < self.gl_merge_share <= 1:
+            raise ParameterError(f"parameter gl_merge_share={self.gl_merge_share!r}: must be a number in (0, 1]")
         if not math.isfinite(self.sl) or self.sl < 1:
             raise ParameterError(f"parameter sl={self.sl!r}: must be a finite number >= 1")
         if int(self.max_iterations) != self.max_iterations or not 1 <= self.max_iterations <= 1000:
