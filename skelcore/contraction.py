@@ -26,6 +26,7 @@ TERMINATION_MESSAGES = {
     "nan": "the solve produced NaN; the last good state is kept",
     "solver_failure": "the sparse solver failed; the last good state is kept",
     "bbox_growth": "the bounding box grew past its limit; the last good state is kept",
+    "collapse": "one step shrank the cloud's length past its limit (a curve collapsing); the last good state is kept",
     "covariance": "the cloud's covariance shows a converged curve",
 }
 RESTART_FIELDS = ("method", "k", "normalise")
@@ -90,8 +91,8 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
             notes.append(note)
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
-        candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh,
-                                                 params.bbox_growth * extent0)
+        candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh, params, extent0,
+                                                 first_step=iteration == 1)
         if failure is None:
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
@@ -124,8 +125,14 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
 
 
 def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
-               wh: np.ndarray, max_extent: np.ndarray) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
-    """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth.
+               wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool
+               ) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
+    """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
+    past params.bbox_growth of the original extent0, and collapse: once a cloud is a thin curve its rings
+    degenerate and a step can pull the whole curve together; the longest extent falling below
+    params.collapse of the current one in a single step is that, never a contraction onto the skeleton.
+    The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
+    contraction to show (and judge), not a degenerate one.
 
     Returns (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
     laplacian_start = time.perf_counter()
@@ -140,8 +147,12 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
-    if failure is None and (np.ptp(candidate, axis=0) > max_extent).any():
+    if failure is None and (np.ptp(candidate, axis=0) > params.bbox_growth * extent0).any():
         failure = ("bbox_growth", "")
+    if failure is None and not first_step:
+        longest, before = np.ptp(candidate, axis=0).max(), np.ptp(current, axis=0).max()
+        if longest < params.collapse * before:
+            failure = ("collapse", f"longest extent {longest / before:.0%} of the step before")
     return candidate, failure, timings
 
 

@@ -38,8 +38,8 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   < gl_covariance ('covariance'). MATLAB keeps the factor of the last reducing step once reduction has
   stopped; we use the step's own share (0 once nothing merges). MATLAB tests the two states before its
   new solve and discards that solve; testing right after the reduction gives the same final state.
-  Also as in LCWR: NaN, bounding-box growth past bbox_growth (lines 137-143), max_iterations; and the
-  solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
+  Also as in LCWR: NaN, bounding-box growth past bbox_growth (lines 137-143), max_iterations; and LBC's
+  collapse guard and solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
   the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
@@ -103,7 +103,8 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
         # per point), so its attraction row is weighted by m to keep eq. 2's balance of the input cloud.
         wh = np.minimum(wh * np.bincount(owner, minlength=len(ids)), params.wh_max)
-        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params.bbox_growth * extent0)
+        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params, extent0,
+                                                 first_step=iteration == 1)
         if failure is not None:
             reason, detail = failure
             message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))

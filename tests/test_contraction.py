@@ -88,7 +88,8 @@ def test_capsule_contracts_onto_its_axis():
     shape = make_shape("capsule", 2000, seed=0)
     states = run_contraction(shape.points)
     final = states[-1]
-    assert final.termination in ("ring_ratio", "max_iterations")
+    assert final.termination in ("ring_ratio", "max_iterations", "collapse")
+    assert np.ptp(final.points[:, 0]) > 0.8 * np.ptp(shape.points[:, 0])  # onto the axis, not into a point
     axis = shape.nodes[1] - shape.nodes[0]
     axis /= np.linalg.norm(axis)
     offsets = final.points - shape.nodes[0]
@@ -216,7 +217,7 @@ def test_nan_keeps_the_last_good_state(monkeypatch):
 
 @pytest.mark.parametrize("change, fragment", [
     ({"wl0": -1.0}, "wl0"), ({"sl": 0.5}, "sl"), ({"k": 2}, "k="), ({"max_iterations": 0}, "max_iterations"),
-    ({"termination": float("nan")}, "termination"), ({"method": "magic"}, "method"),
+    ({"termination": float("nan")}, "termination"), ({"method": "magic"}, "method"), ({"collapse": 1.0}, "collapse"),
 ])
 def test_parameters_are_validated(change, fragment):
     with pytest.raises(ParameterError) as error:
@@ -237,3 +238,27 @@ def test_nearest_first_scan_equals_the_full_scan(monkeypatch):
     full = one_rings(points, 30)
     assert np.array_equal(quick.indptr, full.indptr) and np.array_equal(quick.indices, full.indices)
     assert np.array_equal(quick.triangles, full.triangles)
+
+
+def test_a_collapsing_curve_keeps_the_last_good_state(monkeypatch):
+    from skelcore import solver as solver_module
+
+    calls = {"n": 0}
+    original = solver_module.CholeskySolver.solve
+
+    def collapsing(self, system, rhs):
+        calls["n"] += 1
+        result = original(self, system, rhs)
+        return result * 0.3 if calls["n"] == 3 else result
+
+    monkeypatch.setattr(solver_module.CholeskySolver, "solve", collapsing)
+    states = run_contraction(make_shape("capsule", 800, seed=0).points)
+    assert states[-1].termination == "collapse" and states[-1].iteration == 2
+    assert "collaps" in states[-1].message
+
+
+def test_capsule_seed_that_over_contracts_stops_before_its_collapse():
+    shape = make_shape("capsule", 3000, seed=1)
+    final = run_contraction(shape.points)[-1]
+    assert final.termination == "collapse"
+    assert np.ptp(final.points[:, 0]) > 0.8 * np.ptp(shape.points[:, 0])
