@@ -1,0 +1,139 @@
+"""`python -m app.bench`: time from a Step click to the scene updated in the browser (not a test).
+
+A headless Chromium (Debian's, through Playwright) clicks Step on an inspector serving a synthetic
+cloud. Measured from the moment the server receives the click to the moment the browser has drawn a
+frame with the new points: the new points and the status text arrive in one atomic update, so a probe
+in the page waits for the status to change and then for two animation frames (the second starts
+after the frame with the new points was drawn), and reports the wall clock, which this machine shares
+with the server. Also reported: when the server pushed the points, and when the histograms and the
+skeleton of that iteration were pushed. Each click waits until the previous state is fully drawn, as
+a person stepping through would; a finished run is reset (untimed).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+
+from skelcore.io import validate
+from skelcore.params import ContractionParams
+from skelcore.shapes import make_shape
+
+from .main import serve
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+WAIT = 300.0  # seconds: a waiting limit, not part of any figure
+# Resolves with Date.now() once the status panel changed and a frame was drawn after that.
+PROBE = """() => {
+  const status = [...document.querySelectorAll('p')].find(p => p.textContent.includes('computed'));
+  const panel = status.parentElement, before = panel.textContent;
+  window.__skelDrawn = new Promise(resolve => {
+    const observer = new MutationObserver(() => {
+      if (panel.textContent === before) return;
+      observer.disconnect();
+      requestAnimationFrame(() => requestAnimationFrame(() => resolve(Date.now() / 1000)));
+    });
+    observer.observe(panel, {subtree: true, childList: true, characterData: true});
+  });
+}"""
+
+
+def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", skeleton: bool = True,
+              viewport: tuple[int, int] = (1280, 800)) -> dict:
+    """Median seconds from a Step click to the updated scene in the browser, for an n-point cloud."""
+    from playwright.sync_api import sync_playwright
+
+    cloud = validate(make_shape(shape, n_points).points, name=f"{shape}-{n_points}")
+    server, inspector = serve(cloud, "127.0.0.1", 0, params=ContractionParams())
+    samples = {name: [] for name in ("click_to_pushed", "click_to_drawn", "driver_click_to_drawn", "click_to_plots",
+                                     "click_to_skeleton")}
+    try:
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
+            page.set_default_timeout(WAIT * 1000)
+            page.goto(f"http://127.0.0.1:{server.get_port()}")
+            step = page.get_by_role("button", name="Step", exact=True)
+            step.wait_for()
+            if not skeleton:
+                page.get_by_label("Show skeleton").uncheck()
+            page.get_by_text("computed").first.wait_for()
+            inspector.wait_idle(WAIT)
+            wall = time.time() - time.perf_counter()  # perf_counter -> wall clock, for the page's times
+            for attempt in range(repeats + 1):  # the first click warms up
+                if inspector.session.finished:
+                    page.get_by_role("button", name="Reset", exact=True).click()
+                    _wait(lambda: len(inspector.session.history) == 1)
+                    inspector.wait_idle(WAIT)
+                    page.wait_for_timeout(200)  # let the page settle on iteration 0
+                page.evaluate(PROBE)
+                driver_click = time.perf_counter()
+                step.click()
+                drawn = page.evaluate("() => window.__skelDrawn") - wall
+                pushed = inspector.wait_drawn("points", driver_click, timeout=WAIT)
+                inspector.wait_idle(WAIT)  # histograms and skeleton of that state, before the next click
+                if attempt == 0 or pushed is None:
+                    continue
+                index = pushed[0]
+                plots = inspector.wait_drawn("plots", driver_click, index, timeout=0)
+                drawn_skeleton = inspector.wait_drawn("skeleton", driver_click, index, timeout=0)
+                clicked = inspector.step_clicked
+                samples["click_to_pushed"].append(pushed[1] - clicked)
+                samples["click_to_drawn"].append(drawn - clicked)
+                samples["driver_click_to_drawn"].append(drawn - driver_click)
+                if plots is not None:
+                    samples["click_to_plots"].append(plots[1] - clicked)
+                if drawn_skeleton is not None:
+                    samples["click_to_skeleton"].append(drawn_skeleton[1] - clicked)
+            browser.close()
+    finally:
+        inspector.close()
+        server.stop()
+    result = {"n_points": n_points, "shape": shape, "repeats": repeats, "skeleton_shown": skeleton,
+              "viewport": f"{viewport[0]}x{viewport[1]}"}
+    for name, values in samples.items():
+        if values:
+            result[f"{name}_median_s"] = statistics.median(values)
+            result[f"{name}_s"] = [round(value, 4) for value in values]
+    return result
+
+
+def _wait(condition) -> None:
+    deadline = time.monotonic() + WAIT
+    while not condition():
+        if time.monotonic() > deadline:
+            raise TimeoutError("the inspector did not respond")
+        time.sleep(0.02)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=10_000)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--shape", default="torus")
+    parser.add_argument("--hide-skeleton", action="store_true", help="measure with the skeleton layer off")
+    parser.add_argument("--viewport", default="1280x800", help="browser window size, WIDTHxHEIGHT")
+    parser.add_argument("--json", action="store_true", help="print the full result as JSON")
+    args = parser.parse_args(argv)
+    width, height = (int(value) for value in args.viewport.lower().split("x"))
+    result = run_bench(args.points, args.repeats, args.shape, skeleton=not args.hide_skeleton,
+                       viewport=(width, height))
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(f"{result['n_points']} points ({result['shape']}), browser {result['viewport']}, "
+              f"median of {result['repeats']} Step clicks:")
+        print(f"  click received -> points pushed:              {result['click_to_pushed_median_s']:.3f} s")
+        print(f"  click received -> scene drawn in the browser: {result['click_to_drawn_median_s']:.3f} s"
+              f"  (from the driver's click: {result['driver_click_to_drawn_median_s']:.3f} s)")
+        print(f"  click received -> histograms pushed:         {result['click_to_plots_median_s']:.3f} s")
+        if "click_to_skeleton_median_s" in result:
+            print(f"  click received -> skeleton pushed:           {result['click_to_skeleton_median_s']:.3f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,140 @@
+"""Background threads, so that GUI callbacks return at once.
+
+`Worker` runs every engine call, in submission order. Play is a job that re-submits itself after
+each iteration (after a wait, when Play is paced), so a pause, a parameter change or a timeline move
+queued meanwhile runs between two iterations. `Latest` runs the slow per-iteration analysis (metrics,
+skeleton) for the newest request only: requests made while it is busy replace each other, so the
+engine never waits for it.
+"""
+from __future__ import annotations
+
+import queue
+import threading
+import time
+import traceback
+from typing import Callable
+
+from skelcore.errors import SkelError
+
+ErrorHandler = Callable[[str, object], None]  # (one-line message, client that asked or None)
+
+
+def _guarded(job: Callable[[], object], client, on_error: ErrorHandler) -> bool:
+    """Run a job; report a failure (SkelError: its one line; a bug: the traceback goes to the log)."""
+    try:
+        job()
+        return True
+    except SkelError as error:
+        on_error(str(error), client)
+    except Exception as error:
+        traceback.print_exc()
+        on_error(f"internal error: {type(error).__name__}: {error}", client)
+    return False
+
+
+class Worker:
+    def __init__(self, on_error: ErrorHandler):
+        self._on_error = on_error
+        self._jobs: queue.Queue = queue.Queue()
+        self._playing = threading.Event()
+        self._closed = False
+        self._thread = threading.Thread(target=self._loop, name="skel-inspect-engine", daemon=True)
+        self._thread.start()
+
+    @property
+    def playing(self) -> bool:
+        return self._playing.is_set()
+
+    def submit(self, job: Callable[[], object], client=None) -> None:
+        if not self._closed:
+            self._jobs.put((job, client))
+
+    def play(self, tick: Callable[[], bool], client=None, interval: float = 0.0) -> None:
+        """Run tick() once per queue turn, at most once per `interval` seconds, until it returns False
+        or pause() is called. Waiting happens off the queue, so other jobs run meanwhile."""
+        if self._playing.is_set():
+            return
+        self._playing.set()
+        self.submit(lambda: self._tick(tick, client, interval), client)
+
+    def pause(self) -> None:
+        self._playing.clear()
+
+    def wait_idle(self, timeout: float | None = None) -> bool:
+        """Block until the jobs submitted so far have run and nothing plays."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            done = threading.Event()
+            self.submit(done.set)
+            if not done.wait(None if deadline is None else max(0.0, deadline - time.monotonic())):
+                return False
+            if not self._playing.is_set():
+                return True
+
+    def close(self) -> None:
+        self._playing.clear()
+        self._closed = True
+        self._jobs.put(None)
+        self._thread.join(timeout=30)
+
+    def _tick(self, tick: Callable[[], bool], client, interval: float) -> None:
+        if not self._playing.is_set():
+            return
+        started = time.monotonic()
+        if not (tick() and self._playing.is_set()):
+            self._playing.clear()
+            return
+        again = lambda: self.submit(lambda: self._tick(tick, client, interval), client)  # noqa: E731
+        wait = interval - (time.monotonic() - started)
+        if wait > 0:
+            timer = threading.Timer(wait, again)
+            timer.daemon = True
+            timer.start()
+        else:
+            again()
+
+    def _loop(self) -> None:
+        while (item := self._jobs.get()) is not None:
+            job, client = item
+            if not _guarded(job, client, self._on_error):
+                self._playing.clear()
+
+
+class Latest:
+    def __init__(self, handle: Callable[[object], None], on_error: ErrorHandler):
+        self._handle = handle
+        self._on_error = on_error
+        self._pending: tuple | None = None
+        self._busy = False
+        self._closed = False
+        self._changed = threading.Condition()
+        self._thread = threading.Thread(target=self._loop, name="skel-inspect-analysis", daemon=True)
+        self._thread.start()
+
+    def request(self, item, client=None) -> None:
+        with self._changed:
+            self._pending = (item, client)
+            self._changed.notify_all()
+
+    def wait_idle(self, timeout: float | None = None) -> bool:
+        with self._changed:
+            return self._changed.wait_for(lambda: self._pending is None and not self._busy, timeout)
+
+    def close(self) -> None:
+        with self._changed:
+            self._closed = True
+            self._changed.notify_all()
+        self._thread.join(timeout=30)
+
+    def _loop(self) -> None:
+        while True:
+            with self._changed:
+                self._changed.wait_for(lambda: self._pending is not None or self._closed)
+                if self._closed:
+                    return
+                (item, client), self._pending = self._pending, None
+                self._busy = True
+            _guarded(lambda: self._handle(item), client, self._on_error)
+            with self._changed:
+                self._busy = False
+                self._changed.notify_all()

@@ -1,0 +1,105 @@
+"""Drive the inspector in Debian's headless Chromium with Playwright's sync API (never `playwright install`)."""
+from __future__ import annotations
+
+import io
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+VIEWPORT = {"width": 1280, "height": 800}
+ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
+WAIT = 120.0  # seconds: generous, for waiting only (2 shared cores, software WebGL)
+
+
+def browser_missing() -> str | None:
+    """Why browser tests cannot run here, or None."""
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return "playwright (Python) is not installed"
+    if not CHROMIUM.exists() and shutil.which("chromium") is None:
+        return f"{CHROMIUM} not found (apt-get install chromium)"
+    return None
+
+
+def launch(playwright):
+    executable = CHROMIUM if CHROMIUM.exists() else Path(shutil.which("chromium"))
+    return playwright.chromium.launch(executable_path=str(executable), args=CHROMIUM_ARGS)
+
+
+def open_inspector(browser, url: str):
+    """A new page (own context) on the inspector, once its controls and 3-D canvas are up."""
+    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+    page = context.new_page()
+    page.set_default_timeout(WAIT * 1000)
+    page.goto(url)
+    button(page, "Step").wait_for()
+    page.locator("canvas").first.wait_for()
+    return page
+
+
+def button(page, name: str):
+    return page.get_by_role("button", name=name, exact=True)
+
+
+def click(page, name: str) -> None:
+    button(page, name).click()
+
+
+def number_input(page, label: str):
+    """The text box of a viser number input or slider, found from its label."""
+    row = page.locator("label", has_text=label).first.locator("xpath=ancestor::*[.//input[@inputmode='decimal']][1]")
+    return row.locator("input[inputmode='decimal']").first
+
+
+def set_value(page, label: str, value) -> None:
+    box = number_input(page, label)
+    box.fill(str(value))
+    box.press("Enter")
+
+
+def open_folder(page, title: str) -> None:
+    """Expand a collapsed GUI folder."""
+    page.get_by_text(title, exact=True).first.click()
+
+
+def wait_until(predicate, what: str, timeout: float = WAIT, interval: float = 0.05):
+    """Poll until predicate() is truthy; return its value. Only a waiting limit, not a speed check."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if isinstance(value, np.ndarray) or value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(interval)
+
+
+def canvas_image(page, name: str | None = None) -> np.ndarray:
+    """Screenshot of the 3-D canvas as an (h,w,3) array; saved under test-artifacts/ when named."""
+    import imageio.v3 as iio
+
+    png = page.locator("canvas").first.screenshot()
+    if name:
+        ARTIFACTS.mkdir(exist_ok=True)
+        (ARTIFACTS / name).write_bytes(png)
+    return iio.imread(io.BytesIO(png), extension=".png")[..., :3]
+
+
+def save_page(page, name: str) -> Path:
+    ARTIFACTS.mkdir(exist_ok=True)
+    path = ARTIFACTS / name
+    page.screenshot(path=str(path))
+    return path
+
+
+def write_ply(path: Path, points: np.ndarray) -> Path:
+    header = (f"ply\nformat ascii 1.0\nelement vertex {len(points)}\n"
+              "property float x\nproperty float y\nproperty float z\nend_header\n")
+    path.write_text(header + "\n".join(f"{x:.6f} {y:.6f} {z:.6f}" for x, y, z in points) + "\n")
+    return path

@@ -1,0 +1,69 @@
+"""`skel-inspect`: its command line, bad input, the default asset, and a real server process."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+from app.main import default_cloud, main
+from app.session import bundled_assets
+
+
+def test_missing_input_is_one_line_and_non_zero(capsys, tmp_path):
+    assert main([str(tmp_path / "nothing.ply")]) != 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nothing.ply" in err and "not found" in err
+
+
+def test_garbage_input_is_one_line_and_non_zero(capsys, tmp_path):
+    path = tmp_path / "garbage.ply"
+    path.write_bytes(b"\x00\xff" * 100)
+    assert main([str(path)]) != 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "garbage.ply" in err and "Traceback" not in err
+
+
+def test_bad_port_is_refused(capsys):
+    assert main(["--port", "70000"]) != 0
+    assert "--port" in capsys.readouterr().err
+
+
+def test_bad_host_is_refused(capsys):
+    assert main(["--host", "999.1.1.1"]) != 0
+    assert "--host 999.1.1.1" in capsys.readouterr().err
+
+
+def test_default_cloud_prefers_the_bundled_torus(assets_dir):
+    assets = bundled_assets(assets_dir)
+    cloud = default_cloud(assets)
+    if "torus.ply" in assets:
+        assert Path(cloud.name).name == "torus.ply"
+    assert len(cloud.points) >= 20
+
+
+def test_default_cloud_without_assets_is_synthetic():
+    cloud = default_cloud({})
+    assert "torus" in cloud.name and len(cloud.points) > 1000
+
+
+def test_serves_on_localhost_and_prints_the_url(tmp_path):
+    process = subprocess.Popen([sys.executable, "-m", "app.main", "--port", "0"], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, cwd=Path(__file__).resolve().parents[1])
+    try:
+        url = None
+        deadline = time.monotonic() + 120  # waiting limit only
+        while url is None and time.monotonic() < deadline:
+            line = process.stdout.readline()
+            if not line:
+                break
+            match = re.search(r"http://127\.0\.0\.1:(\d+)", line) if "skel-inspect:" in line else None
+            url = match.group(0) if match else None
+        assert url, "no URL printed"
+        with urllib.request.urlopen(url, timeout=60) as response:
+            assert response.status == 200 and b"<html" in response.read().lower()
+    finally:
+        process.terminate()
+        process.wait(timeout=60)
