@@ -96,7 +96,7 @@ def _bench_one(points: np.ndarray, method: str, iterations: int, baseline: bool,
 
 def _print_row(row: dict, out) -> None:
     out(f"\n{row['method']}  n={row['n']}  ({row['iterations']} iterations, total {row['total']:.2f} s; once per run: "
-        f"one-rings {row['rings_once']:.3f} s, first solve with symbolic analysis {row['first_solve']:.3f} s)")
+        f"one-rings and sparsity patterns {row['rings_once']:.3f} s, first solve with symbolic analysis {row['first_solve']:.3f} s)")
     out(f"  per iteration: one-ring {row['rings']:.4f} s | laplacian {row['laplacian']:.4f} s | "
         f"factorise+solve {row['solve']:.4f} s | rest {row['rest']:.4f} s | whole {row['iteration']:.4f} s")
     if len(set(row["system_sizes"])) > 1:

@@ -64,18 +64,27 @@ def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, 
 NEAREST_FIRST = 12  # most fans lie among the nearest dozen neighbours; a check finds the rows that need all k
 
 
+CHUNK = 16_384  # points per block: the (block, k, 3) temporaries stay small and cache-friendly
+
+
 def one_rings(points: np.ndarray, k: int) -> OneRings:
     """The Delaunay fan of every point among its k nearest neighbours (itself included in k)."""
     n = len(points)
     _, idx = knn(points, k)
-    _, frames = pca_frames(points, idx)
-    neighbours = idx[:, 1:]  # nearest first
-    # Coordinates in the plane of the two largest principal components.
-    planar = np.matmul(points[neighbours] - points[:, None, :], frames[:, :, [2, 1]])
-    ring_row, ring_slot, centre, j_slot, l_slot = _fans_nearest_first(planar)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(ring_row, minlength=n))])
-    triangles = np.column_stack([centre, neighbours[centre, j_slot], neighbours[centre, l_slot]])
-    return OneRings(indptr=indptr, indices=neighbours[ring_row, ring_slot], triangles=triangles)
+    rings, triangles = [], []
+    for start in range(0, n, CHUNK):
+        block = idx[start:start + CHUNK]
+        _, frames = pca_frames(points, block)
+        neighbours = block[:, 1:]  # nearest first
+        # Coordinates in the plane of the two largest principal components.
+        planar = np.matmul(points[neighbours] - points[block[:, :1]], frames[:, :, [2, 1]])
+        ring_row, ring_slot, centre, j_slot, l_slot = _fans_nearest_first(planar)
+        rings.append((ring_row + start, neighbours[ring_row, ring_slot]))
+        triangles.append(np.column_stack([centre + start, neighbours[centre, j_slot], neighbours[centre, l_slot]]))
+    ring_rows = np.concatenate([rows for rows, _ in rings])
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(ring_rows, minlength=n))])
+    return OneRings(indptr=indptr, indices=np.concatenate([ids for _, ids in rings]),
+                    triangles=np.concatenate(triangles))
 
 
 def _fans_nearest_first(planar: np.ndarray):
