@@ -162,57 +162,40 @@ def test_ring_ratio_termination_discards_the_last_candidate():
     assert all(s.termination is None for s in states[:-1])
 
 
-def test_bounding_box_growth_keeps_the_last_good_state(monkeypatch):
+def spoil_solve(monkeypatch, call: int, spoil) -> None:
+    """Make the `call`-th solve of the run return spoil(solution) (or raise what spoil raises)."""
     from skelcore import solver as solver_module
 
     calls = {"n": 0}
     original = solver_module.CholeskySolver.solve
 
-    def exploding(self, system, rhs):
+    def spoiled(self, system, rhs):
         calls["n"] += 1
         result = original(self, system, rhs)
-        return result * 3.0 if calls["n"] == 2 else result
+        return spoil(result) if calls["n"] == call else result
 
-    monkeypatch.setattr(solver_module.CholeskySolver, "solve", exploding)
-    states = run_contraction(make_shape("capsule", 800, seed=0).points)
-    assert states[-1].termination == "bbox_growth" and states[-1].iteration == 1
-    assert "bounding box" in states[-1].message
+    monkeypatch.setattr(solver_module.CholeskySolver, "solve", spoiled)
 
 
-def test_solver_failure_keeps_the_last_good_state(monkeypatch):
-    from skelcore import solver as solver_module
+def raise_not_positive_definite(_):
     from skelcore.errors import SolverError
 
-    calls = {"n": 0}
-    original = solver_module.CholeskySolver.solve
+    raise SolverError("Cholesky factorisation failed (matrix not positive definite)")
 
-    def failing(self, system, rhs):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise SolverError("Cholesky factorisation failed (matrix not positive definite)")
-        return original(self, system, rhs)
 
-    monkeypatch.setattr(solver_module.CholeskySolver, "solve", failing)
+@pytest.mark.parametrize("call, spoil, reason, kept, fragment", [
+    (2, lambda x: x * 3.0, "bbox_growth", 1, "bounding box"),
+    (3, raise_not_positive_definite, "solver_failure", 2, "not positive definite"),
+    (2, lambda x: x * np.nan, "nan", 1, "NaN"),
+    (3, lambda x: x * 0.3, "collapse", 2, "collaps"),
+])
+def test_a_rejected_step_keeps_the_last_good_state(monkeypatch, call, spoil, reason, kept, fragment):
+    spoil_solve(monkeypatch, call, spoil)
     states = run_contraction(make_shape("capsule", 800, seed=0).points, ContractionParams(termination=1e-9))
-    assert states[-1].termination == "solver_failure" and states[-1].iteration == 2
-    assert "not positive definite" in states[-1].message
-
-
-def test_nan_keeps_the_last_good_state(monkeypatch):
-    from skelcore import solver as solver_module
-
-    calls = {"n": 0}
-    original = solver_module.CholeskySolver.solve
-
-    def poisoned(self, system, rhs):
-        calls["n"] += 1
-        result = original(self, system, rhs)
-        return result * np.nan if calls["n"] == 2 else result
-
-    monkeypatch.setattr(solver_module.CholeskySolver, "solve", poisoned)
-    states = run_contraction(make_shape("capsule", 800, seed=0).points)
-    assert states[-1].termination == "nan" and states[-1].iteration == 1
-    assert np.isfinite(states[-1].points).all()
+    final = states[-1]
+    assert final.termination == reason and final.iteration == kept
+    assert fragment in final.message
+    assert np.isfinite(final.points).all()
 
 
 @pytest.mark.parametrize("change, fragment", [
@@ -238,23 +221,6 @@ def test_nearest_first_scan_equals_the_full_scan(monkeypatch):
     full = one_rings(points, 30)
     assert np.array_equal(quick.indptr, full.indptr) and np.array_equal(quick.indices, full.indices)
     assert np.array_equal(quick.triangles, full.triangles)
-
-
-def test_a_collapsing_curve_keeps_the_last_good_state(monkeypatch):
-    from skelcore import solver as solver_module
-
-    calls = {"n": 0}
-    original = solver_module.CholeskySolver.solve
-
-    def collapsing(self, system, rhs):
-        calls["n"] += 1
-        result = original(self, system, rhs)
-        return result * 0.3 if calls["n"] == 3 else result
-
-    monkeypatch.setattr(solver_module.CholeskySolver, "solve", collapsing)
-    states = run_contraction(make_shape("capsule", 800, seed=0).points)
-    assert states[-1].termination == "collapse" and states[-1].iteration == 2
-    assert "collaps" in states[-1].message
 
 
 def test_capsule_seed_that_over_contracts_stops_before_its_collapse():
