@@ -67,8 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
-    run = commands.add_parser("run", help="contract one cloud and extract its curve skeleton",
-                              formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    run = commands.add_parser("run", help="contract one cloud and extract its curve skeleton")
     run.add_argument("input", help="point cloud or mesh (.ply .pcd .xyz .pts .txt .off .obj .stl .glb)")
     run.add_argument("--out", required=True, help="output folder")
     run.add_argument("--quiet", action="store_true", help="no progress lines")
