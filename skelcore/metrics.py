@@ -31,7 +31,8 @@ points present, and every quantity compares them with iteration 0 at those ids.
 Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original shape, judged by the
 side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
 times the original bounding-box diagonal (points on the surface count as inside); see InsideTest for
-how deep points are decided cheaply. A point cloud is its own sample with MST-oriented PCA normals; a
+how deep points are decided cheaply. A point cloud is its own sample with MST-oriented PCA normals of
+10 neighbours (orientation edges that cross a thin part are left out); a
 mesh is sampled densely with its face normals after trimesh's winding repair. Away from the band this
 agrees with the winding number of a closed mesh: the nearest sample lies within half a sample spacing
 of the nearest surface point, whose normal gives the exact side. The size X of a cloud is its RMS
@@ -64,6 +65,8 @@ D_THETA_RANGE = (0.0, 1.0)
 DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
 _COLLAPSED = 1e-6  # a neighbourhood smaller than this fraction of the original diagonal has no frame
 _ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
+_SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of the surface normals of the inside test
+_TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 _SYMMETRY_LEVELS = np.linspace(0.02, 0.48, 24)
 
 
@@ -168,13 +171,20 @@ def _eigenvector(xx, xy, xz, yy, yz, zz, eigenvalue):
 
 def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Flip normals consistently along a minimum spanning tree of the kNN graph (weight 2 - |n_i.n_j|),
-    each connected part made outward at its point farthest from the part's centroid."""
+    each connected part made outward at its point farthest from the part's centroid. Edges that cross the
+    surface (across a thin tube or plate, where the two sides face opposite ways) are left out: an edge
+    must run along the tangent planes of both its ends."""
     n = len(points)
     usable = np.nan_to_num(normals)
-    cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1]
-    rows = np.repeat(np.arange(n), cols.shape[1])
-    weights = 2.0 - np.abs(np.einsum("ij,ij->i", usable[rows], usable[cols.ravel()]))
-    graph = sp.csr_matrix((weights, (rows, cols.ravel())), shape=(n, n))
+    cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1].ravel()
+    rows = np.repeat(np.arange(n), idx[:, 1:_ORIENT_NEIGHBOURS + 1].shape[1])
+    direction = points[cols] - points[rows]
+    direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
+    along = ((np.abs(np.einsum("ij,ij->i", usable[rows], direction)) < _TANGENT)
+             & (np.abs(np.einsum("ij,ij->i", usable[cols], direction)) < _TANGENT))
+    rows, cols = rows[along], cols[along]
+    weights = 2.0 - np.abs(np.einsum("ij,ij->i", usable[rows], usable[cols]))
+    graph = sp.csr_matrix((weights, (rows, cols)), shape=(n, n))
     tree = minimum_spanning_tree(graph.maximum(graph.T))
     parts, labels = connected_components(tree, directed=False)
     centroids = np.stack([np.bincount(labels, points[:, a], parts) for a in range(3)], axis=1)
@@ -338,11 +348,16 @@ class MetricsReference:
             raise InputError("points0: all points coincide")
         k = int(min(k, len(points0)))
         normals, kappa, idx = pca_features(points0, k, collapsed=_COLLAPSED * diagonal)
-        normals = orient_outward(points0, normals, idx)
         band = thresholds.surface_tolerance * diagonal
-        samples, sample_normals = points0, normals
         if faces is not None and len(faces):
             samples, sample_normals = _mesh_surface(points0, faces, band, seed)
+        else:
+            # The inside test needs the surface's own normals: k neighbours wrap around a thin tube, whose
+            # PCA normal then runs along its axis, so a small neighbourhood gives them.
+            samples = points0
+            surface_normals, _, surface_idx = pca_features(points0, min(_SURFACE_NEIGHBOURS, len(points0)),
+                                                           collapsed=_COLLAPSED * diagonal)
+            sample_normals = orient_outward(points0, surface_normals, surface_idx)
         inside = InsideTest.from_samples(samples, sample_normals, band)
         evaluated = np.ones(len(points0), bool)
         if max_points is not None and len(points0) > max_points:

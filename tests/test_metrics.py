@@ -229,3 +229,18 @@ def test_default_and_bad_contractions_get_different_verdicts():
     good, bad = verdict(ContractionParams()), verdict(ContractionParams(wl0=1e4))
     assert bad["label"] == "unstable", bad
     assert good["label"] != bad["label"], good
+
+
+def test_thin_parts_stay_inside_their_own_surface():
+    """The animal's legs and tail are thinner than a 30-point neighbourhood: the inside test must still
+    find every contracted point inside (its surface normals come from a small neighbourhood, and the
+    orientation never crosses a thin part)."""
+    from skelcore.contraction import run_contraction
+    from skelcore.shapes import make_shape
+
+    points = make_shape("animal", 3000, seed=0).points
+    reference = MetricsReference.from_points(points)
+    previous = None
+    for state in run_contraction(points)[1:]:
+        previous = reference.evaluate(state.points, state.point_ids, previous=previous, iteration=state.iteration)
+        assert previous.boundedness["inside_share"] > 0.98
