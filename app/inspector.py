@@ -106,6 +106,8 @@ class Inspector:
         with gui.add_folder("View"):
             self.show = {layer: gui.add_checkbox(f"Show {layer}", True)
                          for layer in ("original", "contracted", "skeleton")}
+            self.show["removed"] = gui.add_checkbox(
+                "Show removed", True, hint="GLSkeleton: input points absorbed by the reduction, at their original places")
             self.size = {layer: gui.add_slider(f"{layer.capitalize()} size", min=0.2, max=5.0, step=0.1,
                                                initial_value=1.0)
                          for layer in ("original", "contracted", "skeleton")}
@@ -113,7 +115,8 @@ class Inspector:
             self.legend = gui.add_html("")
             gui.add_markdown("Skeleton nodes: <span style='color:#1e6eff'>&#9679;</span> end, "
                              "<span style='color:#ff9600'>&#9679;</span> junction, "
-                             "<span style='color:#282828'>&#9679;</span> path")
+                             "<span style='color:#282828'>&#9679;</span> path; "
+                             "<span style='color:#8c46dc'>&#9679;</span> removed point (GLSkeleton)")
         with gui.add_folder("Load"):
             names = tuple(self.assets) or ("(no bundled assets)",)
             self.asset = gui.add_dropdown("Bundled asset", names, disabled=not self.assets)
@@ -183,9 +186,8 @@ class Inspector:
                 radius = float(self.radius.value)
                 submit(lambda: self._set_radius(radius), event.client)
 
-        for layer in self.show:
-            self.show[layer].on_update(self._on_view_change)
-            self.size[layer].on_update(self._on_view_change)
+        for box in (*self.show.values(), *self.size.values()):
+            box.on_update(self._on_view_change)
 
         @self.colouring.on_update
         async def _(event: viser.GuiEvent) -> None:
@@ -241,6 +243,7 @@ class Inspector:
                     self.view.set_visible(layer, visible[layer])
                     if layer == "skeleton" and visible[layer]:  # computed only while it is shown
                         self.analyst.request((self.session.run, self.shown))
+            for layer in sizes:
                 if sizes[layer] != self.view.sizes[layer]:
                     self.view.set_size(layer, sizes[layer])
         self.worker.submit(apply, event.client)
@@ -329,6 +332,7 @@ class Inspector:
         self.shown = index
         with self.server.atomic():
             self.view.show_points((run, index), state.points)
+            self.view.show_removed((run, index), self.session.cloud.points[state.removed_ids])
             if self.colour_by not in COLOUR_RANGES:
                 self.view.set_colours((run, index), None)
             self._update_status()
@@ -384,8 +388,11 @@ class Inspector:
         else:
             run = "paused" if len(session.history) > 1 else "ready"
         notice = self.view.notice(state.n_points)
+        removed = len(state.owner) - state.n_points
+        counts = (f"{state.n_points:,} points retained, {removed:,} removed" if removed
+                  else f"{state.n_points:,} points")
         self.status.content = "\n\n".join(filter(None, [
-            f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {state.n_points:,} points",
+            f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {counts}",
             notice and f"_{notice}_",
             f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
             f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f}",

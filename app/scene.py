@@ -18,6 +18,7 @@ from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
 
 ORIGINAL_COLOUR = (150, 150, 150)
 CONTRACTED_COLOUR = (220, 40, 40)
+REMOVED_COLOUR = (140, 70, 220)  # input points a GLSkeleton reduction absorbed, at their original place
 EDGE_COLOUR = (20, 20, 20)
 # nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
 END_COLOUR = (30, 110, 255)
@@ -69,13 +70,15 @@ class SceneView:
     def __init__(self, scene: viser.SceneApi, display_cap: int = DISPLAY_CAP):
         self.scene = scene
         self.display_cap = display_cap
-        self.visible = {"original": True, "contracted": True, "skeleton": True}
+        self.visible = {"original": True, "contracted": True, "skeleton": True, "removed": True}
         self.sizes = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0}  # multiples of the defaults
         self.diagonal = 1.0
         self.centre = np.zeros(3)
         self._source = None  # the array the original cloud was drawn from
         self._original = None
         self._contracted = None
+        self._removed = None
+        self._removed_key = None
         self._edges = None
         self._nodes = None
         self._contracted_key = None
@@ -117,11 +120,11 @@ class SceneView:
         self.diagonal = float(np.linalg.norm(high - low)) or 1.0
         self.centre = (low + high) / 2
         self._subsets.clear()
-        for handle in (self._original, self._contracted, self._edges, self._nodes):
+        for handle in (self._original, self._contracted, self._removed, self._edges, self._nodes):
             if handle is not None:
                 handle.remove()
-        self._contracted = self._edges = self._nodes = None
-        self._contracted_key = self._colours_key = None
+        self._contracted = self._removed = self._edges = self._nodes = None
+        self._contracted_key = self._colours_key = self._removed_key = None
         rows = self.subset(len(original))
         shown = original if rows is None else original[rows]
         self._original = self.scene.add_point_cloud(
@@ -147,6 +150,22 @@ class SceneView:
         else:
             handle.points = shown
         self._contracted_key = key
+
+    @_locked
+    def show_removed(self, key, points: np.ndarray) -> None:
+        """Input points absorbed by state `key`, drawn at their original places (none: nothing drawn)."""
+        if key == self._removed_key:
+            return
+        if self._removed is not None:
+            self._removed.remove()
+            self._removed = None
+        if len(points):
+            rows = self.subset(len(points))
+            shown = (points if rows is None else points[rows]).astype(np.float32)
+            self._removed = self.scene.add_point_cloud(
+                "/removed", points=shown, colors=REMOVED_COLOUR, precision="float32",
+                point_size=self._point_size("original") * 1.2, point_shape="circle", visible=self.visible["removed"])
+        self._removed_key = key
 
     @_locked
     def set_colours(self, key, colours: np.ndarray | None, quantity: str | None = None) -> None:
@@ -200,7 +219,7 @@ class SceneView:
     def set_visible(self, layer: str, visible: bool) -> None:
         self.visible[layer] = visible
         handles = {"original": [self._original], "contracted": [self._contracted],
-                   "skeleton": [self._edges, self._nodes]}[layer]
+                   "skeleton": [self._edges, self._nodes], "removed": [self._removed]}[layer]
         for handle in handles:
             if handle is not None:
                 handle.visible = visible

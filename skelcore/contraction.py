@@ -51,6 +51,13 @@ class IterationState:
     def n_points(self) -> int:
         return len(self.points)
 
+    @property
+    def removed_ids(self) -> np.ndarray:
+        """Ids of the input points no longer present (GLSkeleton's absorbed points; empty for LBC)."""
+        present = np.zeros(len(self.owner), dtype=bool)
+        present[self.point_ids] = True
+        return np.flatnonzero(~present)
+
 
 def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
              ) -> Generator[IterationState, ContractionParams | None, None]:

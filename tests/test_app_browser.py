@@ -165,6 +165,10 @@ def test_method_selector_runs_glskeleton(fresh, page):
     state = inspector.session.latest
     assert state.n_points < len(inspector.session.cloud.points)  # GLSkeleton merged points
     assert len(inspector.view._contracted.points) == state.n_points
+    removed = len(inspector.session.cloud.points) - state.n_points
+    page.get_by_text(f"{state.n_points:,} points retained, {removed:,} removed").first.wait_for()
+    assert len(inspector.view._removed.points) == removed  # absorbed points drawn in their own colour
+    page.screenshot(path=str(ARTIFACTS / "browser-glskeleton-removed.png"))
     page.get_by_label("Method").click()
     page.get_by_role("option", name="lbc").click()
     click(page, "Restart with these parameters")
