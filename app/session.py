@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from skelcore import contraction, pipeline
-from skelcore.contraction import IterationState, contract
+from skelcore.contraction import IterationState, contract, record
 from skelcore.io import Cloud
 from skelcore.metrics import IterationMetrics, run_verdict
 from skelcore.params import ContractionParams
@@ -108,12 +108,8 @@ class Session:
         if self.finished:
             return None
         pending, self._pending = self._pending, None
-        state = self._generator.send(pending) if pending is not None else next(self._generator)
-        history = self.run.history
-        if state.iteration == history[-1].iteration:  # a rejected step: the last good state, with the reason
-            history[-1] = state
-        else:
-            history.append(state)
+        state = self._generator.send(pending)  # send(None) is next()
+        record(self.run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
         return state

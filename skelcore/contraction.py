@@ -8,6 +8,7 @@ one-ring has shrunk (cloudcontr: s_i is the smallest distance from point i to it
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from dataclasses import dataclass, field
 from typing import Generator
@@ -90,12 +91,8 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
                            params=params, timings={"rings": rings_time})
     current, sizes, ratio = unit, sizes0, 1.0
     solver = CholeskySolver()
-    for iteration in range(1, 10**9):
-        sent = yield state
-        notes = []
-        if sent is not None:
-            params, note = retune(params, sent)
-            notes.append(note)
+    for iteration in itertools.count(1):
+        params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
         candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh, params, extent0,
@@ -163,22 +160,33 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     return candidate, failure, timings
 
 
+def record(history: list[IterationState], state: IterationState) -> bool:
+    """Add a yielded state to a run's history; False when it repeats the last one (a rejected step:
+    the last good state again, now with the reason), which it then replaces."""
+    if history and history[-1].iteration == state.iteration:
+        history[-1] = state
+        return False
+    history.append(state)
+    return True
+
+
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams()) -> list[IterationState]:
-    """Run to the end; the last state carries the termination reason (a repeated state replaces its twin)."""
+    """Run to the end; the last state carries the termination reason."""
     history: list[IterationState] = []
     for state in contract(points, params):
-        if history and history[-1].iteration == state.iteration:
-            history[-1] = state
-        else:
-            history.append(state)
+        record(history, state)
     return history
 
 
-def retune(current: ContractionParams, sent: ContractionParams) -> tuple[ContractionParams, str]:
+def retune(current: ContractionParams, sent: ContractionParams | None) -> tuple[ContractionParams, list[str]]:
+    """The parameters of the next step: those sent into the generator (None: unchanged), checked against
+    the run's, with a note naming what changed."""
+    if sent is None:
+        return current, []
     sent = sent.validated()
     changed = [name for name in current.to_dict() if getattr(sent, name) != getattr(current, name)]
     blocked = [name for name in changed if name in RESTART_FIELDS]
     if blocked:
         raise ParameterError(f"parameter {', '.join(blocked)} can only change on restart")
     note = ", ".join(f"{name}={getattr(sent, name)}" for name in changed)
-    return sent, f"retuned {note}" if note else ""
+    return sent, [f"retuned {note}"] if note else []

@@ -93,11 +93,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
     for iteration in itertools.count(1):
-        sent = yield state
-        notes = []
-        if sent is not None:
-            params, note = retune(params, sent)
-            notes.append(note)
+        params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area

@@ -75,19 +75,7 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
              voxel_size: float | None = None, max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
     """Check an array of points (and optional faces) and return a clean Cloud."""
-    try:
-        points = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: coordinates are not numbers") from None
-    if points.ndim != 2 or points.shape[1] != 3:
-        if points.size == 0:
-            raise InputError(f"{name}: the file holds no points")
-        raise InputError(f"{name}: expected (n,3) coordinates, got shape {points.shape}")
-    if len(points) == 0:
-        raise InputError(f"{name}: the file holds no points")
-    bad = ~np.isfinite(points).all(axis=1)
-    if bad.any():
-        raise InputError(f"{name}: {int(bad.sum())} of {len(points)} points have NaN or Inf coordinates")
+    points = as_points(points, name)
     notes: list[str] = []
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
@@ -130,6 +118,22 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     if singular[1] <= 1e-9 * singular[0]:
         raise InputError(f"{name}: all points lie on one line; a surface is needed")
     return Cloud(points=points, faces=faces, name=name, notes=notes)
+
+
+def as_points(value, name: str) -> np.ndarray:
+    """`value` as a non-empty (n,3) float64 array of finite coordinates, or an InputError naming `name`."""
+    try:
+        points = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: coordinates are not numbers") from None
+    if points.size == 0:
+        raise InputError(f"{name}: holds no points")
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"{name}: expected (n,3) coordinates, got shape {points.shape}")
+    bad = int((~np.isfinite(points).all(axis=1)).sum())
+    if bad:
+        raise InputError(f"{name}: {bad} of {len(points)} points are not finite (NaN or Inf)")
+    return points
 
 
 def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:

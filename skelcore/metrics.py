@@ -59,6 +59,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from scipy.spatial import cKDTree
 
 from .errors import InputError, ParameterError
+from .io import as_points
 from .neighbours import knn
 
 D_THETA_RANGE = (0.0, 1.0)
@@ -332,7 +333,7 @@ class MetricsReference:
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
                     seed: int = 0) -> "MetricsReference":
-        points0 = _as_points(points0, "points0")
+        points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
         if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or not 2 <= bins <= 10_000:
@@ -373,7 +374,7 @@ class MetricsReference:
         (None: compare with iteration 0). The result's arrays cover the present points that are in
         `evaluated`, in the order of `points`.
         """
-        points = _as_points(points, "points")
+        points = as_points(points, "points")
         n = len(self.points)
         ids = np.arange(n) if point_ids is None else np.asarray(point_ids)
         if ids.shape != (len(points),) or not np.issubdtype(ids.dtype, np.integer):
@@ -508,19 +509,6 @@ class InsideTest:
         """Signed offset along the nearest sample's outward normal (eq.: (p - s) . n_s)."""
         _, nearest = self.tree.query(points, k=1, workers=-1)
         return np.einsum("ij,ij->i", points - self.samples[nearest], self.normals[nearest])
-
-
-def _as_points(points, name: str) -> np.ndarray:
-    try:
-        points = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: not a numeric array") from None
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise InputError(f"{name}: need an (n,3) array, got shape {points.shape}")
-    bad = int((~np.isfinite(points).all(axis=1)).sum())
-    if bad:
-        raise InputError(f"{name}: {bad} rows are not finite")
-    return points
 
 
 def _mesh_surface(vertices: np.ndarray, faces, spacing: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

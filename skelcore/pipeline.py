@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from . import __version__, io
-from .contraction import TERMINATION_MESSAGES, IterationState, contract
+from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError
 from .metrics import IterationMetrics, MetricsReference, run_verdict
 from .params import ContractionParams, default_k
@@ -109,11 +109,7 @@ def run_states(cloud: io.Cloud, params: ContractionParams,
                progress: Callable[[str], None] | None = None) -> list[IterationState]:
     states: list[IterationState] = []
     for state in contract(cloud.points, params):
-        if states and states[-1].iteration == state.iteration:
-            states[-1] = state  # a rejected step: the last state again, with the reason
-            continue
-        states.append(state)
-        if state.iteration > 0:
+        if record(states, state) and state.iteration > 0:
             seconds = sum(state.timings.values())
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
                            f"points={state.n_points} ({seconds:.2f} s)")
@@ -146,7 +142,7 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k,
-        "retuned": [state.message for state in states if state.message.startswith("retuned")],
+        "retuned": [state.message for state in states if "retuned" in state.message],
         "skelcore_version": __version__, "solver": backend(),
     }
 

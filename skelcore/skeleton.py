@@ -39,6 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import InputError, ParameterError
+from .io import as_points
 
 HOLE_RATIO = 0.5  # a cycle is a loop when its empty circle is at least this fraction of its inscribed circle
 HOLE_GAPS = 2.0  # ... and at least this many times the usual gap between its points
@@ -172,17 +173,7 @@ def ball_cover_sampling(points: np.ndarray, radius: float) -> tuple[np.ndarray, 
 
 
 def _checked(contracted, original, ring_edges) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    arrays = []
-    for name, value in (("contracted", contracted), ("original", original)):
-        try:
-            array = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise InputError(f"{name} points: not a numeric array") from None
-        if array.ndim != 2 or array.shape[1] != 3 or len(array) == 0:
-            raise InputError(f"{name} points: expected a non-empty (n, 3) array, got shape {array.shape}")
-        if not np.isfinite(array).all():
-            raise InputError(f"{name} points: contain NaN or infinite coordinates")
-        arrays.append(array)
+    arrays = [as_points(contracted, "contracted points"), as_points(original, "original points")]
     if len(arrays[0]) != len(arrays[1]):
         raise InputError(f"contracted and original points differ in number ({len(arrays[0])} vs {len(arrays[1])})")
     edges = np.asarray(ring_edges)
