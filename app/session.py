@@ -16,7 +16,8 @@ from pathlib import Path
 from skelcore import contraction, pipeline
 from skelcore.contraction import IterationState, contract, record
 from skelcore.io import Cloud
-from skelcore.metrics import IterationMetrics, run_verdict
+from skelcore.metrics import IterationMetrics
+from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
 

@@ -34,7 +34,7 @@ from typing import Iterator
 
 from . import __version__, io
 from .errors import InputError, ParameterError, SkelError
-from .metrics import StabilityThresholds
+from .verdict import StabilityThresholds
 from .pipeline import RESULT_FILES, RunOptions, run_pipeline
 
 DONE_FILE = "done.json"

@@ -1,4 +1,4 @@
-"""The `skelcore` command line: run, batch, shapes, evaluate, report, bench.
+"""The `skelcore` command line: run, batch, shapes, evaluate, report, bench, study.
 
 Bad input ends with a one-line message naming the file and the problem and a non-zero exit code;
 no traceback reaches the user.
@@ -125,6 +125,21 @@ def build_parser() -> argparse.ArgumentParser:
                             "path on every worker")
     add_parameter_flags(batch)
     batch.set_defaults(handler=_batch)
+    # -- study (skelcore.study) --
+    from .study import SETTINGS
+
+    study = commands.add_parser("study", help="measure the verdict's criteria against ground truth over a grid of "
+                                              "shapes, variants, seeds and settings; calibrate the thresholds")
+    study.add_argument("--out", required=True, help="output folder: runs.jsonl (resumable), study.csv, study.json, "
+                                                    "thresholds.json, study.html")
+    study.add_argument("--points", type=int, default=3000, help="points per cloud (default: %(default)s)")
+    study.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="sampling seeds (default: %(default)s)")
+    study.add_argument("--settings", nargs="+", default=list(SETTINGS), metavar="SETTING",
+                       help=f"parameter settings, of: {'; '.join(SETTINGS)} (default: all)")
+    study.add_argument("--shapes", nargs="+", default=None, metavar="NAME", help="synthetic shapes (default: all)")
+    study.add_argument("--no-benchmark", action="store_true", help="leave out the real-shape benchmark")
+    study.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")
+    study.set_defaults(handler=_study)
     return parser
 
 
@@ -179,6 +194,14 @@ def _batch(args: argparse.Namespace) -> int:
                        force=args.force, progress=not args.quiet, report=not args.no_report)
     print(result.summary_line())
     return 1 if result.failed else 0
+
+
+def _study(args: argparse.Namespace) -> int:
+    from .study import run_study
+
+    run_study(args.out, points=args.points, seeds=tuple(args.seeds), settings=tuple(args.settings),
+              shapes=args.shapes, benchmark=not args.no_benchmark, jobs=args.jobs)
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,21 +9,24 @@ k defaults to 30: the largest neighbourhood the contraction itself uses (cloudco
 clamp(0.012 n, 8, 30)) and the usual kNN size for PCA normals (Open3D's examples); fewer neighbours make
 the normal of a contracted, nearly one-dimensional neighbourhood follow the sampling noise.
 
-Sign convention. The eigen-solver returns +n or -n at random, yet eq. 5 uses the signed cosine, so
-D_theta spans [0, 1]. We treat each point's normal as one continuous field over the iterations: at
-iteration k the sign of n_k,i is chosen so that n_k,i . n_{k-1},i >= 0, i.e. the normal turns by the
-smaller of its two possible angles per step (pass `previous`; without it the step is taken from
-iteration 0). The sign of n_0,i cancels in cos_sim(n_k,i, n_0,i), so D_theta depends on no arbitrary
-sign at all: it is the total turn of the tracked normal, 0 for an unchanged cloud, theta/pi for a patch
-rotated by theta < 90 deg. Why this and not "outward from the centroid" at every iteration: once a tube
-has collapsed onto its axis the new normal is just some direction across the axis; re-orienting it
-against the centroid would copy the sign of the old radial normal and fold D_theta into [0, 0.5]. With
-tracking, normals that have lost their relation to the surface wander over the sphere, whose angle
-density sin(theta)/2 is the symmetric bell centred on D_theta = 0.5 that the paper reports for a stable
-contraction. Reference normals are still oriented outward (a minimum spanning tree over the kNN graph,
-Hoppe et al. 1992), because the boundedness test needs an outside; D_theta does not use that sign.
+Normal conventions (`NORMAL_CONVENTIONS`). The eigen-solver returns +n or -n at random, yet eq. 5 uses the
+signed cosine, so how the signs are chosen decides what the D_theta histogram shows.
+- "outward" (the paper's reading, the default): eq. 6 centred on the anchor point (the covariance of the
+  neighbours about the point itself, not about their mean), and every normal, at iteration 0 and at k,
+  oriented away from its cloud's centroid. Normals of a contracted neighbourhood then point along
+  whatever direction its thin cross-section leaves, independent of the original normal's, and D_theta
+  moves from left-skewed toward a bell centred on 0.5 as the paper describes.
+- "tracked": mean-centred covariance and each normal's sign carried over from the previous iteration
+  (n_k . n_{k-1} >= 0): D_theta is the total turn of a continuous normal field, 0 for an unchanged cloud;
+  its mean stays near 0.2-0.3 and never reaches the paper's 0.5.
+`skelcore study` measured both (README, "The stability verdict"): the default is the one that reproduces
+the paper's described behaviour and predicts a right skeleton better. Reference normals for the
+boundedness test are always MST-oriented (Hoppe et al. 1992), whatever the convention.
 A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
-of the statistics (counted in "n_undefined"), and its tracked normal carries the previous one forward.
+of the statistics (counted in "n_undefined"); a tracked normal carries the previous one forward.
+
+Curve-likeness: the median over the evaluated points of the linearity (l3 - l2) / l3 of their
+neighbourhood's covariance eigenvalues l1 <= l2 <= l3 (Demantke et al. 2011): 1 on a line, 0 on a plane.
 
 Points that disappear (GLSkeleton): the caller passes `point_ids`, ids into the input cloud of the
 points present, and every quantity compares them with iteration 0 at those ids.
@@ -40,18 +43,14 @@ distance to its centroid (it follows the collapse of every cross-section; a boun
 extreme tips and stays put while a tube collapses): shrinking means X_k <= (1 + shrink_tolerance) X_{k-1},
 X_0 taken over the same ids; a fall of more than max_step_shrink in one iteration is a collapse.
 
-Verdict (thresholds in StabilityThresholds): an iteration is "unstable" with more than one significant
-histogram peak, too few points inside, a growing or collapsing cloud; "not yet converged" with an
-asymmetric histogram or a mean off its target and not moving toward it; "stable" otherwise. A run is
-unstable if any iteration is, or if a mean ends off target having closed less than min_progress of its
-gap; otherwise it takes its last iteration's label.
+The verdict of an iteration is skelcore.verdict.judge over these figures.
 
 Cost: the kNN search dominates. A cloud above `max_points` (5,000) is judged on a fixed random sample of
 that many input points, each still measured against the whole current cloud (see MetricsReference).
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -61,6 +60,7 @@ from scipy.spatial import cKDTree
 from .errors import InputError, ParameterError
 from .io import as_points
 from .neighbours import knn
+from .verdict import StabilityThresholds, features, judge
 
 D_THETA_RANGE = (0.0, 1.0)
 DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
@@ -69,42 +69,19 @@ _ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
 _SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of the surface normals of the inside test
 _TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 _SYMMETRY_LEVELS = np.linspace(0.02, 0.48, 24)
-
-
-@dataclass(frozen=True)
-class StabilityThresholds:
-    """What the verdict demands; fractions are of the number of points or of the original diagonal."""
-    peak_drop: float = 0.02  # a peak counts if the frequency falls by this share of the points on both sides
-    max_peaks: int = 1  # more significant peaks than this in either histogram: unstable
-    min_symmetry: float = 0.8  # quantile symmetry below this: not yet converged
-    d_theta_target: float = 0.5
-    d_theta_tolerance: float = 0.1  # |mean D_theta - 0.5| above this: not yet converged
-    delta_kappa_tolerance: float = 0.05  # |mean delta_kappa| above this: not yet converged
-    min_inside_share: float = 0.9  # fewer points inside the original shape: unstable
-    surface_tolerance: float = 0.01  # band around the surface that counts as inside
-    shrink_tolerance: float = 0.01  # relative growth of the RMS spread per iteration that still counts as shrinking
-    max_step_shrink: float = 0.5  # a larger fall of the spread in one iteration is a collapse, not a contraction
-    min_progress: float = 0.25  # run: share of a mean's gap to its target to close from first to last iteration
-
-    def validated(self) -> "StabilityThresholds":
-        for name, value in asdict(self).items():
-            if not np.isfinite(value) or value < 0:
-                raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
-        if (not 0 < self.peak_drop < 1 or not 0 <= self.min_inside_share <= 1 or self.max_peaks < 1
-                or self.min_progress > 1 or self.max_step_shrink > 1):
-            raise ParameterError("thresholds: need 0 < peak_drop < 1, 0 <= min_inside_share <= 1, max_peaks >= 1, "
-                                 "min_progress <= 1, max_step_shrink <= 1")
-        return self
+NORMAL_CONVENTIONS = ("outward", "tracked")
+NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
 
 
 # --- per-point features -------------------------------------------------------------------------
 
-def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None, collapsed: float = 0.0
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None, collapsed: float = 0.0,
+                 anchored: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit normals (eq. 6, sign as the solver gives it), curvature (eq. 7) and kNN indices of the points
     `rows` (default all), their neighbours taken among all `points`.
 
-    Neighbourhoods whose covariance trace is <= collapsed**2 get NaN normal and curvature.
+    anchored: the covariance is taken about each point itself (eq. 6 as written) instead of about the mean
+    of its neighbours. Neighbourhoods whose covariance trace is <= collapsed**2 get NaN normal and curvature.
     """
     k = min(k, len(points))
     tree = cKDTree(points)
@@ -113,19 +90,10 @@ def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None
     else:
         _, idx = tree.query(points[rows], k=k, workers=-1)
         idx = idx.reshape(len(rows), k)
-    m = len(idx)
-    # Neighbourhood means of x and x x^T at once: one sparse averaging operator, 9 columns.
-    centred = points - points.mean(axis=0)
-    x, y, z = centred.T
-    columns = np.column_stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z])
-    average = sp.csr_matrix((np.full(m * k, 1.0 / k), idx.ravel(), np.arange(0, m * k + 1, k)),
-                            shape=(m, len(points)))
-    moments = average @ columns
-    mean = moments[:, :3]
-    xx, xy, xz, yy, yz, zz = (moments[:, 3 + j] - mean[:, a] * mean[:, b]
-                              for j, (a, b) in enumerate([(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]))
-    smallest, trace = _smallest_eigenvalue(xx, xy, xz, yy, yz, zz)
-    normals = _eigenvector(xx, xy, xz, yy, yz, zz, smallest)
+    anchors = (points if rows is None else points[rows]) if anchored else None
+    covariance = _covariances(points, idx, anchors)
+    smallest, _, trace = _eigenvalues(*covariance)
+    normals = _eigenvector(*covariance, smallest)
     kappa = np.clip(smallest / np.where(trace > 0, trace, 1.0), 0.0, 1.0 / 3.0)  # eq. 7
     undefined = trace <= collapsed ** 2
     normals[undefined] = np.nan
@@ -133,8 +101,39 @@ def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None
     return normals, kappa, idx
 
 
-def _smallest_eigenvalue(xx, xy, xz, yy, yz, zz):
-    """Smallest eigenvalue of symmetric 3x3 matrices, closed form (trigonometric solution of the cubic)."""
+def linearity(points: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """(l3 - l2) / l3 of each neighbourhood idx (rows of kNN indices into `points`), l1 <= l2 <= l3 the
+    eigenvalues of its covariance: 1 on a line, 0 on a plane or a ball; NaN where the neighbourhood collapsed."""
+    smallest, largest, trace = _eigenvalues(*_covariances(points, idx))
+    middle = trace - smallest - largest
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(largest > 0, (largest - middle) / largest, np.nan)
+
+
+def _covariances(points: np.ndarray, idx: np.ndarray, anchors: np.ndarray | None = None):
+    """The six entries xx, xy, xz, yy, yz, zz of each neighbourhood's covariance, about its mean or, given
+    `anchors` (one point per row of idx), about that point."""
+    m, k = idx.shape
+    # Neighbourhood means of x and x x^T at once: one sparse averaging operator, 9 columns.
+    origin = points.mean(axis=0)
+    x, y, z = (points - origin).T
+    columns = np.column_stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z])
+    average = sp.csr_matrix((np.full(m * k, 1.0 / k), idx.ravel(), np.arange(0, m * k + 1, k)),
+                            shape=(m, len(points)))
+    moments = average @ columns
+    mean = moments[:, :3]
+    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    entries = [moments[:, 3 + j] - mean[:, a] * mean[:, b] for j, (a, b) in enumerate(pairs)]
+    if anchors is not None:
+        # About c instead of the mean: C_c = C + (mean - c)(mean - c)^T (eq. 6).
+        offset = mean - (anchors - origin)
+        entries = [entry + offset[:, a] * offset[:, b] for entry, (a, b) in zip(entries, pairs)]
+    return entries
+
+
+def _eigenvalues(xx, xy, xz, yy, yz, zz):
+    """Smallest and largest eigenvalues and trace of symmetric 3x3 matrices, closed form (trigonometric
+    solution of the cubic)."""
     q = (xx + yy + zz) / 3.0
     off = xy * xy + xz * xz + yz * yz
     p = np.sqrt(np.maximum(((xx - q) ** 2 + (yy - q) ** 2 + (zz - q) ** 2 + 2.0 * off) / 6.0, 0.0))
@@ -142,7 +141,7 @@ def _smallest_eigenvalue(xx, xy, xz, yy, yz, zz):
     a, b, c, d, e, f = (xx - q) / s, xy / s, xz / s, (yy - q) / s, yz / s, (zz - q) / s
     half_det = (a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c)) / 2.0
     phi = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3.0
-    return q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0), 3.0 * q
+    return q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0), q + 2.0 * p * np.cos(phi), 3.0 * q
 
 
 def _eigenvector(xx, xy, xz, yy, yz, zz, eigenvalue):
@@ -286,13 +285,14 @@ class IterationMetrics:
     n_present: int  # rows of the evaluated `points`
     d_theta: np.ndarray  # (m,) eqs. 3-5, NaN where undefined
     delta_kappa: np.ndarray  # (m,) eq. 8, NaN where undefined
-    normals: np.ndarray  # (m,3) tracked normals (see the module docstring)
+    normals: np.ndarray  # (m,3) normals, signed by the normal convention (see the module docstring)
     kappa: np.ndarray  # (m,) eq. 7 at this iteration
     spread: float  # RMS distance of all the points present to their centroid
     d_theta_stats: dict
     delta_kappa_stats: dict
     boundedness: dict
-    verdict: dict
+    curve: dict  # {"linearity": median local linearity of the evaluated points (curve-likeness)}
+    verdict: dict  # skelcore.verdict.judge of this iteration (label None at iteration 0)
 
     def per_point(self, quantity: str) -> np.ndarray:
         """(n_present,) values of "d_theta" or "delta_kappa" for every row of the evaluated points, NaN
@@ -305,7 +305,7 @@ class IterationMetrics:
 
     def to_dict(self) -> dict:
         return {"d_theta": self.d_theta_stats, "delta_kappa": self.delta_kappa_stats,
-                "boundedness": self.boundedness, "verdict": self.verdict}
+                "boundedness": self.boundedness, "curve": self.curve, "verdict": self.verdict}
 
 
 @dataclass(frozen=True)
@@ -320,7 +320,7 @@ class MetricsReference:
     evaluates every point (e.g. to colour all of them).
     """
     points: np.ndarray  # (n,3) the input cloud
-    normals: np.ndarray  # (n,3) outward-oriented PCA normals (eq. 6)
+    normals: np.ndarray  # (n,3) PCA normals (eq. 6) signed by the convention
     kappa: np.ndarray  # (n,) eq. 7
     k: int
     bins: int
@@ -328,11 +328,12 @@ class MetricsReference:
     diagonal: float
     inside: "InsideTest" = field(repr=False)  # the original shape, for boundedness
     evaluated: np.ndarray = field(repr=False)  # (n,) bool: input points whose metrics are computed
+    convention: str = NORMAL_CONVENTION  # how normals are centred and signed (module docstring)
 
     @classmethod
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
-                    seed: int = 0) -> "MetricsReference":
+                    seed: int = 0, convention: str = NORMAL_CONVENTION) -> "MetricsReference":
         points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
@@ -343,12 +344,17 @@ class MetricsReference:
             raise ParameterError(f"max_points={max_points}: need None or an integer >= 100")
         if len(points0) < 4:
             raise InputError(f"points0: {len(points0)} points, need at least 4")
+        if convention not in NORMAL_CONVENTIONS:
+            raise ParameterError(f"convention={convention!r}: must be one of {', '.join(NORMAL_CONVENTIONS)}")
         thresholds = (thresholds or StabilityThresholds()).validated()
         diagonal = float(np.linalg.norm(np.ptp(points0, axis=0)))
         if diagonal <= 0:
             raise InputError("points0: all points coincide")
         k = int(min(k, len(points0)))
-        normals, kappa, idx = pca_features(points0, k, collapsed=_COLLAPSED * diagonal)
+        outward = convention == "outward"
+        normals, kappa, _ = pca_features(points0, k, collapsed=_COLLAPSED * diagonal, anchored=outward)
+        if outward:
+            normals = _away_from_centroid(points0, normals)
         band = thresholds.surface_tolerance * diagonal
         if faces is not None and len(faces):
             samples, sample_normals = _mesh_surface(points0, faces, band, seed)
@@ -364,7 +370,7 @@ class MetricsReference:
         if max_points is not None and len(points0) > max_points:
             evaluated[:] = False
             evaluated[np.random.default_rng(seed).choice(len(points0), max_points, replace=False)] = True
-        return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated)
+        return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated, convention)
 
     def evaluate(self, points, point_ids=None, previous: IterationMetrics | None = None,
                  iteration: int | None = None) -> IterationMetrics:
@@ -393,17 +399,22 @@ class MetricsReference:
             ids = ids[rows]
         else:
             raise InputError("point_ids: none of the present points is among the evaluated ones")
-        normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal)
-        points = points if rows is None else points[rows]
-        # Track each normal's sign from the previous iteration (module docstring).
-        before = self.normals.copy()
-        if previous is not None:
-            before[previous.point_ids] = previous.normals
-        before = before[ids]
-        flip = np.einsum("ij,ij->i", normals, before) < 0
-        normals[flip] *= -1
+        outward = self.convention == "outward"
+        normals, kappa, idx = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
+        curve = {"linearity": _median(linearity(points, idx))}
+        everything, points = points, (points if rows is None else points[rows])
         undefined = ~np.isfinite(normals).all(axis=1)
-        normals[undefined] = before[undefined]
+        if outward:
+            normals = _away_from_centroid(points, normals, everything.mean(axis=0))
+        else:
+            # Carry each normal's sign over from the previous iteration (module docstring).
+            before = self.normals.copy()
+            if previous is not None:
+                before[previous.point_ids] = previous.normals
+            before = before[ids]
+            flip = np.einsum("ij,ij->i", normals, before) < 0
+            normals[flip] *= -1
+            normals[undefined] = before[undefined]
         # eqs. 3-5: arccos(cos_sim(n_k, n_0)) / pi, evaluated as 2 atan2(|a - b|, |a + b|) for unit
         # vectors, the same angle without arccos's round-off near 0 (an unchanged normal gives exactly 0).
         reference = self.normals[ids]
@@ -415,11 +426,11 @@ class MetricsReference:
         d_stats = distribution_stats(d_theta, D_THETA_RANGE, self.bins, t.peak_drop)
         k_stats = distribution_stats(delta_kappa, DELTA_KAPPA_RANGE, self.bins, t.peak_drop)
         bounded = self._boundedness(points, spread, spread0, bbox, previous)
-        before_means = (0.0, 0.0) if previous is None else (previous.d_theta_stats["mean"],
-                                                              previous.delta_kappa_stats["mean"])
-        verdict = iteration_verdict(d_stats, k_stats, bounded, t, before_means)
+        verdict = judge(features({"d_theta": d_stats, "delta_kappa": k_stats, "boundedness": bounded,
+                                  "curve": curve}), int(iteration), t)
         return IterationMetrics(int(iteration), ids, np.arange(n_present) if rows is None else rows, n_present,
-                                d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, verdict)
+                                d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, curve,
+                                verdict)
 
     def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float,
                      previous: IterationMetrics | None) -> dict:
@@ -431,6 +442,17 @@ class MetricsReference:
                 "spread_ratio": float(spread / spread0) if spread0 > 0 else 1.0,
                 "bbox_ratio": bbox / self.diagonal,
                 "growth": float(growth), "shrinking": bool(growth <= self.thresholds.shrink_tolerance)}
+
+
+def _away_from_centroid(points: np.ndarray, normals: np.ndarray, centroid: np.ndarray | None = None) -> np.ndarray:
+    """Normals flipped to point away from the cloud's centroid (the "outward" convention)."""
+    centroid = points.mean(axis=0) if centroid is None else centroid
+    return np.where((np.einsum("ij,ij->i", normals, points - centroid) < 0)[:, None], -normals, normals)
+
+
+def _median(values: np.ndarray) -> float | None:
+    finite = values[np.isfinite(values)]
+    return float(np.median(finite)) if len(finite) else None
 
 
 def _spread(points: np.ndarray) -> float:
@@ -529,116 +551,3 @@ def _mesh_surface(vertices: np.ndarray, faces, spacing: float, seed: int) -> tup
     samples, face_index = trimesh.sample.sample_surface(mesh, count, seed=seed)
     return (np.concatenate([np.asarray(samples), mesh.vertices]),
             np.concatenate([mesh.face_normals[face_index], mesh.vertex_normals]))
-
-
-# --- verdicts -----------------------------------------------------------------------------------
-
-def iteration_verdict(d_stats: dict, k_stats: dict, boundedness: dict,
-                      thresholds: StabilityThresholds = StabilityThresholds(),
-                      previous_means: tuple[float | None, float | None] = (0.0, 0.0)) -> dict:
-    """{"label", "reasons"} of one iteration from its JSON-ready statistics (the paper's criteria).
-
-    unstable: a histogram with more than max_peaks significant peaks, too few points inside the original
-    shape, a growing cloud, or a collapse. not yet converged: an asymmetric histogram (no bell yet), or a
-    mean off its target that moved away from it since the previous iteration (previous_means: the means
-    of D_theta and delta_kappa there; iteration 0 has 0 and 0). stable: bell-shaped histograms whose means
-    are at, or moving toward, 0.5 and 0, in a bounded, shrinking cloud.
-    """
-    t = thresholds
-    unstable, unconverged = _bound_reasons(boundedness, t), []
-    for name, stats, target, tolerance, before in (
-            ("D_theta", d_stats, t.d_theta_target, t.d_theta_tolerance, previous_means[0]),
-            ("delta_kappa", k_stats, 0.0, t.delta_kappa_tolerance, previous_means[1])):
-        if stats["mean"] is None:
-            unconverged.append(f"{name} is undefined at every point")
-            continue
-        if stats["peaks"]["count"] > t.max_peaks:
-            unstable.append(f"{name} histogram has {stats['peaks']['count']} significant peaks")
-        gap = abs(stats["mean"] - target)
-        if gap > tolerance and before is not None and gap >= abs(before - target):
-            unconverged.append(f"mean {name} is not moving toward {target:g} ({before:.4f} -> {stats['mean']:.4f})")
-        if stats["symmetry"] < t.min_symmetry:
-            unconverged.append(f"{name} histogram is asymmetric "
-                               f"(symmetry {stats['symmetry']:.2f} < {t.min_symmetry:g})")
-    if unstable:
-        return {"label": "unstable", "reasons": unstable + unconverged}
-    if unconverged:
-        return {"label": "not yet converged", "reasons": unconverged}
-    return {"label": "stable", "reasons": ["unimodal, symmetric histograms with means at or moving toward "
-                                           "their targets; bounded and shrinking"]}
-
-
-def _bound_reasons(boundedness: dict, t: StabilityThresholds) -> list[str]:
-    reasons = []
-    if boundedness["inside_share"] < t.min_inside_share:
-        reasons.append(f"{100 * (1 - boundedness['inside_share']):.1f}% of the points left the original shape")
-    if not boundedness["shrinking"]:
-        reasons.append(f"the cloud's spread grew by {100 * boundedness['growth']:.1f}%")
-    if -boundedness["growth"] > t.max_step_shrink:
-        reasons.append(f"the cloud's spread collapsed by {-100 * boundedness['growth']:.0f}% in one iteration")
-    return reasons
-
-
-def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
-    """Means of D_theta (against 0.5) and delta_kappa (against 0) across iterations, JSON-ready.
-
-    Per measure: the means, their gaps to the target, and "progress", the share of the gap closed from
-    the first iteration after the input to the last (None with fewer than two such iterations;
-    iteration 0 is the input itself, where both measures are 0 by definition).
-    """
-    entries = _entries(iterations)
-    steps = [e["iteration"] for e in entries]
-    result = {"iteration": steps}
-    for key, target in (("d_theta", thresholds.d_theta_target), ("delta_kappa", 0.0)):
-        means = [e[key]["mean"] for e in entries]
-        gaps = [None if m is None else abs(m - target) for m in means]
-        later = [g for step, g in zip(steps, gaps) if step > 0 and g is not None]
-        progress = None
-        if len(later) >= 2:
-            progress = 1.0 if later[0] == 0 and later[-1] == 0 else (later[0] - later[-1]) / max(later[0], 1e-12)
-        result.update({f"{key}_mean": means, f"{key}_gap": gaps, f"{key}_progress": progress})
-    return result
-
-
-def run_verdict(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
-    """Verdict of a run from its IterationMetrics, or their to_dict() entries (with "iteration").
-
-    unstable: any iteration is unstable, or a mean that ends off its target closed less than min_progress
-    of its gap since the first iteration (the contraction stalled away from it); stable: the last
-    iteration is stable; otherwise not yet converged. Reasons name the iterations.
-    """
-    t = thresholds
-    entries = _entries(iterations)
-    if not entries:
-        return {"label": "not yet converged", "reasons": ["no iterations"], "iterations": [], "convergence": {}}
-    labels = [{"iteration": e["iteration"], "label": e["verdict"]["label"]} for e in entries]
-    trend = convergence(entries, t)
-    first = next((step for step in trend["iteration"] if step > 0), trend["iteration"][0])
-    unstable = [f"iteration {e['iteration']}: {r}" for e in entries if e["verdict"]["label"] == "unstable"
-                for r in e["verdict"]["reasons"]]
-    for name, key, target, tolerance in (("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance),
-                                         ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance)):
-        gap, progress = trend[f"{key}_gap"][-1], trend[f"{key}_progress"]
-        if gap is not None and gap > tolerance and progress is not None and progress < t.min_progress:
-            unstable.append(f"mean {name} stalled {gap:.3f} from {target:g}: {100 * progress:.0f}% of its gap "
-                            f"closed since iteration {first} (need {100 * t.min_progress:.0f}%)")
-    last = entries[-1]
-    if unstable:
-        label, reasons = "unstable", unstable
-    else:
-        label = last["verdict"]["label"]
-        reasons = [f"final iteration {last['iteration']}: {r}" for r in last["verdict"]["reasons"]]
-    return {"label": label, "reasons": reasons, "iterations": labels, "convergence": trend}
-
-
-def _entries(iterations) -> list[dict]:
-    entries = []
-    for position, item in enumerate(iterations):
-        if isinstance(item, IterationMetrics):
-            entries.append({"iteration": item.iteration, **item.to_dict()})
-        elif isinstance(item, dict) and {"d_theta", "delta_kappa", "boundedness", "verdict"} <= item.keys():
-            entries.append({"iteration": position, **item})
-        else:
-            raise InputError(f"iterations[{position}]: neither IterationMetrics nor a metrics dict with "
-                             "d_theta, delta_kappa, boundedness and verdict")
-    return entries

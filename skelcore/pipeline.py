@@ -18,10 +18,12 @@ import numpy as np
 from . import __version__, io
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError
-from .metrics import IterationMetrics, MetricsReference, run_verdict
+from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .params import ContractionParams, default_k
+from .persistence import persistence_summary
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
 from .solver import backend
+from .verdict import run_verdict
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
@@ -36,6 +38,7 @@ class RunOptions:
     voxel_size: float | None = None
     max_points: int = io.MAX_POINTS
     metrics_k: int = METRICS_K
+    normal_convention: str = NORMAL_CONVENTION  # D_theta's normals (skelcore.metrics)
 
     def skeleton_params(self) -> SkeletonParams:
         # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
@@ -67,12 +70,23 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
     return extract_skeleton(state.points[state.owner], original, ring_edges, params)
 
 
+def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray) -> dict:
+    """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the gaps and loops
+    of the contracted cloud and the gaps of the input, in multiples of the skeleton's sample radius."""
+    topology = skeleton.topology()
+    cloud = persistence_summary(state.points, skeleton.radius)
+    source = persistence_summary(original, skeleton.radius)
+    return {"nodes": skeleton.graph.number_of_nodes(), "components": topology["components"],
+            "cycles": topology["cycles"], "cloud_gaps": cloud["gaps"], "cloud_loops": cloud["loops"],
+            "input_gaps": source["gaps"]}
+
+
 class IterationMetricsCache:
     """The paper's metrics of each state of one run, computed on demand, once, in iteration order
     (each iteration's normals are oriented from the one before). A restarted run needs a new cache."""
 
-    def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0) -> None:
-        self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed)
+    def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0, convention: str = NORMAL_CONVENTION) -> None:
+        self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention)
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
@@ -97,7 +111,7 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
     for note in cloud.notes:
         _say(progress, f"{cloud.name}: {note}")
     states = run_states(cloud, options.params, progress)
-    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
+    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention)
     metrics = metrics_cache.all(states)
     skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
     elapsed = time.perf_counter() - started
@@ -118,8 +132,10 @@ def run_states(cloud: io.Cloud, params: ContractionParams,
     return states
 
 
-def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics]) -> dict:
-    """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict."""
+def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],
+                     skeleton: dict | None = None) -> dict:
+    """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict (with the
+    skeleton checks given the skeleton's evidence, see skeleton_evidence)."""
     iterations = []
     for state, measured in zip(states, metrics):
         iterations.append({
@@ -130,7 +146,7 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
     final = states[-1]
     return {"method": final.params.method, "n_points": len(cloud.points), "iterations": iterations,
             "termination": final.termination, "termination_message": TERMINATION_MESSAGES.get(final.termination, ""),
-            "verdict": run_verdict(metrics)}
+            "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
 
 
 def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None) -> dict:
@@ -142,6 +158,7 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k,
+        "normal_convention": options.normal_convention,
         "retuned": [state.message for state in states if "retuned" in state.message],
         "skelcore_version": __version__, "solver": backend(),
     }
@@ -158,10 +175,10 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
-    summary = metrics_document(cloud, states, metrics)
+    final = states[-1]
+    summary = metrics_document(cloud, states, metrics, skeleton_evidence(skeleton, final, cloud.points))
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
-    final = states[-1]
     _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
     _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
     _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))

@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, ParameterError, SkelError
-from .metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE, IterationMetrics, StabilityThresholds, convergence, run_verdict
+from .metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE, IterationMetrics
+from .verdict import StabilityThresholds, convergence, run_verdict
 
 # key -> (title, axis label, histogram range, target)
 MEASURES = {
@@ -275,7 +276,9 @@ def final_histograms_figure(runs, measure: str, title: str | None = None):
 def verdict_text(verdict: dict, max_reasons: int = 6) -> str:
     """Markdown: the label in bold and its reasons as a list."""
     reasons = verdict.get("reasons", [])
-    lines = [f"**Verdict: {verdict.get('label', 'unknown')}**"]
+    label, iteration = verdict.get("label"), verdict.get("iteration")
+    lines = [f"**Verdict on iteration {iteration}: {label}**" if label and iteration is not None
+             else f"**Verdict: {label or 'none'}**"]
     lines += [f"- {reason}" for reason in reasons[:max_reasons]]
     if len(reasons) > max_reasons:
         lines.append(f"- … and {len(reasons) - max_reasons} more")
@@ -624,7 +627,7 @@ def _share_trace(entry: dict, key: str, **style):
 def _by_verdict(runs) -> dict[str, list[dict]]:
     groups: dict[str, list[dict]] = {label: [] for label in LABEL_COLOURS}
     for run in runs:
-        groups.setdefault(run["verdict"]["label"], []).append(run)
+        groups.setdefault(run["verdict"]["label"] or "no verdict", []).append(run)
     return {label: group for label, group in groups.items() if group}
 
 

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from skelcore.errors import InputError, ParameterError
-from skelcore.metrics import (D_THETA_RANGE, IterationMetrics, MetricsReference, StabilityThresholds,
-                              distribution_stats, orient_outward, pca_features, run_verdict, significant_peaks,
-                              _eigenvector, _smallest_eigenvalue)
+from skelcore.metrics import (D_THETA_RANGE, IterationMetrics, MetricsReference, distribution_stats, linearity,
+                              orient_outward, pca_features, significant_peaks, _eigenvalues, _eigenvector)
+from skelcore.verdict import StabilityThresholds, run_verdict
 
 
 def torus(n=1500, big=1.0, small=0.3, seed=0):
@@ -57,7 +57,7 @@ def test_unchanged_cloud_has_zero_measures():
 
 def test_rotated_flat_patch_gives_angle_over_pi():
     patch = flat_patch()
-    reference = MetricsReference.from_points(patch)
+    reference = MetricsReference.from_points(patch, convention="tracked")
     turned = reference.evaluate(patch @ rotation_x(30).T)
     np.testing.assert_allclose(turned.d_theta, 30 / 180, atol=1e-9)
     np.testing.assert_allclose(turned.delta_kappa, 0, atol=1e-12)
@@ -66,13 +66,38 @@ def test_rotated_flat_patch_gives_angle_over_pi():
 def test_normals_are_tracked_across_iterations():
     # Five turns of 30 degrees: each step takes the smaller angle, the total is 150 degrees.
     patch = flat_patch()
-    reference = MetricsReference.from_points(patch)
+    reference = MetricsReference.from_points(patch, convention="tracked")
     previous = None
     for step in range(1, 6):
         previous = reference.evaluate(patch @ rotation_x(30 * step).T, previous=previous)
     np.testing.assert_allclose(previous.d_theta, 150 / 180, atol=1e-9)
     # Without the history the same cloud is one turn of 150 degrees, i.e. 30 degrees the short way.
     np.testing.assert_allclose(reference.evaluate(patch @ rotation_x(150).T).d_theta, 30 / 180, atol=1e-9)
+
+
+def test_outward_convention_centres_on_the_anchor_and_points_away_from_the_centroid():
+    points, normals, _ = torus()
+    estimated, _, _ = pca_features(points, 30, anchored=True)
+    reference = MetricsReference.from_points(points, convention="outward")
+    # Away from the centroid: on the torus's inner side that is against the surface normal.
+    radial = points - points.mean(axis=0)
+    assert np.all(np.einsum("ij,ij->i", reference.normals, radial) >= 0)
+    assert np.mean(np.abs(np.einsum("ij,ij->i", estimated, normals)) > 0.95) > 0.95
+    # The anchored covariance differs from the mean-centred one at a curved surface's points.
+    _, kappa_mean, _ = pca_features(points, 30)
+    _, kappa_anchor, _ = pca_features(points, 30, anchored=True)
+    assert np.mean(kappa_anchor) != pytest.approx(np.mean(kappa_mean))
+    with pytest.raises(ParameterError, match="convention"):
+        MetricsReference.from_points(points, convention="sideways")
+
+
+def test_linearity_of_line_plane_and_blob():
+    rng = np.random.default_rng(1)
+    line = np.column_stack([np.linspace(0, 1, 200), 1e-4 * rng.normal(size=(200, 2))])
+    _, _, idx = pca_features(line, 20)
+    assert np.median(linearity(line, idx)) > 0.95
+    _, _, idx = pca_features(flat_patch(), 20)
+    assert np.median(linearity(flat_patch(), idx)) < 0.5
 
 
 def test_closed_form_eigen_matches_lapack():
@@ -82,10 +107,11 @@ def test_closed_form_eigen_matches_lapack():
     matrices[:100] = np.einsum("ni,nj->nij", factors[:100, 0], factors[:100, 0])  # rank 1: line-like
     matrices[100:110] = np.eye(3)  # isotropic
     entries = [matrices[:, a, b] for a, b in [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]]
-    smallest, trace = _smallest_eigenvalue(*entries)
+    smallest, largest, trace = _eigenvalues(*entries)
     expected = np.linalg.eigvalsh(matrices)
     scale = expected[:, -1]
     np.testing.assert_allclose(smallest / scale, expected[:, 0] / scale, atol=1e-7)
+    np.testing.assert_allclose(largest / scale, expected[:, -1] / scale, atol=1e-7)
     np.testing.assert_allclose(trace, expected.sum(axis=1))
     vectors = _eigenvector(*entries, smallest)
     residual = np.einsum("nij,nj->ni", matrices, vectors) - smallest[:, None] * vectors
@@ -197,7 +223,8 @@ def test_to_dict_is_json_and_run_verdict_reads_both_forms():
         history.append(reference.evaluate(core + share * (points - core), previous=history[-1]))
     document = json.loads(json.dumps([{"iteration": m.iteration, **m.to_dict()} for m in history]))
     entry = document[1]
-    assert set(entry) == {"iteration", "d_theta", "delta_kappa", "boundedness", "verdict"}
+    assert set(entry) == {"iteration", "d_theta", "delta_kappa", "boundedness", "curve", "verdict"}
+    assert document[0]["verdict"]["label"] is None and entry["verdict"]["iteration"] == 1
     assert {"histogram", "mean", "median", "std", "skewness", "kurtosis", "peaks", "symmetry",
             "unimodality"} <= set(entry["d_theta"])
     assert {"inside_share", "shrinking"} <= set(entry["boundedness"])

@@ -1,0 +1,229 @@
+"""`skelcore study`: the verdict's criteria measured against ground truth over a grid of runs.
+
+Inputs: the synthetic shapes (skelcore.shapes, known centrelines and topology) and, when
+skelcore.solids provides it, the real-shape benchmark (known loops and pieces); each at several seeds and
+in scan-like variants (skelcore.perturb when present, else noise and uneven density of the synthetic
+sampler). Settings range from good to deliberately bad (SETTINGS). Every run records each iteration's
+statistics under both normal conventions, the skeleton evidence of its last iteration and the truth:
+topology exact, and Chamfer/Hausdorff where a centreline exists. Runs are appended to OUT/runs.jsonl as
+they finish, so a killed study resumes where it stopped; skelcore.study_analysis turns them into the
+tables, the page and the calibrated thresholds.
+"""
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+
+from .errors import ParameterError
+from .metrics import NORMAL_CONVENTIONS, MetricsReference
+from .params import ContractionParams
+
+# name -> (changes to ContractionParams, W_L0 multiplier of the automatic W_L0)
+SETTINGS = {
+    "default": ({}, None),
+    "wl0 x0.1": ({}, 0.1),
+    "wl0 x10": ({}, 10.0),
+    "wl0 x100": ({}, 100.0),
+    "sl 1.5": ({"sl": 1.5}, None),
+    "sl 10": ({"sl": 10.0}, None),
+    "stop after 1": ({"max_iterations": 1}, None),
+    "stop after 2": ({"max_iterations": 2}, None),
+    "glskeleton": ({"method": "glskeleton"}, None),
+}
+BAD_SETTINGS = ("wl0 x100", "stop after 1")  # must never be judged stable
+SYNTHETIC_VARIANTS = {"clean": {}, "noise": {"noise": 0.004}, "uneven": {"nonuniform": 0.7}}
+CHAMFER_RIGHT = 0.01  # a right skeleton: topology exact and Chamfer <= this share of the diagonal
+RUNS_FILE = "runs.jsonl"
+
+
+@dataclass(frozen=True)
+class StudyInput:
+    shape: str
+    source: str  # "synthetic" or the benchmark shape's source
+    variant: str
+    seed: int
+    points: np.ndarray
+    truth: dict  # {"components", "cycles"} and, for synthetic shapes, the centreline and full topology
+
+    @property
+    def key(self) -> str:
+        return f"{self.shape}|{self.variant}|{self.seed}"
+
+
+def study_inputs(points: int = 3000, seeds=(0, 1), benchmark: bool = True, shapes=None) -> Iterator[StudyInput]:
+    """Every (shape, variant, seed) of the study; benchmark shapes only where skelcore.solids exists."""
+    from .shapes import SHAPES, make_shape
+
+    perturbation = _perturbation()
+    for name in shapes or SHAPES:
+        for seed in seeds:
+            if perturbation is None:
+                for variant, options in SYNTHETIC_VARIANTS.items():
+                    shape = make_shape(name, points, seed=seed, **options)
+                    yield StudyInput(name, "synthetic", variant, seed, shape.points, _shape_truth(shape))
+            else:
+                shape = make_shape(name, points, seed=seed)
+                for variant, cloud in perturbation(shape.points, seed):
+                    yield StudyInput(name, "synthetic", variant, seed, cloud, _shape_truth(shape))
+    if not benchmark:
+        return
+    try:
+        from .solids import benchmark_shapes
+    except ImportError:
+        return
+    for seed in seeds:
+        for shape in benchmark_shapes(points=points, seed=seed):
+            truth = {"components": int(shape.components), "cycles": int(shape.cycles)}
+            variants = [("clean", shape.points)] if perturbation is None else perturbation(shape.points, seed)
+            for variant, cloud in variants:
+                yield StudyInput(shape.name, str(shape.source), variant, seed, cloud, truth)
+
+
+def _perturbation() -> Callable | None:
+    """(points, seed) -> [(variant, points)], the clean cloud first, from skelcore.perturb when present."""
+    try:
+        from .perturb import VARIANTS, perturb
+    except ImportError:
+        return None
+
+    def variants(points, seed):
+        return [("clean", points)] + [(name, np.asarray(perturb(points, name, seed=seed), float))
+                                      for name in VARIANTS if name != "clean"]
+    return variants
+
+
+def _shape_truth(shape) -> dict:
+    return {**shape.topology, "nodes": shape.nodes.tolist(), "edges": shape.edges.tolist()}
+
+
+def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None) -> dict:
+    """One run of the grid: contraction, every iteration's statistics under both conventions, the skeleton
+    of the last iteration, its evidence, and the truth."""
+    from .contraction import run_contraction
+    from .evaluate import evaluate, make_graph
+    from .pipeline import METRICS_K, RunOptions, skeleton_evidence, skeleton_of_state
+
+    changes, multiplier = SETTINGS[setting]
+    params = ContractionParams(**changes)
+    if multiplier is not None:
+        params = params.replace(wl0=multiplier * auto_wl0)
+    started = time.perf_counter()
+    record = {"shape": item.shape, "source": item.source, "variant": item.variant, "seed": item.seed,
+              "setting": setting, "points": len(item.points)}
+    try:
+        states = run_contraction(item.points, params)
+    except Exception as error:  # a failed run is a finding of the study, not its end
+        return {**record, "error": f"{type(error).__name__}: {error}"}
+    record.update(termination=states[-1].termination, iterations=states[-1].iteration, wl0=states[0].wl)
+    conventions = {}
+    for convention in NORMAL_CONVENTIONS:
+        reference = MetricsReference.from_points(item.points, k=METRICS_K, convention=convention)
+        previous, entries = None, []
+        for state in states:
+            previous = reference.evaluate(state.points, state.point_ids, previous=previous, iteration=state.iteration)
+            entries.append(_statistics(previous.to_dict()))
+        conventions[convention] = entries
+    record["conventions"] = conventions
+    skeleton_params = RunOptions(params=params).skeleton_params()
+    skeleton = skeleton_of_state(states[-1], item.points, skeleton_params)
+    record["evidence"] = skeleton_evidence(skeleton, states[-1], item.points)
+    record["truth"] = _truth(skeleton, item, evaluate, make_graph)
+    record["seconds"] = time.perf_counter() - started
+    return record
+
+
+def _statistics(entry: dict) -> dict:
+    """The figures of one iteration the study keeps (histograms left out)."""
+    kept = {}
+    for key in ("d_theta", "delta_kappa"):
+        stats = entry[key]
+        kept[key] = {name: stats[name] for name in ("mean", "median", "std", "skewness", "kurtosis", "symmetry",
+                                                    "unimodality", "n_undefined")}
+        kept[key]["peaks"] = {"count": stats["peaks"]["count"]}
+    kept["boundedness"] = entry["boundedness"]
+    kept["curve"] = entry["curve"]
+    return kept
+
+
+def _truth(skeleton, item: StudyInput, evaluate, make_graph) -> dict:
+    topology = skeleton.topology()
+    nodes = skeleton.graph.number_of_nodes()
+    truth = {"skeleton": {**topology, "nodes": nodes}, "chamfer": None, "hausdorff": None,
+             "collapsed": nodes < 3 or skeleton.graph.number_of_edges() == 0,
+             "disconnected": topology["components"] > item.truth["components"]}
+    if "nodes" in item.truth and nodes:
+        scored = evaluate(make_graph(skeleton.nodes_array(), skeleton.edges_array(), "skeleton"),
+                          make_graph(item.truth["nodes"], item.truth["edges"], item.shape))
+        truth.update(chamfer=scored["chamfer"], hausdorff=scored["hausdorff"],
+                     topology_exact=bool(scored["topology"]["matches"]))
+    else:
+        truth["topology_exact"] = all(topology[key] == item.truth[key] for key in ("components", "cycles"))
+    truth["right"] = bool(truth["topology_exact"] and not truth["collapsed"]
+                          and (truth["chamfer"] is None or truth["chamfer"] <= CHAMFER_RIGHT))
+    return truth
+
+
+def _job(args) -> list[dict]:
+    item, settings = args
+    records = [run_one(item, "default")]
+    auto = records[0].get("wl0")
+    for setting in settings:
+        if setting != "default":
+            records.append(run_one(item, setting, auto))
+    return records
+
+
+def run_study(out_dir, points: int = 3000, seeds=(0, 1), settings=tuple(SETTINGS), shapes=None,
+              benchmark: bool = True, jobs: int = 1, progress: Callable[[str], None] | None = print) -> list[dict]:
+    """Run the grid into OUT/runs.jsonl (resuming), then analyse it (skelcore.study_analysis)."""
+    unknown = [s for s in settings if s not in SETTINGS]
+    if unknown:
+        raise ParameterError(f"settings {unknown}: unknown (choose from {', '.join(SETTINGS)})")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    runs_path = out_dir / RUNS_FILE
+    done = load_runs(runs_path)
+    seen = {_record_key(r) for r in done}
+    todo = [(item, [s for s in settings if f"{item.key}|{s}" not in seen])
+            for item in study_inputs(points, seeds, benchmark, shapes)]
+    todo = [(item, left) for item, left in todo if left]
+    if progress:
+        progress(f"study: {len(done)} runs done, {sum(len(left) for _, left in todo)} to go")
+    with runs_path.open("a") as sink:
+        def keep(records):
+            for record in records:
+                if f"{record['shape']}|{record['variant']}|{record['seed']}|{record['setting']}" in seen:
+                    continue
+                sink.write(json.dumps(record) + "\n")
+                done.append(record)
+            sink.flush()
+            if progress:
+                last = records[0]
+                progress(f"{len(done)} runs: {last['shape']} {last['variant']} seed {last['seed']}")
+        if jobs > 1:
+            with ProcessPoolExecutor(jobs) as pool:
+                for records in pool.map(_job, todo):
+                    keep(records)
+        else:
+            for task in todo:
+                keep(_job(task))
+    from .study_analysis import analyse
+
+    return analyse(done, out_dir, progress=progress)
+
+
+def load_runs(path) -> list[dict]:
+    path = Path(path)
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _record_key(record: dict) -> str:
+    return f"{record['shape']}|{record['variant']}|{record['seed']}|{record['setting']}"

@@ -1,0 +1,238 @@
+"""What `skelcore study` measured: how well each statistic and the verdict predict a right skeleton.
+
+Shapes are split in two halves (sorted names, alternately): thresholds are chosen on the calibration half and
+every goal is reported on the held-out half. A run is right when its skeleton's topology is exact and, where
+a centreline exists, its Chamfer distance is at most 1% of the diagonal (skelcore.study.CHAMFER_RIGHT).
+Calibration is a coordinate search over CANDIDATES: it maximises the share of right runs labelled stable
+while "stable" stays right in at least TARGET_PRECISION of the runs it labels and no bad setting, collapsed
+or disconnected skeleton is stable. Writes OUT/study.csv (one row per run), OUT/study.json (the figures and
+thresholds), OUT/thresholds.json and OUT/study.html.
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .metrics import NORMAL_CONVENTIONS
+from .study import BAD_SETTINGS
+from .verdict import LABELS, StabilityThresholds, count_loops, count_pieces, features, judge
+
+TARGET_PRECISION = 0.95  # on the calibration half, for a margin over the goal of 90% on held-out shapes
+CANDIDATES = {
+    "max_peaks": [1, 2, 3, 100],
+    "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
+    "d_theta_tolerance": [0.05, 0.1, 0.15, 0.2, 0.3, 0.5],
+    "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
+    "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
+    "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
+    "min_spread_ratio": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
+    "min_linearity": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
+    "piece_gap": [1.0, 1.5, 2.0, 3.0, 4.0],
+    "loop_birth": [1.0, 1.5, 2.0, 3.0],
+    "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
+}
+# The loosest value of each threshold: a criterion switched off, to measure what it contributes.
+PERMISSIVE = {"max_peaks": 100, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
+              "min_inside_share": 0.0, "max_step_shrink": 1.0, "min_spread_ratio": 0.0, "min_linearity": 0.0}
+CRITERIA_GROUPS = {  # name in the tables -> thresholds switched off (or "skeleton": no skeleton checks)
+    "histogram peaks (paper)": ["max_peaks"], "histogram symmetry (paper)": ["min_symmetry"],
+    "mean D_theta (paper)": ["d_theta_tolerance"], "mean delta_kappa (paper)": ["delta_kappa_tolerance"],
+    "inside the original (paper)": ["min_inside_share"], "one-step collapse (paper's shrinking)": ["max_step_shrink"],
+    "size against the original (added)": ["min_spread_ratio"], "curve-likeness (added)": ["min_linearity"],
+    "skeleton nodes, pieces and loops (added)": "skeleton",
+}
+
+
+def split_of(shape: str, names: list[str]) -> str:
+    """'calibration' or 'held-out': shapes alternate in sorted order."""
+    return "calibration" if sorted(names).index(shape) % 2 == 0 else "held-out"
+
+
+def run_features(record: dict, convention: str, skeleton: bool = True) -> dict:
+    last = record["conventions"][convention][-1]
+    return features(last, record["evidence"] if skeleton else None)
+
+
+def label_runs(records: list[dict], convention: str, thresholds: StabilityThresholds, skeleton: bool = True):
+    return [judge(run_features(r, convention, skeleton), r["iterations"], thresholds)["label"] for r in records]
+
+
+def goals(records: list[dict], labels: list) -> dict:
+    """Precision and recall of "stable", and the runs that must never be stable."""
+    right = np.array([r["truth"]["right"] for r in records], bool)
+    stable = np.array([label == "stable" for label in labels], bool)
+    forbidden = np.array([r["setting"] in BAD_SETTINGS for r in records], bool)
+    broken = np.array([r["truth"]["collapsed"] or r["truth"]["disconnected"] for r in records], bool)
+    confusion = {label or "no verdict": {"right": int(np.sum((np.array(labels, object) == label) & right)),
+                                         "wrong": int(np.sum((np.array(labels, object) == label) & ~right))}
+                 for label in LABELS}
+    return {"runs": len(records), "right_runs": int(right.sum()), "stable": int(stable.sum()),
+            "precision": float((stable & right).sum() / stable.sum()) if stable.any() else None,
+            "recall": float((stable & right).sum() / right.sum()) if right.any() else None,
+            "bad_settings_stable": int((stable & forbidden).sum()),
+            "collapsed_or_disconnected_stable": int((stable & broken).sum()), "confusion": confusion}
+
+
+def _objective(result: dict) -> float:
+    precision = result["precision"] if result["precision"] is not None else 1.0
+    penalty = 10 * max(0.0, TARGET_PRECISION - precision)
+    penalty += result["bad_settings_stable"] + result["collapsed_or_disconnected_stable"]
+    return (result["recall"] or 0.0) - penalty
+
+
+def calibrate(records: list[dict], convention: str, start: StabilityThresholds = StabilityThresholds(),
+              passes: int = 3) -> StabilityThresholds:
+    """Coordinate search over CANDIDATES from `start` on `records` (the calibration half)."""
+    best = start
+    best_score = _objective(goals(records, label_runs(records, convention, best)))
+    for _ in range(passes):
+        improved = False
+        for name, values in CANDIDATES.items():
+            for value in values:
+                trial = dataclasses.replace(best, **{name: value})
+                score = _objective(goals(records, label_runs(records, convention, trial)))
+                # Ties go to the stricter value (the later one in a list that loosens, the earlier one else).
+                if score > best_score + 1e-12:
+                    best, best_score, improved = trial, score, True
+        if not improved:
+            break
+    return best
+
+
+def auc(scores, right) -> tuple[float, float, float] | None:
+    """ROC AUC of `scores` for telling right runs (higher = right) with its 95% interval (Hanley-McNeil)."""
+    scores, right = np.asarray(scores, float), np.asarray(right, bool)
+    keep = np.isfinite(scores)
+    scores, right = scores[keep], right[keep]
+    positives, negatives = int(right.sum()), int((~right).sum())
+    if not positives or not negatives:
+        return None
+    order = np.argsort(scores, kind="mergesort")
+    ranks = np.empty(len(scores))
+    ranks[order] = np.arange(1, len(scores) + 1)
+    for value in np.unique(scores):  # ties share their mean rank
+        tied = scores == value
+        ranks[tied] = ranks[tied].mean()
+    area = (ranks[right].sum() - positives * (positives + 1) / 2) / (positives * negatives)
+    q1, q2 = area / (2 - area), 2 * area ** 2 / (1 + area)
+    se = np.sqrt((area * (1 - area) + (positives - 1) * (q1 - area ** 2) + (negatives - 1) * (q2 - area ** 2))
+                 / (positives * negatives))
+    return float(area), float(max(0.0, area - 1.96 * se)), float(min(1.0, area + 1.96 * se))
+
+
+def statistic_table(record: dict, convention: str) -> dict:
+    """The last iteration's statistics of a run as flat numbers (the columns of study.csv)."""
+    last = record["conventions"][convention][-1]
+    row = {}
+    for key, target in (("d_theta", 0.5), ("delta_kappa", 0.0)):
+        stats = last[key]
+        for name in ("mean", "std", "skewness", "kurtosis", "symmetry", "unimodality"):
+            row[f"{key}_{name}"] = stats[name]
+        row[f"{key}_gap"] = None if stats["mean"] is None else abs(stats["mean"] - target)
+        row[f"{key}_peaks"] = stats["peaks"]["count"]
+    row.update({name: last["boundedness"][name] for name in ("inside_share", "spread_ratio", "growth")})
+    row["linearity"] = last["curve"]["linearity"]
+    return row
+
+
+def skeleton_agreement(record: dict, thresholds: StabilityThresholds) -> float:
+    e = record["evidence"]
+    pieces = e["components"] == count_pieces(e["cloud_gaps"], thresholds) == count_pieces(e["input_gaps"], thresholds)
+    return float(pieces and e["cycles"] == count_loops(e["cloud_loops"], thresholds) and e["nodes"] >= 3)
+
+
+def paper_behaviour(records: list[dict], convention: str) -> dict:
+    """Default runs on clean inputs: how many end within the paper's target (|mean D_theta - 0.5| <= 0.1, one
+    peak, |skewness| <= 0.5) and how many start skewed left (positive skewness at iteration 1) with one peak."""
+    chosen = [r for r in records if r["setting"] == "default" and r["variant"] == "clean" and r["seed"] == 0]
+    final = early = 0
+    for r in chosen:
+        entries = r["conventions"][convention]
+        last, first = entries[-1]["d_theta"], entries[min(1, len(entries) - 1)]["d_theta"]
+        final += bool(last["mean"] is not None and abs(last["mean"] - 0.5) <= 0.1 and last["peaks"]["count"] == 1
+                      and last["skewness"] is not None and abs(last["skewness"]) <= 0.5)
+        early += bool(first["skewness"] is not None and first["skewness"] > 0 and first["peaks"]["count"] == 1)
+    means = [r["conventions"][convention][-1]["d_theta"]["mean"] for r in chosen]
+    return {"runs": len(chosen), "within_target_at_end": final, "skewed_left_unimodal_at_first": early,
+            "final_mean_range": [min(means), max(means)] if means else None}
+
+
+def analyse(records: list[dict], out_dir, progress=print) -> dict:
+    """The study's figures from its runs; writes study.csv, study.json, thresholds.json and study.html."""
+    from .study_page import write_page
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    failed = [r for r in records if "error" in r]
+    records = [r for r in records if "error" not in r]
+    names = sorted({r["shape"] for r in records})
+    halves = {half: [r for r in records if split_of(r["shape"], names) == half] for half in ("calibration", "held-out")}
+    summary = {"runs": len(records), "failed_runs": [{k: r[k] for k in ("shape", "variant", "seed", "setting", "error")}
+                                                       for r in failed],
+               "shapes": {half: sorted({r["shape"] for r in rs}) for half, rs in halves.items()},
+               "right_share": float(np.mean([r["truth"]["right"] for r in records])) if records else None,
+               "conventions": {}}
+    right = [r["truth"]["right"] for r in records]
+    for convention in NORMAL_CONVENTIONS:
+        if progress:
+            progress(f"calibrating the {convention} convention")
+        fitted = calibrate(halves["calibration"], convention)
+        rows = [statistic_table(r, convention) for r in records]
+        aucs = {name: auc([row[name] if row[name] is not None else np.nan for row in rows], right)
+                for name in rows[0]} if rows else {}
+        aucs["skeleton agreement"] = auc([skeleton_agreement(r, fitted) for r in records], right)
+        entry = {"thresholds": dataclasses.asdict(fitted), "auc": aucs, "paper": paper_behaviour(records, convention),
+                 "shipped": {half: goals(rs, label_runs(rs, convention, StabilityThresholds()))
+                             for half, rs in halves.items()},
+                 "calibrated": {half: goals(rs, label_runs(rs, convention, fitted)) for half, rs in halves.items()}}
+        entry["contributions"] = contributions(halves["held-out"], convention, fitted)
+        summary["conventions"][convention] = entry
+    _write_csv(out_dir / "study.csv", records, names)
+    (out_dir / "study.json").write_text(json.dumps(summary, indent=1))
+    (out_dir / "thresholds.json").write_text(json.dumps(
+        {c: summary["conventions"][c]["thresholds"] for c in NORMAL_CONVENTIONS}, indent=1))
+    write_page(out_dir / "study.html", records, summary)
+    if progress:
+        for convention, entry in summary["conventions"].items():
+            held = entry["calibrated"]["held-out"]
+            progress(f"{convention}: held-out precision {held['precision']}, recall {held['recall']}, "
+                     f"bad settings stable {held['bad_settings_stable']}, "
+                     f"collapsed/disconnected stable {held['collapsed_or_disconnected_stable']}")
+        progress(f"wrote {out_dir / 'study.html'}")
+    return summary
+
+
+def contributions(records: list[dict], convention: str, thresholds: StabilityThresholds) -> dict:
+    """Held-out goals with each criterion group switched off in turn: what each one contributes."""
+    result = {}
+    for name, switched in CRITERIA_GROUPS.items():
+        if switched == "skeleton":
+            labels = label_runs(records, convention, thresholds, skeleton=False)
+        else:
+            labels = label_runs(records, convention, dataclasses.replace(thresholds, **{k: PERMISSIVE[k] for k in switched}))
+        result[name] = goals(records, labels)
+    return result
+
+
+def _write_csv(path: Path, records: list[dict], names: list[str]) -> None:
+    columns = None
+    with path.open("w", newline="") as handle:
+        for r in records:
+            row = {"shape": r["shape"], "source": r["source"], "variant": r["variant"], "seed": r["seed"],
+                   "setting": r["setting"], "half": split_of(r["shape"], names), "iterations": r["iterations"],
+                   "termination": r["termination"], "right": r["truth"]["right"],
+                   "topology_exact": r["truth"]["topology_exact"], "chamfer": r["truth"]["chamfer"],
+                   "hausdorff": r["truth"]["hausdorff"], "collapsed": r["truth"]["collapsed"],
+                   "disconnected": r["truth"]["disconnected"], **{f"skeleton_{k}": v for k, v in r["truth"]["skeleton"].items()}}
+            for convention in NORMAL_CONVENTIONS:
+                row.update({f"{convention}_{k}": v for k, v in statistic_table(r, convention).items()})
+                row[f"{convention}_verdict"] = judge(run_features(r, convention), r["iterations"])["label"]
+            if columns is None:
+                columns = list(row)
+                writer = csv.DictWriter(handle, columns)
+                writer.writeheader()
+            writer.writerow(row)

@@ -1,0 +1,223 @@
+"""The stability verdict: the paper's criteria and the checks added to them, each with its threshold and value.
+
+A verdict judges one iteration k >= 1 (iteration 0 is the input: nothing has happened, so it has none) from
+plain figures of that iteration (`features`): the statistics of the D_theta and delta_kappa histograms,
+boundedness and size of the cloud, how curve-like it is, and, once a curve skeleton of that iteration
+exists, how its pieces and loops agree with those the clouds hold (skelcore.persistence). Every criterion
+is reported with its value, its threshold and whether it passed, in plain words; a failed "unstable"
+criterion makes the iteration unstable, a failed "not yet converged" one makes it not yet converged, and an
+iteration that passes every criterion is stable.
+
+Criteria beyond the paper's, each added because the paper's alone could not tell right skeletons from wrong
+ones in `skelcore study` (its report gives the figures):
+- size: a cloud pulled to a small share of its spread in total (W_L0 x100) has histograms like a good
+  finished run; only its size shows it;
+- curve-likeness: the paper judges the change of the surface, not whether the cloud has become a curve; a
+  run stopped early has bell-shaped histograms but a surface-like cloud;
+- skeleton pieces and loops: most wrong skeletons are made in the graph step, which the contraction's
+  statistics cannot see: a skeleton must hold as many pieces as the input and the contracted cloud, as many
+  loops as the contracted cloud, and more than a couple of nodes.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .errors import InputError, ParameterError
+
+LABELS = ("stable", "not yet converged", "unstable")
+
+
+@dataclass(frozen=True)
+class StabilityThresholds:
+    """What the verdict demands; fractions are of the number of points, of the original spread or diagonal;
+    lengths of the skeleton checks are multiples of the skeleton's sample radius.
+
+    Calibrated by `skelcore study` (see its README section): the thresholds marked "study" were chosen on
+    half of the study's shapes to make "stable" right in at least 90% of the runs it labels while labelling
+    as many right runs as possible, and reported on the other half; the others are the paper's (peak rule)
+    or physical (surface band)."""
+    peak_drop: float = 0.02  # paper: a peak counts if the frequency falls by this share of the points on both sides
+    max_peaks: int = 1  # paper: more significant peaks than this in either histogram: unstable
+    min_symmetry: float = 0.8  # study: quantile symmetry below this: not yet converged
+    d_theta_target: float = 0.5  # paper
+    d_theta_tolerance: float = 0.1  # study: |mean D_theta - target| above this: not yet converged
+    delta_kappa_tolerance: float = 0.05  # study: |mean delta_kappa| above this: not yet converged
+    min_inside_share: float = 0.9  # study: fewer points inside the original shape: unstable
+    surface_tolerance: float = 0.01  # band around the surface that counts as inside (fraction of the diagonal)
+    shrink_tolerance: float = 0.01  # relative growth of the RMS spread per iteration that still counts as shrinking
+    max_step_shrink: float = 0.5  # study: a larger fall of the spread in one iteration is a collapse: unstable
+    min_spread_ratio: float = 0.5  # study: spread below this share of the original's: collapsed, unstable
+    min_linearity: float = 0.8  # study: median local linearity below this: not yet a curve, not yet converged
+    min_skeleton_nodes: int = 3  # fewer skeleton nodes: a collapsed skeleton, unstable
+    piece_gap: float = 2.0  # study: pieces of a cloud are apart when a gap wider than this many radii parts them
+    loop_birth: float = 2.0  # study: a loop of the contracted cloud is traced with gaps below this many radii
+    loop_death: float = 4.0  # study: ... and its hole is wider than this many radii
+
+    def validated(self) -> "StabilityThresholds":
+        for name, value in asdict(self).items():
+            if not np.isfinite(value) or value < 0:
+                raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
+        if (not 0 < self.peak_drop < 1 or not 0 <= self.min_inside_share <= 1 or self.max_peaks < 1
+                or self.max_step_shrink > 1 or self.min_spread_ratio > 1 or self.min_linearity > 1):
+            raise ParameterError("thresholds: need 0 < peak_drop < 1, 0 <= min_inside_share <= 1, max_peaks >= 1, "
+                                 "max_step_shrink <= 1, min_spread_ratio <= 1, min_linearity <= 1")
+        return self
+
+
+def features(entry: dict, skeleton: dict | None = None) -> dict:
+    """The flat figures a verdict reads, from one iteration's metrics dict (IterationMetrics.to_dict()) and,
+    when known, the skeleton evidence of that iteration (skelcore.pipeline.skeleton_evidence)."""
+    try:
+        d, k, bounded = entry["d_theta"], entry["delta_kappa"], entry["boundedness"]
+        values = {"d_theta_mean": d["mean"], "d_theta_peaks": d["peaks"]["count"], "d_theta_symmetry": d["symmetry"],
+                  "delta_kappa_mean": k["mean"], "delta_kappa_peaks": k["peaks"]["count"],
+                  "delta_kappa_symmetry": k["symmetry"], "inside_share": bounded["inside_share"],
+                  "growth": bounded["growth"], "spread_ratio": bounded["spread_ratio"],
+                  "linearity": entry.get("curve", {}).get("linearity")}
+    except (KeyError, TypeError):
+        raise InputError("metrics entry: lacks the d_theta, delta_kappa or boundedness statistics") from None
+    if skeleton is not None:
+        values.update({f"skeleton_{key}": value for key, value in skeleton.items()})
+    return values
+
+
+def count_pieces(gaps, thresholds: StabilityThresholds) -> int:
+    """Pieces of a cloud: one, and one more per gap wider than piece_gap radii."""
+    return 1 + int(np.sum(np.asarray(gaps, dtype=float) > thresholds.piece_gap))
+
+
+def count_loops(loops, thresholds: StabilityThresholds) -> int:
+    """Loops of a cloud: traced with gaps below loop_birth radii, a hole wider than loop_death radii."""
+    loops = np.asarray(loops, dtype=float).reshape(-1, 2)
+    return int(np.sum((loops[:, 0] <= thresholds.loop_birth) & (loops[:, 1] > thresholds.loop_death)))
+
+
+def judge(values: dict, iteration: int, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
+    """{"label", "iteration", "criteria", "reasons"} of one iteration from its `features`.
+
+    criteria: one dict per criterion {"name", "value", "threshold", "passed", "severity", "text"}; reasons:
+    the texts of the failed ones (or of the pass). Iteration 0 gets label None: nothing to judge yet.
+    """
+    if iteration == 0:
+        return {"label": None, "iteration": 0, "criteria": [],
+                "reasons": ["iteration 0 is the input: nothing has happened yet, so there is no verdict"]}
+    criteria = [c for c in _criteria(values, thresholds) if c is not None]
+    failed = [c for c in criteria if c["passed"] is False]
+    if any(c["severity"] == "unstable" for c in failed):
+        label = "unstable"
+    elif failed:
+        label = "not yet converged"
+    else:
+        label = "stable"
+    reasons = [c["text"] for c in failed] or ["every criterion passed"]
+    return {"label": label, "iteration": int(iteration), "criteria": criteria, "reasons": reasons}
+
+
+def _criterion(name: str, passed: bool | None, severity: str, value: str, threshold: str) -> dict:
+    verdict = "n/a" if passed is None else ("pass" if passed else "fail")
+    return {"name": name, "value": value, "threshold": threshold, "passed": passed, "severity": severity,
+            "text": f"{name}: {value} ({threshold}): {verdict}"}
+
+
+def _criteria(v: dict, t: StabilityThresholds):
+    for label, key in (("D_theta", "d_theta"), ("delta_kappa", "delta_kappa")):
+        peaks = v[f"{key}_peaks"]
+        yield _criterion(f"{label} peaks", peaks <= t.max_peaks, "unstable", f"{peaks}",
+                         f"at most {t.max_peaks}, each {100 * t.peak_drop:g}% of the points above its sides")
+    for label, key, target, tolerance in (("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance),
+                                          ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance)):
+        mean, symmetry = v[f"{key}_mean"], v[f"{key}_symmetry"]
+        if mean is None:
+            yield _criterion(f"mean {label}", False, "not yet converged", "undefined at every point",
+                             f"target {target:g}")
+            continue
+        yield _criterion(f"mean {label}", abs(mean - target) <= tolerance, "not yet converged", f"{mean:.2f}",
+                         f"target {target:g} within {tolerance:g}")
+        yield _criterion(f"{label} symmetry", symmetry >= t.min_symmetry, "not yet converged", f"{symmetry:.2f}",
+                         f"at least {t.min_symmetry:g}")
+    yield _criterion("points inside the original", v["inside_share"] >= t.min_inside_share, "unstable",
+                     f"{100 * v['inside_share']:.1f}%", f"at least {100 * t.min_inside_share:g}%")
+    growth = v["growth"]
+    yield _criterion("spread change in this iteration", -t.max_step_shrink <= growth <= t.shrink_tolerance, "unstable",
+                     f"{100 * growth:+.1f}%", f"between -{100 * t.max_step_shrink:g}% and +{100 * t.shrink_tolerance:g}%")
+    yield _criterion("spread against the original", v["spread_ratio"] >= t.min_spread_ratio, "unstable",
+                     f"{100 * v['spread_ratio']:.0f}%", f"at least {100 * t.min_spread_ratio:g}%")
+    if v.get("linearity") is not None:
+        yield _criterion("curve-likeness (median local linearity)", v["linearity"] >= t.min_linearity,
+                         "not yet converged", f"{v['linearity']:.2f}", f"at least {t.min_linearity:g}")
+    if "skeleton_nodes" not in v:
+        return
+    nodes = v["skeleton_nodes"]
+    yield _criterion("skeleton nodes", nodes >= t.min_skeleton_nodes, "unstable", f"{nodes}",
+                     f"at least {t.min_skeleton_nodes}")
+    held, given = count_pieces(v["skeleton_cloud_gaps"], t), count_pieces(v["skeleton_input_gaps"], t)
+    pieces = v["skeleton_components"]
+    yield _criterion("skeleton pieces", pieces == held == given, "unstable", f"{pieces}",
+                     f"as many as the contracted cloud ({held}) and the input ({given})")
+    loops = count_loops(v["skeleton_cloud_loops"], t)
+    yield _criterion("skeleton loops", v["skeleton_cycles"] == loops, "unstable", f"{v['skeleton_cycles']}",
+                     f"as many as the contracted cloud holds ({loops})")
+
+
+def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
+    """Means of D_theta (against its target) and delta_kappa (against 0) across iterations, JSON-ready.
+
+    Per measure: the means, their gaps to the target, and "progress", the share of the gap closed from
+    the first iteration after the input to the last (None with fewer than two such iterations).
+    """
+    entries = entries_of(iterations)
+    steps = [e["iteration"] for e in entries]
+    result = {"iteration": steps}
+    for key, target in (("d_theta", thresholds.d_theta_target), ("delta_kappa", 0.0)):
+        means = [e[key]["mean"] for e in entries]
+        gaps = [None if m is None else abs(m - target) for m in means]
+        later = [g for step, g in zip(steps, gaps) if step > 0 and g is not None]
+        progress = None
+        if len(later) >= 2:
+            progress = 1.0 if later[0] == 0 and later[-1] == 0 else (later[0] - later[-1]) / max(later[0], 1e-12)
+        result.update({f"{key}_mean": means, f"{key}_gap": gaps, f"{key}_progress": progress})
+    return result
+
+
+def run_verdict(iterations, skeleton: dict | None = None,
+                thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
+    """Verdict of a run: that of its last iteration, with the skeleton checks when `skeleton` (the evidence
+    of the skeleton of that iteration) is given. `iterations`: IterationMetrics or their to_dict() entries.
+    Also lists each iteration's own label (without skeleton checks) and the convergence of the means."""
+    entries = entries_of(iterations)
+    if not entries:
+        raise InputError("run verdict: no iterations")
+    last = entries[-1]
+    verdict = judge(features(last, skeleton), last["iteration"], thresholds)
+    verdict["iterations"] = [{"iteration": e["iteration"], "label": e["verdict"]["label"]} for e in entries]
+    verdict["convergence"] = convergence(entries, thresholds)
+    return verdict
+
+
+def explanation_markdown(verdict: dict) -> str:
+    """A markdown table of a verdict: each criterion, its threshold, this iteration's value, pass or fail."""
+    if verdict.get("label") is None:
+        return "**No verdict.** " + " ".join(verdict.get("reasons", []))
+    lines = [f"**Iteration {verdict['iteration']}: {verdict['label']}**", "",
+             "| criterion | value | threshold | result |", "|---|---|---|---|"]
+    for c in verdict.get("criteria", []):
+        result = "n/a" if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
+        lines.append(f"| {c['name']} | {c['value']} | {c['threshold']} | {result} |")
+    return "\n".join(lines)
+
+
+def entries_of(iterations) -> list[dict]:
+    """Metrics dicts with "iteration" from IterationMetrics or their to_dict() entries (position = iteration
+    when a dict lacks it)."""
+    entries = []
+    for position, item in enumerate(iterations):
+        if hasattr(item, "to_dict") and hasattr(item, "iteration"):
+            entries.append({"iteration": item.iteration, **item.to_dict()})
+        elif isinstance(item, dict) and {"d_theta", "delta_kappa", "boundedness", "verdict"} <= item.keys():
+            entries.append({"iteration": item.get("iteration", position), **item})
+        else:
+            raise InputError(f"iterations[{position}]: neither IterationMetrics nor a metrics dict with "
+                             "d_theta, delta_kappa, boundedness and verdict")
+    return entries
