@@ -18,6 +18,7 @@ from skelcore import report
 from skelcore.errors import InputError, ParameterError
 from skelcore.io import FORMATS as INPUT_FORMATS, load, load_bytes
 from skelcore.params import METHODS
+from skelcore.verdict import explanation_markdown
 
 from . import export
 from .scene import COLOUR_RANGES, SceneView, colour_values, legend_html
@@ -361,7 +362,7 @@ class Inspector:
             return
         with self.server.atomic():
             self.hist_theta.figure, self.hist_kappa.figure, self.convergence.figure = figures
-            self.verdict.content = report.verdict_text(verdict)
+            self.verdict.content = explanation_markdown(verdict)
             self.view.set_colours((run, index), colours, self.colour_by)
         self.server.flush()
         self._mark("plots", run, index)
@@ -373,6 +374,11 @@ class Inspector:
             self.view.show_skeleton(skeleton.nodes_array(), skeleton.edges_array(), skeleton.degrees())
             self.server.flush()
             self._mark("skeleton", run, index)
+        # The skeleton's own checks complete the verdict once it exists.
+        verdict = self.session.verdict(index, run, with_skeleton=index > 0)
+        if self._current(run, index):
+            self.verdict.content = explanation_markdown(verdict)
+            self.server.flush()
 
     # ------------------------------------------------------------------ panels
     def _update_status(self) -> None:

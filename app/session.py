@@ -31,6 +31,7 @@ class Run:
     start_params: ContractionParams
     history: list[IterationState]
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
+    evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
 
 
@@ -138,8 +139,17 @@ class Session:
     def metrics(self, index: int, run: Run | None = None) -> IterationMetrics:
         return self.metrics_upto(index, run)[-1]
 
-    def verdict(self, index: int, run: Run | None = None) -> dict:
-        return run_verdict(self.metrics_upto(index, run))
+    def verdict(self, index: int, run: Run | None = None, with_skeleton: bool = False) -> dict:
+        """The verdict on history[index]; with_skeleton: also its skeleton checks (computes the skeleton)."""
+        run = run or self.run
+        evidence = None
+        if with_skeleton:
+            key = (index, self.skeleton_params)
+            if key not in run.evidence:
+                run.evidence[key] = pipeline.skeleton_evidence(self.skeleton(index, run), run.history[index],
+                                                               run.cloud.points)
+            evidence = run.evidence[key]
+        return run_verdict(self.metrics_upto(index, run), evidence)
 
     def write_results(self, index: int, out_dir: Path) -> None:
         """The files of `skelcore run` (skeleton.json/.ply, contracted.ply, metrics.json, params.json)

@@ -155,10 +155,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--out", required=True, help="output folder: runs.jsonl (resumable), study.csv, study.json, "
                                                     "thresholds.json, study.html")
     study.add_argument("--points", type=int, default=3000, help="points per cloud (default: %(default)s)")
-    study.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="sampling seeds (default: %(default)s)")
+    study.add_argument("--seeds", type=int, nargs="+", default=[0], help="sampling seeds (default: %(default)s)")
     study.add_argument("--settings", nargs="+", default=list(SETTINGS), metavar="SETTING",
                        help=f"parameter settings, of: {'; '.join(SETTINGS)} (default: all)")
-    study.add_argument("--shapes", nargs="+", default=None, metavar="NAME", help="synthetic shapes (default: all)")
+    study.add_argument("--shapes", nargs="+", default=None, metavar="NAME", help="synthetic or benchmark shapes (default: all)")
     study.add_argument("--no-benchmark", action="store_true", help="leave out the real-shape benchmark")
     study.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")
     study.set_defaults(handler=_study)

@@ -70,12 +70,13 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
     return extract_skeleton(state.points[state.owner], original, ring_edges, params)
 
 
-def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray) -> dict:
+def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None) -> dict:
     """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the gaps and loops
-    of the contracted cloud and the gaps of the input, in multiples of the skeleton's sample radius."""
+    of the contracted cloud and the gaps of the input, in multiples of the skeleton's sample radius.
+    source: persistence_summary of `original` at that radius, when already known."""
     topology = skeleton.topology()
     cloud = persistence_summary(state.points, skeleton.radius)
-    source = persistence_summary(original, skeleton.radius)
+    source = source or persistence_summary(original, skeleton.radius)
     return {"nodes": skeleton.graph.number_of_nodes(), "components": topology["components"],
             "cycles": topology["cycles"], "cloud_gaps": cloud["gaps"], "cloud_loops": cloud["loops"],
             "input_gaps": source["gaps"]}

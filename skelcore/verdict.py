@@ -66,6 +66,16 @@ class StabilityThresholds:
         return self
 
 
+# What `skelcore study` measured for the shipped thresholds on the shapes held out from their calibration
+# (README, "The stability verdict"); the report states it beside every verdict.
+PREDICTIVE_POWER = {
+    "command": "skelcore study --out study --jobs 2",
+    "runs": 0, "right_runs": 0, "stable": 0, "precision": None, "recall": None,
+    "bad_settings_stable": 0, "collapsed_or_disconnected_stable": 0,
+    "best_statistics": [],  # (name, ROC AUC) of the last iteration's statistics, over all runs
+}
+
+
 def features(entry: dict, skeleton: dict | None = None) -> dict:
     """The flat figures a verdict reads, from one iteration's metrics dict (IterationMetrics.to_dict()) and,
     when known, the skeleton evidence of that iteration (skelcore.pipeline.skeleton_evidence)."""

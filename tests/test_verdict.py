@@ -1,0 +1,85 @@
+"""The verdict: no verdict at iteration 0, the iteration named, plain values, skeleton checks, explanation."""
+import numpy as np
+import pytest
+
+from skelcore.errors import InputError, ParameterError
+from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, explanation_markdown, features, judge,
+                              run_verdict)
+
+
+def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.1, spread=0.9, linear=0.95,
+          iteration=3):
+    stats = lambda mean: {"mean": mean, "peaks": {"count": peaks}, "symmetry": symmetry}
+    return {"iteration": iteration, "d_theta": stats(d_mean), "delta_kappa": stats(k_mean),
+            "boundedness": {"inside_share": inside, "growth": growth, "spread_ratio": spread},
+            "curve": {"linearity": linear}, "verdict": {"label": "stable"}}
+
+
+def evidence(nodes=40, components=1, cycles=1, loops=((0.3, 25.0),), cloud_gaps=(0.5,), input_gaps=(0.8,)):
+    return {"nodes": nodes, "components": components, "cycles": cycles, "cloud_gaps": list(cloud_gaps),
+            "cloud_loops": [list(loop) for loop in loops], "input_gaps": list(input_gaps)}
+
+
+def test_iteration_zero_has_no_verdict_and_later_ones_name_their_iteration():
+    assert judge(features(entry()), 0)["label"] is None
+    verdict = judge(features(entry()), 4)
+    assert verdict["label"] == "stable" and verdict["iteration"] == 4
+    assert "No verdict" in explanation_markdown(judge(features(entry()), 0))
+
+
+def test_values_are_stated_plainly():
+    verdict = judge(features(entry(d_mean=0.26)), 2)
+    assert verdict["label"] == "not yet converged"
+    assert "mean D_theta: 0.26 (target 0.5 within 0.1): fail" in verdict["reasons"]
+    table = explanation_markdown(verdict)
+    assert "| mean D_theta | 0.26 | target 0.5 within 0.1 | **fail** (not yet converged) |" in table
+    assert table.startswith("**Iteration 2: not yet converged**")
+
+
+@pytest.mark.parametrize("change, label", [
+    ({"peaks": 2}, "unstable"), ({"inside": 0.5}, "unstable"), ({"growth": 0.2}, "unstable"),
+    ({"growth": -0.9}, "unstable"), ({"spread": 0.1}, "unstable"), ({"linear": 0.3}, "not yet converged"),
+    ({"symmetry": 0.3}, "not yet converged"), ({"k_mean": 0.3}, "not yet converged"),
+])
+def test_each_criterion_decides(change, label):
+    assert judge(features(entry(**change)), 1)["label"] == label
+
+
+@pytest.mark.parametrize("change", [
+    {"nodes": 2, "cycles": 0, "loops": ()},  # collapsed
+    {"components": 2},  # disconnected
+    {"cycles": 0},  # a loop the contracted cloud holds, lost
+    {"loops": ()},  # a loop the cloud does not hold, invented
+    {"input_gaps": (5.0,)},  # the input has two pieces, the skeleton one
+])
+def test_skeleton_checks_make_wrong_skeletons_unstable(change):
+    assert judge(features(entry(), evidence()), 3)["label"] == "stable"
+    verdict = judge(features(entry(), evidence(**change)), 3)
+    assert verdict["label"] == "unstable", verdict["reasons"]
+
+
+def test_counts_of_pieces_and_loops():
+    t = StabilityThresholds(piece_gap=2.0, loop_birth=2.0, loop_death=4.0)
+    assert count_pieces([], t) == 1 and count_pieces([5.0, 2.5, 1.0], t) == 3
+    assert count_loops([[0.3, 25.0], [0.2, 0.5], [12.0, 20.0]], t) == 1
+    assert count_loops([], t) == 0
+
+
+def test_run_verdict_judges_the_last_iteration():
+    history = [entry(iteration=0), entry(d_mean=0.1, iteration=1), entry(iteration=2)]
+    history[0]["verdict"] = {"label": None}
+    verdict = run_verdict(history, evidence())
+    assert verdict["label"] == "stable" and verdict["iteration"] == 2
+    assert [i["iteration"] for i in verdict["iterations"]] == [0, 1, 2]
+    assert run_verdict(history[:1])["label"] is None
+    with pytest.raises(InputError):
+        run_verdict([])
+    with pytest.raises(InputError, match="iterations"):
+        run_verdict([{"d_theta": {}}])
+
+
+def test_thresholds_are_checked():
+    with pytest.raises(ParameterError, match="min_spread_ratio"):
+        StabilityThresholds(min_spread_ratio=1.5).validated()
+    with pytest.raises(ParameterError):
+        StabilityThresholds(piece_gap=np.nan).validated()
