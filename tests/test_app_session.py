@@ -73,6 +73,10 @@ def test_metrics_and_skeletons_are_computed_once(session):
     assert [m.iteration for m in metrics] == [0, 1, 2]
     assert session.metrics(1) is metrics[1]
     assert session.verdict(2)["label"] in ("stable", "not yet converged", "unstable")
+    assert session.verdict(0)["label"] is None  # nothing has happened at iteration 0
+    judged = session.verdict(2, with_skeleton=True)
+    assert judged["iteration"] == 2 and "skeleton loops" in {c["name"] for c in judged["criteria"]}
+    assert "skeleton loops" not in {c["name"] for c in session.verdict(2)["criteria"]}
     skeleton = session.skeleton(2)
     assert session.skeleton(2) is skeleton
     session.set_skeleton_params(SkeletonParams(sample_radius=0.05))

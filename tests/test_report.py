@@ -11,7 +11,8 @@ import pytest
 from skelcore import report
 from skelcore.cli import main
 from skelcore.errors import SkelError
-from skelcore.metrics import MetricsReference, run_verdict
+from skelcore.metrics import MetricsReference
+from skelcore.verdict import run_verdict
 from skelcore.shapes import make_shape
 
 
@@ -187,7 +188,7 @@ def test_figure_builders_take_objects_and_dicts(history):
     convergence = report.convergence_figure(metrics)
     assert list(convergence.data[0].x) == [0, 1, 2, 3]
     assert len(report.histograms_over_iterations_figure(metrics, "delta_kappa").data) == 4
-    assert "**Verdict:" in report.verdict_text(run_verdict(metrics))
+    assert "**Verdict on iteration 3:" in report.verdict_text(run_verdict(metrics))
     values = report.per_point_values(final, "delta_kappa")
     assert values.shape == (len(final.delta_kappa),)
     assert "Plotly.newPlot" in report.histograms_html(final, iteration=3)
@@ -199,3 +200,12 @@ def test_skelcore_does_not_import_plotly():
     code = "import sys, skelcore.metrics, skelcore.report, skelcore.cli; print('plotly' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "False"
+
+
+def test_report_states_the_measured_predictive_power():
+    power = {"command": "skelcore study --out s", "runs": 120, "right_runs": 70, "stable": 40, "precision": 0.95,
+             "recall": 0.54, "bad_settings_stable": 0, "collapsed_or_disconnected_stable": 0,
+             "best_statistics": [["inside_share", 0.63]]}
+    text = report.predictive_power_html(power)
+    assert "right in 95% of the 40 runs it labelled" in text and "labelled 54% of the right runs" in text
+    assert "inside_share 0.63" in text
