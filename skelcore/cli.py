@@ -8,8 +8,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .clean import CleaningParams
 from .errors import SkelError
 from .params import ContractionParams
+from .skeleton import SkeletonParams
 
 EXIT_INPUT = 2
 
@@ -40,13 +42,18 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--gl-merge-share", type=float, default=defaults.gl_merge_share,
                        help="glskeleton: the largest share of points that may be absorbed in one step (1: the "
                             "authors' unlimited rule) (default: %(default)s)")
-    group.add_argument("--sample-radius", type=float, default=0.02,
+    group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
                        help="skeleton sample radius, a fraction of the bounding-box diagonal (default: %(default)s)")
     group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
+    group.add_argument("--no-outlier-removal", action="store_true",
+                       help="keep points far from their neighbours (removed by default: statistical outliers)")
+    group.add_argument("--no-stray-removal", action="store_true",
+                       help="keep small pieces apart from the object (removed by default: pieces under "
+                            f"{CleaningParams.min_piece_share * 100:g}%% of the points)")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
@@ -59,8 +66,9 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 def run_options(args: argparse.Namespace):
     from .pipeline import RunOptions
 
+    cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal)
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points)
+                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning)
 
 
 def build_parser() -> argparse.ArgumentParser:

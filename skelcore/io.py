@@ -26,6 +26,7 @@ class Cloud:
     faces: np.ndarray | None = None  # (m,3) int64 into points, when the file is a mesh
     name: str = "cloud"
     notes: list[str] = field(default_factory=list)
+    cleaning: dict | None = None  # what skelcore.clean removed before contraction (counts), once it ran
 
 
 def load(path, *, sample: int | None = None, voxel_size: float | None = None,

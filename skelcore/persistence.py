@@ -2,27 +2,30 @@
 
 The contraction statistics cannot see the graph step, where most wrong skeletons are made (a loop cut or
 invented, a piece split off, a collapse to a point). A cloud's pieces and loops at the skeleton's own scale
-are what its skeleton should have: an alpha complex (gudhi) of the cloud gives, for every piece (H0) and
-loop (H1), the scale at which it appears and the one at which it is filled in. Scales here are distances
-(gudhi's alpha values are squared radii; a gap of length g closes at alpha = (g/2)^2). How those figures
-become counts (which gap splits a piece, which loop is real) is the verdict's to decide (see
-skelcore.verdict.count_pieces and count_loops).
+are what its skeleton should have. An alpha complex (gudhi) of the cloud gives both:
+- pieces: the points joined by chains of steps no longer than a gap g (single linkage, the complex's edges
+  up to alpha = (g/2)^2), counted for each gap of PIECE_GAPS, leaving out pieces holding less than
+  MIN_PIECE_SHARE of the points (stray points are no piece of the object);
+- loops: every 1-cycle with the scale at which it appears (its widest gap) and the one at which its hole
+  fills in (the diameter of the widest ball the hole holds).
+Lengths are multiples of `unit` (the skeleton's sample radius). Which loops and gaps count is the verdict's
+to decide (skelcore.verdict.count_pieces and count_loops).
 """
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 MAX_POINTS = 3000  # the complex is built on at most this many points (fixed random sample)
-MAX_FEATURES = 12  # the widest gaps and longest-lived loops kept
+MAX_LOOPS = 12  # the longest-lived loops kept
+PIECE_GAPS = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)  # in units
+MIN_PIECE_SHARE = 0.01  # a piece holds at least this share of the points
 
 
 def persistence_summary(points: np.ndarray, unit: float, seed: int = 0) -> dict:
-    """{"gaps": widest gaps between pieces, "loops": [[birth, death], ...] of the longest-lived loops},
-    lengths in multiples of `unit` (e.g. the skeleton's sample radius), JSON-ready.
-
-    A loop's birth is the widest gap along it (the points trace it without gaps below that), its death the
-    diameter of the widest ball its hole holds; a gap is the distance at which a piece joins the rest.
-    """
+    """{"pieces": {gap: count} for each gap of PIECE_GAPS, "loops": [[birth, death], ...] of the
+    longest-lived loops}, lengths in multiples of `unit`, JSON-ready (gaps as strings)."""
     import gudhi
 
     points = np.asarray(points, dtype=float)
@@ -32,12 +35,20 @@ def persistence_summary(points: np.ndarray, unit: float, seed: int = 0) -> dict:
     _, first = np.unique(np.round(points / max(unit * 1e-3, 1e-300)), axis=0, return_index=True)
     points = points[np.sort(first)]
     if len(points) < 4:
-        return {"gaps": [], "loops": []}
+        return {"pieces": {f"{gap:g}": 1 for gap in PIECE_GAPS}, "loops": []}
     tree = gudhi.AlphaComplex(points=points).create_simplex_tree()
     tree.compute_persistence()
     to_length = lambda alpha: 2.0 * np.sqrt(np.maximum(alpha, 0.0)) / unit
-    pieces = tree.persistence_intervals_in_dimension(0)
-    gaps = np.sort(to_length(pieces[np.isfinite(pieces[:, 1]), 1]))[::-1][:MAX_FEATURES] if len(pieces) else []
     loops = tree.persistence_intervals_in_dimension(1)
-    loops = to_length(loops[np.argsort(loops[:, 0] - loops[:, 1])][:MAX_FEATURES]) if len(loops) else np.zeros((0, 2))
-    return {"gaps": [round(float(g), 4) for g in gaps], "loops": [[round(float(b), 4), round(float(d), 4)] for b, d in loops]}
+    loops = to_length(loops[np.argsort(loops[:, 0] - loops[:, 1])][:MAX_LOOPS]) if len(loops) else np.zeros((0, 2))
+    edges = [(simplex, value) for simplex, value in tree.get_skeleton(1) if len(simplex) == 2]
+    pairs = np.array([simplex for simplex, _ in edges], dtype=np.int64).reshape(-1, 2)
+    lengths = to_length(np.array([value for _, value in edges], dtype=float))
+    pieces = {}
+    for gap in PIECE_GAPS:
+        joined = pairs[lengths <= gap]
+        graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(len(points),) * 2)
+        _, labels = connected_components(graph, directed=False)
+        sizes = np.bincount(labels)
+        pieces[f"{gap:g}"] = max(1, int(np.sum(sizes >= MIN_PIECE_SHARE * len(points))))
+    return {"pieces": pieces, "loops": [[round(float(b), 4), round(float(d), 4)] for b, d in loops]}

@@ -20,6 +20,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from .clean import CleaningParams, clean
 from .errors import ParameterError
 from .metrics import NORMAL_CONVENTIONS, MetricsReference
 from .params import ContractionParams
@@ -113,23 +114,26 @@ def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None, cache
     from .evaluate import evaluate, make_graph
     from .pipeline import METRICS_K, RunOptions, skeleton_evidence, skeleton_of_state
 
+    cache = {} if cache is None else cache
+    if "points" not in cache:  # cleaned as `skelcore run` cleans its input
+        cache["points"] = item.points[clean(item.points, CleaningParams()).kept]
+    points = cache["points"]
     changes, multiplier = SETTINGS[setting]
     params = ContractionParams(**changes)
     if multiplier is not None:
         params = params.replace(wl0=multiplier * auto_wl0)
     started = time.perf_counter()
     record = {"shape": item.shape, "source": item.source, "variant": item.variant, "seed": item.seed,
-              "setting": setting, "points": len(item.points)}
+              "setting": setting, "points": len(item.points), "cleaned_points": len(points)}
     try:
-        states = run_contraction(item.points, params)
+        states = run_contraction(points, params)
     except Exception as error:  # a failed run is a finding of the study, not its end
         return {**record, "error": f"{type(error).__name__}: {error}"}
     record.update(termination=states[-1].termination, iterations=states[-1].iteration, wl0=states[0].wl)
-    cache = {} if cache is None else cache
     conventions = {}
     for convention in NORMAL_CONVENTIONS:
         if convention not in cache:
-            cache[convention] = MetricsReference.from_points(item.points, k=METRICS_K, convention=convention)
+            cache[convention] = MetricsReference.from_points(points, k=METRICS_K, convention=convention)
         reference = cache[convention]
         previous, entries = None, []
         for state in states:
@@ -138,9 +142,9 @@ def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None, cache
         conventions[convention] = entries
     record["conventions"] = conventions
     skeleton_params = RunOptions(params=params).skeleton_params()
-    skeleton = skeleton_of_state(states[-1], item.points, skeleton_params)
-    record["evidence"] = skeleton_evidence(skeleton, states[-1], item.points, cache.get("input"))
-    cache["input"] = {"gaps": record["evidence"]["input_gaps"]}
+    skeleton = skeleton_of_state(states[-1], points, skeleton_params)
+    record["evidence"] = skeleton_evidence(skeleton, states[-1], points, cache.get("input"))
+    cache["input"] = {"pieces": record["evidence"]["input_pieces"]}
     record["truth"] = _truth(skeleton, item, evaluate, make_graph)
     record["seconds"] = time.perf_counter() - started
     return record

@@ -146,7 +146,7 @@ def statistic_table(record: dict, convention: str) -> dict:
 
 def skeleton_agreement(record: dict, thresholds: StabilityThresholds) -> float:
     e = record["evidence"]
-    pieces = e["components"] == count_pieces(e["cloud_gaps"], thresholds) == count_pieces(e["input_gaps"], thresholds)
+    pieces = e["components"] == count_pieces(e["cloud_pieces"], thresholds) == count_pieces(e["input_pieces"], thresholds)
     return float(pieces and e["cycles"] == count_loops(e["cloud_loops"], thresholds) and e["nodes"] >= 3)
 
 

@@ -52,6 +52,7 @@ class StabilityThresholds:
     min_linearity: float = 0.8  # study: median local linearity below this: not yet a curve, not yet converged
     min_skeleton_nodes: int = 3  # fewer skeleton nodes: a collapsed skeleton, unstable
     piece_gap: float = 2.0  # study: pieces of a cloud are apart when a gap wider than this many radii parts them
+    # (stray pieces under 1% of the points are none; skelcore.persistence)
     loop_birth: float = 2.0  # study: a loop of the contracted cloud is traced with gaps below this many radii
     loop_death: float = 4.0  # study: ... and its hole is wider than this many radii
 
@@ -93,9 +94,12 @@ def features(entry: dict, skeleton: dict | None = None) -> dict:
     return values
 
 
-def count_pieces(gaps, thresholds: StabilityThresholds) -> int:
-    """Pieces of a cloud: one, and one more per gap wider than piece_gap radii."""
-    return 1 + int(np.sum(np.asarray(gaps, dtype=float) > thresholds.piece_gap))
+def count_pieces(pieces: dict, thresholds: StabilityThresholds) -> int:
+    """Pieces of a cloud: the count at the widest gap listed (skelcore.persistence.PIECE_GAPS) that is at most
+    piece_gap radii; gaps wider than piece_gap part pieces."""
+    gaps = sorted((float(gap), count) for gap, count in pieces.items())
+    usable = [count for gap, count in gaps if gap <= thresholds.piece_gap] or [gaps[0][1]]
+    return int(usable[-1])
 
 
 def count_loops(loops, thresholds: StabilityThresholds) -> int:
@@ -162,7 +166,7 @@ def _criteria(v: dict, t: StabilityThresholds):
     nodes = v["skeleton_nodes"]
     yield _criterion("skeleton nodes", nodes >= t.min_skeleton_nodes, "unstable", f"{nodes}",
                      f"at least {t.min_skeleton_nodes}")
-    held, given = count_pieces(v["skeleton_cloud_gaps"], t), count_pieces(v["skeleton_input_gaps"], t)
+    held, given = count_pieces(v["skeleton_cloud_pieces"], t), count_pieces(v["skeleton_input_pieces"], t)
     pieces = v["skeleton_components"]
     yield _criterion("skeleton pieces", pieces == held == given, "unstable", f"{pieces}",
                      f"as many as the contracted cloud ({held}) and the input ({given})")

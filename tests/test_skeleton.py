@@ -12,13 +12,19 @@ from skelcore.evaluate import load_graph
 from skelcore.export import (polylines, skeleton_document, write_points_ply, write_skeleton, write_skeleton_graphml,
                              write_skeleton_obj)
 from skelcore.neighbours import one_rings
-from skelcore.skeleton import SkeletonParams, ball_cover_sampling, extract_skeleton
+from skelcore.sampling import ball_cover_sampling
+from skelcore.skeleton import SkeletonParams, extract_skeleton
 
 
 def knn_edges(points, k=8):
     """Stand-in ring edges: the k nearest neighbours of each point on the ORIGINAL cloud."""
     idx = cKDTree(points).query(points, k + 1)[1][:, 1:]
     return np.unique(np.sort(np.column_stack([np.repeat(np.arange(len(points)), k), idx.ravel()]), axis=1), axis=0)
+
+
+def ring_triangles(points, k=16):
+    """The one-ring fans of the ORIGINAL cloud, as the pipeline passes them."""
+    return one_rings(points, k).triangles
 
 
 def torus(n=2000, major=1.0, minor=0.25, jitter=0.01, centre=(0.0, 0.0, 0.0), seed=0):
@@ -58,7 +64,7 @@ def h_shape(bar=0.07):
 
 
 def skeleton_of(contracted, original, **params):
-    return extract_skeleton(contracted, original, knn_edges(original), SkeletonParams(**params))
+    return extract_skeleton(contracted, original, ring_triangles(original), SkeletonParams(**params))
 
 
 def topology(skeleton):
@@ -91,9 +97,18 @@ def test_a_loop_of_four_nodes_on_a_thin_torus_survives():
 
 
 def test_genus_two_gives_two_loops():
-    left, left_original = torus(1500, centre=(-1.1, 0, 0), seed=1)
-    right, right_original = torus(1500, centre=(1.1, 0, 0), seed=2)
-    skeleton = skeleton_of(np.vstack([left, right]), np.vstack([left_original, right_original]))
+    """Two overlapping tori as one solid: the surface is the boundary of their union (each torus loses the
+    points inside the other), a double torus."""
+    left, left_original = torus(1600, centre=(-1.1, 0, 0), seed=1)
+    right, right_original = torus(1600, centre=(1.1, 0, 0), seed=2)
+
+    def inside_torus(points, centre):
+        local = points - centre
+        return np.hypot(np.hypot(local[:, 0], local[:, 1]) - 1.0, local[:, 2]) < 0.25
+
+    keep_left, keep_right = ~inside_torus(left_original, (1.1, 0, 0)), ~inside_torus(right_original, (-1.1, 0, 0))
+    skeleton = skeleton_of(np.vstack([left[keep_left], right[keep_right]]),
+                           np.vstack([left_original[keep_left], right_original[keep_right]]))
     assert topology(skeleton)["cycles"] == 2 and topology(skeleton)["components"] == 1
 
 
@@ -104,32 +119,38 @@ def test_y_gives_one_junction_and_three_ends():
     check_correspondence(skeleton, len(original))
 
 
-def test_a_sheet_gives_no_false_loops(monkeypatch):
-    """A flat sheet that did not contract to a curve: its sample graph has faces of 4-5 nodes that the
-    triangle step keeps; the cycle rule removes every one of them."""
+def wavy_plate(hole=0.0, n=3000):
+    """A wavy plate that did not contract to a curve: contracted points on a flat sheet, original points on
+    the plate; with `hole`, a hole of that radius through it."""
     rng = np.random.default_rng(0)
-    xy = rng.uniform([-1, -0.3], [1, 0.3], (3000, 2))
+    xy = rng.uniform([-1, -0.4], [1, 0.4], (n, 2))
+    xy = xy[np.linalg.norm(xy, axis=1) >= hole]
     contracted = np.column_stack([xy, rng.normal(0, 0.005, len(xy))])
-    original = contracted * [1, 1, 0] + np.where(rng.random((len(xy), 1)) < 0.5, 0.1, -0.1) * [0, 0, 1]
-    edges = knn_edges(original)
-    skeleton = extract_skeleton(contracted, original, edges)
+    original = np.column_stack([xy, 0.1 * np.sin(3 * xy[:, 0]) * np.cos(4 * xy[:, 1])])
+    return contracted, original
+
+
+def test_a_sheet_gives_no_false_loops_and_keeps_a_hole_through_it():
+    """The sample graph of a sheet has faces of 4-5 nodes; the surface's triangles fill them, and only the
+    hole that no surface triangle spans stays a loop."""
+    skeleton = skeleton_of(*wavy_plate())
     assert topology(skeleton)["cycles"] == 0 and topology(skeleton)["components"] == 1
-    monkeypatch.setattr(skeleton_module, "_encloses_hole", lambda *args: True)  # every cycle taken as a loop
-    monkeypatch.setattr(skeleton_module, "_passage", lambda *args: 1.0)
-    assert topology(extract_skeleton(contracted, original, edges))["cycles"] > 0
+    holed = skeleton_of(*wavy_plate(hole=0.15))
+    assert topology(holed)["cycles"] == 1 and topology(holed)["components"] == 1
 
 
-def test_a_hollow_ring_inside_the_shape_is_no_loop(monkeypatch):
-    """A ball whose contraction stopped at a ring (a bulky part that did not contract to a curve): the ring
-    encloses a hole in the contracted points, but no passage through the ball opens there."""
+def test_a_ball_that_stopped_at_a_crowded_disk_is_no_loop():
+    """A bulky part whose contraction stopped at a disk with most of its points crowded near the rim: the
+    contracted points look like a hollow ring, but the ball's surface maps onto a filled disk."""
     rng = np.random.default_rng(0)
-    original = rng.normal(size=(2000, 3))
+    original = rng.normal(size=(3000, 3))
     original /= np.linalg.norm(original, axis=1, keepdims=True)
-    azimuth = np.arctan2(original[:, 1], original[:, 0])
-    contracted = 0.5 * np.column_stack([np.cos(azimuth), np.sin(azimuth), 0 * azimuth]) + rng.normal(0, 0.01, (2000, 3))
-    assert topology(skeleton_of(contracted, original))["cycles"] == 0
-    monkeypatch.setattr(skeleton_module, "_passage", lambda *args: 1.0)  # as if the ball had a hole there
-    assert topology(skeleton_of(contracted, original))["cycles"] == 1
+    rim = np.hypot(original[:, 0], original[:, 1])
+    contracted = 0.5 * original * [1, 1, 0] * (rim ** -0.8)[:, None] + rng.normal(0, 0.005, (3000, 3))
+    assert (np.hypot(contracted[:, 0], contracted[:, 1]) > 0.35).mean() > 0.8
+    assert topology(skeleton_of(contracted, original)) == {"components": 1, "cycles": 0,
+                                                           "junctions": topology(skeleton_of(contracted, original))["junctions"],
+                                                           "ends": topology(skeleton_of(contracted, original))["ends"]}
 
 
 def test_ball_cover_sampling_covers_and_maps_to_the_nearest_sample():
@@ -330,3 +351,35 @@ def test_whole_pipeline_on_the_cloudcontr_golden_case(reference_dir):
     diagonal = np.linalg.norm(np.ptp(data["pts"], axis=0))
     print(f"golden skeleton: Chamfer {chamfer / diagonal:.4%} of the diagonal, {len(nodes)} nodes vs {len(reference)}")
     assert chamfer <= 0.02 * diagonal
+
+
+# --- the topological core: collapse keeps loops, never shrinks a curve ---
+
+def test_collapse_keeps_a_short_triangle_free_loop_and_fills_a_covered_one():
+    """Four samples round a hole (a 4-cycle) with a triangle fan hanging off one edge: link-condition
+    contraction may shrink it to a triangle-free 3-cycle but never further. A square covered by two
+    surface triangles is filled and goes."""
+    from skelcore.collapse import SampleComplex, collapse_to_graph
+
+    xyz = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, -0.5, 0), (0.5, -1.0, 0)]
+    loop = SampleComplex(list(xyz), np.array([[0, 1], [1, 2], [2, 3], [3, 0]]), np.array([[0, 1, 4], [0, 4, 5]]))
+    collapse_to_graph(loop)
+    graph = nx.Graph([(u, v) for u in loop.nbr for v in loop.nbr[u]])
+    assert loop.triangle_count() == 0 and len(nx.cycle_basis(graph)) == 1 and len(nx.cycle_basis(graph)[0]) >= 3
+    covered = SampleComplex(list(xyz[:4]), np.zeros((0, 2), dtype=int), np.array([[0, 1, 2], [0, 2, 3]]))
+    collapse_to_graph(covered)
+    graph = nx.Graph([(u, v) for u in covered.nbr for v in covered.nbr[u]])
+    assert nx.is_forest(graph)
+
+
+def test_no_curve_collapses_the_skeleton_keeps_the_centreline_length():
+    """Invariant: only triangles are contracted, so a curve's skeleton is as long as the curve, up to the
+    spur length at each end (here, a loop: no end at all)."""
+    contracted, original = torus(3000)
+    skeleton = skeleton_of(contracted, original)
+    length = sum(d["length"] for _, _, d in skeleton.graph.edges(data=True))
+    assert 0.9 * 2 * np.pi <= length <= 1.1 * 2 * np.pi
+    contracted, original = y_shape()
+    skeleton = skeleton_of(contracted, original)
+    length = sum(d["length"] for _, _, d in skeleton.graph.edges(data=True))
+    assert length >= 3.0 - 3 * skeleton.radius * 3  # three arms of 1, each end short of at most a few radii

@@ -15,9 +15,10 @@ def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.
             "curve": {"linearity": linear}, "verdict": {"label": "stable"}}
 
 
-def evidence(nodes=40, components=1, cycles=1, loops=((0.3, 25.0),), cloud_gaps=(0.5,), input_gaps=(0.8,)):
-    return {"nodes": nodes, "components": components, "cycles": cycles, "cloud_gaps": list(cloud_gaps),
-            "cloud_loops": [list(loop) for loop in loops], "input_gaps": list(input_gaps)}
+def evidence(nodes=40, components=1, cycles=1, loops=((0.3, 25.0),), cloud_pieces=1, input_pieces=1):
+    return {"nodes": nodes, "components": components, "cycles": cycles,
+            "cloud_pieces": {"1": 3, "2": cloud_pieces, "4": 1}, "cloud_loops": [list(loop) for loop in loops],
+            "input_pieces": {"1": 2, "2": input_pieces, "4": 1}}
 
 
 def test_iteration_zero_has_no_verdict_and_later_ones_name_their_iteration():
@@ -50,7 +51,7 @@ def test_each_criterion_decides(change, label):
     {"components": 2},  # disconnected
     {"cycles": 0},  # a loop the contracted cloud holds, lost
     {"loops": ()},  # a loop the cloud does not hold, invented
-    {"input_gaps": (5.0,)},  # the input has two pieces, the skeleton one
+    {"input_pieces": 2},  # the input has two pieces, the skeleton one
 ])
 def test_skeleton_checks_make_wrong_skeletons_unstable(change):
     assert judge(features(entry(), evidence()), 3)["label"] == "stable"
@@ -60,7 +61,10 @@ def test_skeleton_checks_make_wrong_skeletons_unstable(change):
 
 def test_counts_of_pieces_and_loops():
     t = StabilityThresholds(piece_gap=2.0, loop_birth=2.0, loop_death=4.0)
-    assert count_pieces([], t) == 1 and count_pieces([5.0, 2.5, 1.0], t) == 3
+    pieces = {"1": 5, "1.5": 3, "2": 2, "3": 1}
+    assert count_pieces(pieces, t) == 2
+    assert count_pieces(pieces, StabilityThresholds(piece_gap=2.5)) == 2
+    assert count_pieces(pieces, StabilityThresholds(piece_gap=0.5)) == 5
     assert count_loops([[0.3, 25.0], [0.2, 0.5], [12.0, 20.0]], t) == 1
     assert count_loops([], t) == 0
 

@@ -1,0 +1,122 @@
+"""Cleaning before contraction: outliers and stray pieces out, so that they neither rescale the object nor
+tie its skeleton together.
+
+Both rules compare each point with the cloud's own typical spacing, so they follow the sampling:
+- statistical outliers: a point whose mean distance to its `neighbours` nearest points exceeds the median
+  of that distance by more than `outlier_spread` robust standard deviations (1.4826 MAD). The median and
+  MAD are used rather than open3d's mean and standard deviation, which the outliers themselves inflate;
+- stray pieces: the cloud is split into pieces where no chain of near neighbours (each step at most
+  `piece_gap` times the typical spacing) joins them; pieces holding less than `min_piece_share` of the
+  points are removed (a scan's stray clusters, far or near). A piece of the object holding that share is
+  kept however far it lies: two separate rings stay two rings.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .errors import ParameterError
+from .io import Cloud
+
+
+@dataclass(frozen=True)
+class CleaningParams:
+    remove_outliers: bool = True
+    neighbours: int = 16  # for the spacing of each point
+    outlier_spread: float = 3.0  # robust standard deviations above the median spacing (the 3-sigma rule)
+    remove_stray: bool = True
+    piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
+    min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
+
+    def validated(self) -> "CleaningParams":
+        if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:
+            raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
+        for name in ("outlier_spread", "piece_gap"):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value <= 0:
+                raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
+        if not 0 <= self.min_piece_share < 0.5:
+            raise ParameterError(f"parameter min_piece_share={self.min_piece_share!r}: must be a number in [0, 0.5)")
+        return self
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class CleaningReport:
+    input_points: int
+    outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # removed ids, input order
+    stray: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    @property
+    def kept(self) -> np.ndarray:
+        mask = np.ones(self.input_points, dtype=bool)
+        mask[self.outliers] = False
+        mask[self.stray] = False
+        return np.flatnonzero(mask)
+
+    def to_dict(self) -> dict:
+        return {"input_points": self.input_points, "outliers_removed": len(self.outliers),
+                "stray_removed": len(self.stray), "kept": self.input_points - len(self.outliers) - len(self.stray)}
+
+    def note(self) -> str:
+        return (f"cleaning removed {len(self.outliers)} outliers and {len(self.stray)} points of stray pieces "
+                f"({self.input_points} -> {self.input_points - len(self.outliers) - len(self.stray)} points)")
+
+
+MIN_KEPT = 20  # cleaning never leaves fewer points than the engine needs
+
+
+def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> CleaningReport:
+    """Which points of `points` (n,3) are outliers or stray; the rest are `report.kept`."""
+    params = params.validated()
+    n = len(points)
+    report = CleaningReport(n)
+    if n <= max(MIN_KEPT, params.neighbours + 1) or not (params.remove_outliers or params.remove_stray):
+        return report
+    tree = cKDTree(points)
+    distance, index = tree.query(points, k=params.neighbours + 1, workers=-1)
+    spacing = distance[:, 1:].mean(axis=1)
+    keep = np.ones(n, dtype=bool)
+    if params.remove_outliers:
+        median = np.median(spacing)
+        mad = 1.4826 * np.median(np.abs(spacing - median))
+        keep &= spacing <= median + params.outlier_spread * max(mad, 1e-12 * median)
+    if params.remove_stray:
+        gap = params.piece_gap * np.median(spacing[keep])
+        rows = np.repeat(np.arange(n), params.neighbours)
+        cols, lengths = index[:, 1:].ravel(), distance[:, 1:].ravel()
+        near = (lengths <= gap) & keep[rows] & keep[cols]
+        graph = sp.coo_matrix((np.ones(near.sum()), (rows[near], cols[near])), shape=(n, n))
+        _, piece = connected_components(graph, directed=False)
+        sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
+        stray = keep & (sizes[piece] < params.min_piece_share * keep.sum())
+        report.stray = np.flatnonzero(stray)
+        keep &= ~stray
+    report.outliers = np.flatnonzero(~keep & ~np.isin(np.arange(n), report.stray))
+    if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
+        return CleaningReport(n)
+    return report
+
+
+def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
+    """`cloud` without its outliers and stray pieces, with the counts in `cleaning` and a note; mesh faces
+    that lose a corner are dropped and the rest renumbered."""
+    report = clean(cloud.points, params)
+    kept = report.kept
+    faces = cloud.faces
+    if faces is not None and len(kept) < len(cloud.points):
+        new_id = np.full(len(cloud.points), -1, dtype=np.int64)
+        new_id[kept] = np.arange(len(kept))
+        faces = new_id[faces]
+        faces = faces[(faces >= 0).all(axis=1)]
+        faces = faces if len(faces) else None
+    notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
+    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())

@@ -1,0 +1,221 @@
+"""The shape's surface carried onto the skeleton samples, then collapsed to a graph without changing its loops.
+
+Every input point maps to a skeleton sample (the ball-cover owner of its contracted position). The ring
+triangles of the ORIGINAL surface, mapped through that owner, form a 2-complex on the samples: its edges
+join samples whose points are ring neighbours, its triangles are the surface triangles whose three corners
+went to three different samples. The contraction is a deformation of the shape onto its skeleton, so this
+complex has the loops of the shape, however the contracted points lie: a loop's hole is crossed by no
+surface triangle, a sheet or a blob that did not contract to a curve is filled by the triangles of both its
+sides, a short loop of three samples keeps its hole when no triangle spans it. No distance, angle or
+length threshold decides what a loop is.
+
+The complex is then reduced to a graph by operations that keep its homotopy type, so no loop is ever lost
+or made:
+- elementary collapse: an edge in exactly one triangle (a free edge) goes with its triangle. Taken first
+  where the edge jumps over its apex (obtuse angle there, the Gabriel test), longest first: along a curve,
+  samples i and i+2 are often joined over i+1;
+- edge contraction under the link condition (Dey et al. 1999, Lk(a) & Lk(b) == Lk(ab)): a and b merge at
+  their midpoint, lowest mean endpoint degree first, then shortest. The condition forbids contracting an
+  edge of a triangle-free 3-cycle (a short loop) and folding two triangles onto each other.
+Triangles that close a cavity (a blob that kept its volume: its two sides enclose it) are removed first,
+one per cavity, chosen by the persistence pairing (gudhi): that changes no loop.
+"""
+from __future__ import annotations
+
+import heapq
+import math
+
+import numpy as np
+
+
+def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
+    """(t,3) the triangles (3-cliques) of the graph of `edges` on n_points, each once, corners ascending."""
+    edges = np.unique(np.sort(edges, axis=1), axis=0) if len(edges) else np.zeros((0, 2), dtype=np.int64)
+    directed = np.concatenate([edges, edges[:, ::-1]])
+    directed = directed[np.lexsort((directed[:, 1], directed[:, 0]))]
+    keys = directed[:, 0] * n_points + directed[:, 1]
+    starts = np.searchsorted(directed[:, 0], np.arange(n_points + 1))
+    a, b = edges[:, 0], edges[:, 1]
+    degree = starts[a + 1] - starts[a]
+    row = np.repeat(np.arange(len(edges)), degree)
+    offset = np.arange(len(row)) - np.repeat(np.cumsum(degree) - degree, degree)
+    c = directed[starts[a[row]] + offset, 1]
+    above = c > b[row]
+    row, c = row[above], c[above]
+    wanted = b[row] * n_points + c
+    found = np.searchsorted(keys, wanted)
+    found = (found < len(keys)) & (keys[np.minimum(found, len(keys) - 1)] == wanted)
+    return np.column_stack([a[row], b[row], c])[found]
+
+
+def _edge(u: int, v: int) -> tuple[int, int]:
+    return (u, v) if u < v else (v, u)
+
+
+class SampleComplex:
+    """A 2-complex on skeleton samples: `nbr` node -> neighbours, `apex` edge -> third corners of its
+    triangles, `xyz` node positions, `parent` the merge forest (a merged node points at its survivor)."""
+
+    def __init__(self, xyz: list, edges: np.ndarray, triangles: np.ndarray) -> None:
+        self.xyz = xyz
+        self.parent = np.arange(len(xyz))
+        self.nbr: dict[int, set[int]] = {i: set() for i in range(len(xyz))}
+        self.apex: dict[tuple[int, int], set[int]] = {}
+        for u, v in edges.tolist():
+            self.nbr[u].add(v)
+            self.nbr[v].add(u)
+        for a, b, c in triangles.tolist():
+            for u, v, w in ((a, b, c), (a, c, b), (b, c, a)):
+                self.nbr[u].add(v)
+                self.nbr[v].add(u)
+                self.apex.setdefault(_edge(u, v), set()).add(w)
+
+    @classmethod
+    def from_surface(cls, xyz: list, owner: np.ndarray, edges: np.ndarray, triangles: np.ndarray) -> "SampleComplex":
+        """The complex of the surface `edges`/`triangles` (point ids) mapped through `owner` (point -> node),
+        with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved."""
+        pairs = np.sort(owner[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
+        pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
+        corners = np.sort(owner[triangles], axis=1) if len(triangles) else np.zeros((0, 3), dtype=np.int64)
+        distinct = (corners[:, 0] != corners[:, 1]) & (corners[:, 1] != corners[:, 2])
+        corners = np.concatenate([corners[distinct], surface_triangles(pairs, len(xyz))])
+        return cls(xyz, pairs, np.unique(corners, axis=0))
+
+    def triangles(self) -> list[tuple[int, int, int]]:
+        return [(u, v, w) for (u, v), apexes in self.apex.items() for w in apexes if w > v]
+
+    def drop_cavity_triangles(self) -> None:
+        """Remove the triangles that close cavities (the positive 2-simplices of the persistence pairing, one
+        per independent 2-cycle): the boundaries the other triangles span are unchanged, so the loops are
+        too, and no closed surface is left to stop the collapse."""
+        import gudhi
+
+        tree = gudhi.SimplexTree()
+        for u, nbrs in self.nbr.items():
+            tree.insert([u], 0.0)
+            for v in nbrs:
+                if u < v:
+                    tree.insert([u, v], 0.0)
+        for triangle in self.triangles():
+            tree.insert(list(triangle), 1.0)
+        tree.compute_persistence(persistence_dim_max=True)
+        for birth, _ in tree.persistence_pairs():
+            if len(birth) == 3:
+                self.remove_triangle(*sorted(birth))
+
+    def triangle_count(self) -> int:
+        return sum(len(apexes) for apexes in self.apex.values()) // 3
+
+    def link_condition(self, u: int, v: int) -> bool:
+        """Lk(u) & Lk(v) == Lk(uv) in a 2-complex: the common neighbours are exactly the apexes of uv, and no
+        edge cw joins two of them with triangles ucw and vcw both present."""
+        apexes = self.apex.get(_edge(u, v), set())
+        if self.nbr[u] & self.nbr[v] != apexes:
+            return False
+        return not any(w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
+                       for c in apexes for w in apexes if c < w)
+
+    def contract(self, keep: int, gone: int, at) -> None:
+        """Merge `gone` into `keep` at `at`: triangles on the edge vanish, the others follow `gone`."""
+        for c in self.apex.pop(_edge(keep, gone), ()):
+            self.apex[_edge(keep, c)].discard(gone)
+            self.apex[_edge(gone, c)].discard(keep)
+        for x in self.nbr.pop(gone) - {keep}:
+            apexes = self.apex.pop(_edge(gone, x), set())
+            for y in apexes:
+                across = self.apex[_edge(x, y)]
+                across.discard(gone)
+                across.add(keep)
+            self.apex.setdefault(_edge(keep, x), set()).update(apexes)
+            self.nbr[x].discard(gone)
+            self.nbr[x].add(keep)
+            self.nbr[keep].add(x)
+        self.nbr[keep].discard(gone)
+        self.parent[gone] = keep
+        self.xyz[keep] = tuple(float(c) for c in at)
+
+    def remove_triangle(self, u: int, v: int, w: int) -> None:
+        for a, b, c in ((u, v, w), (u, w, v), (v, w, u)):
+            self.apex[_edge(a, b)].discard(c)
+
+    def remove_edge(self, u: int, v: int) -> None:
+        """Remove a triangle-free edge."""
+        self.apex.pop(_edge(u, v), None)
+        self.nbr[u].discard(v)
+        self.nbr[v].discard(u)
+
+
+def collapse_to_graph(cx: SampleComplex) -> None:
+    """Reduce `cx` to a graph (no triangle left) by elementary collapses and link-condition contractions.
+
+    A lazy heap: after a change every edge whose key may have changed is pushed again; an entry whose key
+    no longer matches is stale and skipped (its fresh copy is in the heap)."""
+    def length(u: int, v: int) -> float:
+        return math.dist(cx.xyz[u], cx.xyz[v])
+
+    def key(u: int, v: int) -> tuple | None:
+        apexes = cx.apex.get(_edge(u, v))
+        if not apexes:
+            return None
+        span = length(u, v)
+        if len(apexes) == 1:
+            (c,) = apexes
+            if length(u, c) ** 2 + length(c, v) ** 2 < span ** 2:
+                return 0, -span, 0.0
+        if cx.link_condition(u, v):
+            return 1, (len(cx.nbr[u]) + len(cx.nbr[v])) / 2, span
+        return None
+
+    def push_around(nodes) -> None:
+        near = set()
+        for node in nodes:
+            if node in cx.nbr:
+                near.add(node)
+                near.update(cx.nbr[node])
+        for u in near:
+            for v in cx.nbr[u]:
+                if u < v and (k := key(u, v)) is not None:
+                    heapq.heappush(heap, (k, u, v))
+
+    cx.drop_cavity_triangles()
+    heap: list = []
+    push_around(list(cx.nbr))
+    while True:
+        while heap:
+            stored, u, v = heapq.heappop(heap)
+            if u not in cx.nbr or v not in cx.nbr[u] or key(u, v) != stored:
+                continue
+            if stored[0] == 0:
+                (c,) = cx.apex[_edge(u, v)]
+                cx.remove_triangle(u, v, c)
+                cx.remove_edge(u, v)
+                push_around((u, v, c))
+            else:
+                cx.contract(u, v, [(a + b) / 2 for a, b in zip(cx.xyz[u], cx.xyz[v])])
+                push_around((u,))
+        if not _open_stuck_cavity(cx):
+            return
+        push_around(list(cx.nbr))
+
+
+def _open_stuck_cavity(cx: SampleComplex) -> bool:
+    """When triangles remain that no collapse or contraction may touch: a free edge goes first (an
+    elementary collapse, whatever its angle), the longest. With none, the complex is contractible but not
+    collapsible here (a "dunce hat" knot of triangles, rare): the largest triangle is removed, which can
+    open one small loop. Returns whether anything changed."""
+    triangles = [(edge, w) for edge, apexes in cx.apex.items() for w in apexes]
+    if not triangles:
+        return False
+    free = [(math.dist(cx.xyz[u], cx.xyz[v]), (u, v)) for (u, v), w in triangles if len(cx.apex[(u, v)]) == 1]
+    if free:
+        _, (u, v) = max(free)
+        (c,) = cx.apex[(u, v)]
+        cx.remove_triangle(u, v, c)
+        cx.remove_edge(u, v)
+        return True
+
+    def area(u: int, v: int, w: int) -> float:
+        return float(np.linalg.norm(np.cross(np.subtract(cx.xyz[v], cx.xyz[u]), np.subtract(cx.xyz[w], cx.xyz[u]))))
+
+    cx.remove_triangle(*max(((u, v, w) for (u, v), w in triangles if w > v), key=lambda t: area(*t)))
+    return True

@@ -1,0 +1,147 @@
+"""Refinements of the curve skeleton graph, each switchable: merge junctions joined by a short path, prune
+short spurs, drop nearly collinear degree-2 nodes. None of them can remove a loop or shrink a curve by more
+than its stated length: a merge is refused when it would fold a loop away, and only end branches shorter
+than the spur length are pruned.
+
+The graph is a dict node -> neighbours with positions `xyz` (list of tuples); `parent` is the merge forest
+(a merged node points at the node that absorbed it).
+"""
+from __future__ import annotations
+
+import heapq
+import math
+
+import numpy as np
+
+Adjacency = dict[int, set[int]]
+
+
+def merge_nodes(adj: Adjacency, xyz: list, parent: np.ndarray, keep: int, gone: list[int], at) -> None:
+    """Contract the nodes `gone` into `keep`, placed at `at`."""
+    for node in gone:
+        for w in adj.pop(node):
+            adj[w].discard(node)
+            if w != keep:
+                adj[w].add(keep)
+                adj[keep].add(w)
+        parent[node] = keep
+    xyz[keep] = tuple(float(c) for c in at)
+
+
+def _branch(adj: Adjacency, start: int, first: int) -> list[int]:
+    """Walk from `start` through `first` along degree-2 nodes; the path ends at the next other node."""
+    path = [start, first]
+    while len(adj[path[-1]]) == 2 and path[-1] != start:
+        a, b = adj[path[-1]]
+        path.append(a if a != path[-2] else b)
+    return path
+
+
+def _arclength(xyz: list, path: list[int]) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum([math.dist(xyz[a], xyz[b]) for a, b in zip(path, path[1:])])])
+
+
+def merge_junctions(adj: Adjacency, xyz: list, parent: np.ndarray, limit: float) -> None:
+    """Contract a path joining two junctions into one node at the path's mean, shortest path first.
+
+    Refused where it would fold a loop away: when two path nodes share an outside neighbour, or the path's
+    ends are also joined another way by a direct edge."""
+    blocked: set[frozenset] = set()
+    while True:
+        candidates = []
+        for j in [n for n in adj if len(adj[n]) >= 3]:
+            for first in adj[j]:
+                path = _branch(adj, j, first)
+                if path[-1] != j and len(adj[path[-1]]) >= 3 and frozenset(path) not in blocked:
+                    if (length := _arclength(xyz, path)[-1]) < limit:
+                        candidates.append((length, path))
+        if not candidates:
+            return
+        _, path = min(candidates)
+        outside = [w for node in path for w in adj[node] if w not in path]
+        chords = sum(len(adj[node] & set(path)) for node in path) // 2 - (len(path) - 1)
+        if len(outside) != len(set(outside)) or chords:
+            blocked.add(frozenset(path))
+            continue
+        merge_nodes(adj, xyz, parent, path[0], path[1:], np.mean([xyz[node] for node in path], axis=0))
+
+
+def _end_branches(adj: Adjacency, xyz: list, limit: float) -> list[tuple[float, list[int]]]:
+    """(length, path from the junction to the end) of every end branch at a junction shorter than `limit`."""
+    branches = []
+    for end in [n for n in adj if len(adj[n]) == 1]:
+        path = _branch(adj, end, next(iter(adj[end])))[::-1]
+        if len(adj[path[0]]) >= 3 and (length := _arclength(xyz, path)[-1]) < limit:
+            branches.append((length, path))
+    return branches
+
+
+def prune_spurs(adj: Adjacency, xyz: list, parent: np.ndarray, limit: float) -> None:
+    """Remove the shortest end branch (junction to end) while one is shorter than `limit`. Its points go
+    to the junction, except at a split tip: when the junction is left with degree 2 and another end branch
+    shorter than `limit`, the two were halves of one tip, and each pruned node's points go to the node of
+    that branch at the nearest distance from the junction (else the surviving end sits on half the tip)."""
+    while spurs := _end_branches(adj, xyz, limit):
+        _, path = min(spurs)
+        junction, pruned = path[0], path[1:]
+        for node in pruned:
+            for w in adj.pop(node):
+                adj.get(w, set()).discard(node)
+        parent[pruned] = junction
+        if len(adj[junction]) == 2:
+            tips = [p for n in adj[junction] if len(adj[(p := _branch(adj, junction, n))[-1]]) == 1]
+            tips = [p for p in tips if _arclength(xyz, p)[-1] < limit]
+            if tips:
+                gaps = np.abs(_arclength(xyz, path)[1:, None] - _arclength(xyz, tips[0])[None, :])
+                parent[pruned] = np.asarray(tips[0])[gaps.argmin(axis=1)]
+
+
+def _pair(a: int, b: int) -> tuple[int, int]:
+    return (a, b) if a < b else (b, a)
+
+
+def _turn(xyz: list, a: int, x: int, b: int) -> float:
+    """Turning angle in degrees at x on the polyline a-x-b."""
+    u, v = np.subtract(xyz[x], xyz[a]), np.subtract(xyz[b], xyz[x])
+    norms = np.linalg.norm(u) * np.linalg.norm(v)
+    return 0.0 if norms == 0 else math.degrees(math.acos(np.clip(np.dot(u, v) / norms, -1.0, 1.0)))
+
+
+def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points: np.ndarray,
+                    max_angle: float) -> np.ndarray:
+    """Drop degree-2 nodes turning less than `max_angle`, straightest first, unless their neighbours are
+    already joined; the points of a dropped node go to the nearer end of the edge that now spans it."""
+    spans: dict[tuple[int, int], list[int]] = {}
+
+    def push(x: int) -> None:
+        if len(adj[x]) == 2:
+            a, b = adj[x]
+            heapq.heappush(heap, (_turn(xyz, a, x, b), x, a, b))
+
+    heap: list = []
+    for node in adj:
+        push(node)
+    while heap:
+        turn, x, a, b = heapq.heappop(heap)
+        if turn >= max_angle:
+            break
+        if x not in adj or adj[x] != {a, b} or b in adj[a]:
+            continue
+        spans[_pair(a, b)] = spans.pop(_pair(a, x), []) + [x] + spans.pop(_pair(x, b), [])
+        del adj[x]
+        adj[a].discard(x)
+        adj[b].discard(x)
+        adj[a].add(b)
+        adj[b].add(a)
+        push(a)
+        push(b)
+    ends = np.full((len(xyz), 2), -1, dtype=np.int64)  # dropped node -> the edge that spans it
+    for edge, dropped in spans.items():
+        ends[dropped] = edge
+    ids = np.flatnonzero(ends[node_of_point, 0] >= 0)
+    pos = np.asarray(xyz)
+    a, b = ends[node_of_point[ids]].T
+    nearer_b = np.linalg.norm(points[ids] - pos[b], axis=1) < np.linalg.norm(points[ids] - pos[a], axis=1)
+    node_of_point = node_of_point.copy()
+    node_of_point[ids] = np.where(nearer_b, b, a)
+    return node_of_point

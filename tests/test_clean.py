@@ -1,0 +1,72 @@
+"""Cleaning before contraction (skelcore.clean) and its place in the pipeline."""
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from skelcore.clean import CleaningParams, clean, cleaned
+from skelcore.errors import ParameterError
+from skelcore.io import Cloud
+from skelcore.shapes import make_shape
+
+
+def ring(n, centre=(0.0, 0.0, 0.0), seed=0):
+    return make_shape("torus", n, seed=seed).points + centre
+
+
+def test_uniform_outliers_are_removed_and_the_surface_kept():
+    """Every outlier farther than a few point spacings from the surface goes; at most 1% of the surface."""
+    surface = ring(3000)
+    rng = np.random.default_rng(1)
+    outliers = rng.uniform(surface.min(axis=0), surface.max(axis=0), (60, 3))
+    report = clean(np.vstack([surface, outliers]))
+    removed = np.setdiff1d(np.arange(3060), report.kept)
+    spacing = np.median(cKDTree(surface).query(surface, 2)[0][:, 1])
+    far = 3000 + np.flatnonzero(cKDTree(surface).query(outliers)[0] > 5 * spacing)
+    assert len(far) > 20 and np.isin(far, removed).all()
+    assert (removed < 3000).sum() <= 30
+
+
+def test_a_stray_cluster_far_away_is_removed_but_a_second_ring_is_kept():
+    rng = np.random.default_rng(2)
+    cluster = rng.normal(0, 0.01, (20, 3)) + [30.0, 0.0, 0.0]
+    report = clean(np.vstack([ring(3000), cluster]))
+    assert report.to_dict()["stray_removed"] == 20 and len(report.kept) >= 2970 and report.kept.max() < 3000
+    two = np.vstack([ring(1500), ring(1500, centre=(10.0, 0.0, 0.0), seed=1)])
+    assert len(clean(two).kept) > 2900
+
+
+def test_a_clean_cloud_loses_almost_nothing_and_flags_turn_each_rule_off():
+    points = ring(3000)
+    assert len(clean(points).kept) >= 2970
+    noisy = np.vstack([points, [[50.0, 50.0, 50.0]]])
+    assert len(clean(noisy, CleaningParams(remove_outliers=False, remove_stray=False)).kept) == 3001
+    assert 3000 not in clean(noisy, CleaningParams(remove_stray=False)).kept
+
+
+def test_cleaned_cloud_renumbers_faces_and_reports_counts():
+    points = np.vstack([ring(500), [[40.0, 0.0, 0.0]]])
+    faces = np.array([[0, 1, 2], [1, 2, 500]])
+    cloud = cleaned(Cloud(points=points, faces=faces, name="x"), CleaningParams(remove_outliers=False))
+    assert len(cloud.points) == 500 and cloud.faces.tolist() == [[0, 1, 2]]
+    assert cloud.cleaning["input_points"] == 501 and cloud.cleaning["kept"] == 500 and cloud.notes
+
+
+@pytest.mark.parametrize("change", [dict(neighbours=1), dict(outlier_spread=0), dict(min_piece_share=0.7)])
+def test_bad_cleaning_parameters(change):
+    with pytest.raises(ParameterError):
+        clean(ring(100), CleaningParams(**change))
+
+
+def test_run_reports_cleaning_in_metrics_and_params(tmp_path):
+    from skelcore.pipeline import RunOptions, run_pipeline
+
+    points = np.vstack([ring(2000), np.random.default_rng(3).uniform(-2, 2, (40, 3))])
+    source = tmp_path / "noisy.xyz"
+    np.savetxt(source, points)
+    run_pipeline(source, tmp_path / "out", RunOptions())
+    metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert metrics["cleaning"]["input_points"] == 2040 and metrics["cleaning"]["outliers_removed"] >= 30
+    params = json.loads((tmp_path / "out" / "params.json").read_text())
+    assert params["cleaning"]["remove_outliers"] is True
