@@ -139,7 +139,7 @@ def _criteria(v: dict, t: StabilityThresholds):
     for label, key in (("D_theta", "d_theta"), ("delta_kappa", "delta_kappa")):
         peaks = v[f"{key}_peaks"]
         yield _criterion(f"{label} peaks", peaks <= t.max_peaks, "unstable", f"{peaks}",
-                         f"at most {t.max_peaks}, each {100 * t.peak_drop:g}% of the points above its sides")
+                         f"at most {t.max_peaks} ({100 * t.peak_drop:g}% rule)")
     for label, key, target, tolerance in (("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance),
                                           ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance)):
         mean, symmetry = v[f"{key}_mean"], v[f"{key}_symmetry"]
@@ -154,7 +154,7 @@ def _criteria(v: dict, t: StabilityThresholds):
     yield _criterion("points inside the original", v["inside_share"] >= t.min_inside_share, "unstable",
                      f"{100 * v['inside_share']:.1f}%", f"at least {100 * t.min_inside_share:g}%")
     growth = v["growth"]
-    yield _criterion("spread change in this iteration", -t.max_step_shrink <= growth <= t.shrink_tolerance, "unstable",
+    yield _criterion("spread change this step", -t.max_step_shrink <= growth <= t.shrink_tolerance, "unstable",
                      f"{100 * growth:+.1f}%", f"between -{100 * t.max_step_shrink:g}% and +{100 * t.shrink_tolerance:g}%")
     yield _criterion("spread against the original", v["spread_ratio"] >= t.min_spread_ratio, "unstable",
                      f"{100 * v['spread_ratio']:.0f}%", f"at least {100 * t.min_spread_ratio:g}%")

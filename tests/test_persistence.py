@@ -1,0 +1,33 @@
+"""Pieces and loops of point clouds from the alpha complex."""
+import numpy as np
+
+from skelcore.persistence import persistence_summary
+from skelcore.verdict import StabilityThresholds, count_loops, count_pieces
+
+
+def ring(n=400, radius=1.0, centre=(0.0, 0.0, 0.0), seed=0):
+    """A thin tube of points around a circle: evenly spread along it, jittered across."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    circle = np.column_stack([radius * np.cos(t), radius * np.sin(t), np.zeros(n)])
+    return circle + 0.01 * rng.normal(size=(n, 3)) + centre
+
+
+def test_a_ring_holds_one_loop_and_one_piece():
+    summary = persistence_summary(ring(), unit=0.05)
+    t = StabilityThresholds()
+    assert count_loops(summary["loops"], t) == 1 and count_pieces(summary["pieces"], t) == 1
+    birth, death = summary["loops"][0]
+    assert birth < 2 and death > 30  # traced densely; its hole is the ring's diameter, 40 units
+
+
+def test_two_rings_apart_are_two_pieces_and_a_stray_point_is_none():
+    points = np.concatenate([ring(), ring(centre=(5.0, 0.0, 0.0), seed=1), [[2.5, 3.0, 0.0]]])
+    summary = persistence_summary(points, unit=0.05)
+    assert count_pieces(summary["pieces"], StabilityThresholds()) == 2
+    assert count_loops(summary["loops"], StabilityThresholds()) == 2
+
+
+def test_a_collapsed_cloud_has_one_piece_and_no_loop():
+    summary = persistence_summary(np.zeros((50, 3)), unit=0.05)
+    assert count_pieces(summary["pieces"], StabilityThresholds()) == 1 and summary["loops"] == []
