@@ -25,9 +25,9 @@ def auc_figure(summary: dict):
         flipped = [aucs[n][0] < 0.5 for n in names]
         low = [v - (1 - aucs[n][2] if f else aucs[n][1]) for n, v, f in zip(names, values, flipped)]
         high = [(1 - aucs[n][1] if f else aucs[n][2]) - v for n, v, f in zip(names, values, flipped)]
-        labels = [f"{n} ({'lower' if f else 'higher'} = right)" for n, f in zip(names, flipped)]
-        figure.add_trace(go.Bar(x=labels, y=values, name=f"{convention} normals", marker_color=COLOURS[convention],
-                                error_y=dict(type="data", symmetric=False, array=high, arrayminus=low)))
+        ways = [f"{'lower' if f else 'higher'} on right runs" for f in flipped]
+        figure.add_trace(go.Bar(x=names, y=values, name=f"{convention} normals", marker_color=COLOURS[convention],
+                                hovertext=ways, error_y=dict(type="data", symmetric=False, array=high, arrayminus=low)))
     figure.add_hline(y=0.5, line_dash="dash", line_color="#888", annotation_text="chance")
     figure.update_layout(title="How well each statistic of the last iteration tells right skeletons from wrong ones "
                                "(ROC AUC, 95% interval from the number of runs)", barmode="group", height=520,
@@ -82,15 +82,16 @@ def contributions_table(entry: dict) -> str:
 
 
 def write_page(path: Path, records: list[dict], summary: dict) -> Path:
-    from plotly.io import to_html
+    """One self-contained page (plotly.js embedded, as skelcore.report does)."""
+    from .report import _figure_html, _page
 
     body = [f"<h1>skelcore study: does the verdict predict a right skeleton?</h1>"
             f"<p>{summary['runs']} runs ({len(summary['failed_runs'])} failed), "
             f"{_pct(summary['right_share'])} with a right skeleton (topology exact; Chamfer at most 1% of the "
             f"diagonal where a centreline exists). Calibration shapes: {', '.join(summary['shapes']['calibration'])}; "
             f"held-out shapes: {', '.join(summary['shapes']['held-out'])}.</p>"]
-    body.append(to_html(auc_figure(summary), include_plotlyjs="cdn", full_html=False))
-    body.append(to_html(d_theta_trajectories_figure(records), include_plotlyjs=False, full_html=False))
+    body.append(_figure_html(auc_figure(summary)))
+    body.append(_figure_html(d_theta_trajectories_figure(records)))
     for convention in NORMAL_CONVENTIONS:
         entry = summary["conventions"][convention]
         paper = entry["paper"]
@@ -106,11 +107,7 @@ def write_page(path: Path, records: list[dict], summary: dict) -> Path:
     if summary["failed_runs"]:
         body.append("<h2>Failed runs</h2>" + _table(list(summary["failed_runs"][0]),
                                                     [list(f.values()) for f in summary["failed_runs"]]))
-    page = ("<!doctype html><html><head><meta charset='utf-8'><title>skelcore study</title><style>"
-            "body{font-family:sans-serif;margin:2em;max-width:1400px} table{border-collapse:collapse;margin:1em 0}"
-            "td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px;text-align:left}</style></head><body>"
-            + "".join(body) + "</body></html>")
-    path.write_text(page, encoding="utf-8")
+    path.write_text(_page("skelcore study", "".join(body), plotly=True), encoding="utf-8")
     return path
 
 
