@@ -101,6 +101,10 @@ def write_page(path: Path, records: list[dict], summary: dict) -> Path:
                     f"{paper['runs']} start skewed left with one peak; final means "
                     f"{_range(paper['final_mean_range'])}.</p>")
         body.append("<h3>The verdict against the truth</h3>" + goals_table(entry))
+        body.append("<h3>Held-out runs by kind of shape, calibrated thresholds</h3>" + _table(
+            ["kind", "runs", "right runs", "labelled stable", "stable is right", "right runs labelled stable"],
+            [[kind, g["runs"], g["right_runs"], g["stable"], _pct(g["precision"]), _pct(g["recall"])]
+             for kind, g in entry["held_out_by_source"].items()]))
         body.append("<h3>What each criterion contributes</h3>" + contributions_table(entry))
         body.append("<h3>Calibrated thresholds</h3>" + _table(["threshold", "value"],
                                                               [[k, v] for k, v in entry["thresholds"].items()]))
