@@ -7,6 +7,12 @@ from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, ex
                               run_verdict)
 
 
+# Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
+T = StabilityThresholds(min_symmetry=0.8, d_theta_tolerance=0.1, delta_kappa_tolerance=0.05, min_inside_share=0.9,
+                        shrink_tolerance=0.01, max_step_shrink=0.5, min_spread_ratio=0.5, min_linearity=0.8,
+                        loop_death=4.0)
+
+
 def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.1, spread=0.9, linear=0.95,
           iteration=3):
     stats = lambda mean: {"mean": mean, "peaks": {"count": peaks}, "symmetry": symmetry}
@@ -29,7 +35,7 @@ def test_iteration_zero_has_no_verdict_and_later_ones_name_their_iteration():
 
 
 def test_values_are_stated_plainly():
-    verdict = judge(features(entry(d_mean=0.26)), 2)
+    verdict = judge(features(entry(d_mean=0.26)), 2, T)
     assert verdict["label"] == "not yet converged"
     assert "mean D_theta: 0.26 (target 0.5 within 0.1): fail" in verdict["reasons"]
     table = explanation_markdown(verdict)
@@ -43,7 +49,7 @@ def test_values_are_stated_plainly():
     ({"symmetry": 0.3}, "not yet converged"), ({"k_mean": 0.3}, "not yet converged"),
 ])
 def test_each_criterion_decides(change, label):
-    assert judge(features(entry(**change)), 1)["label"] == label
+    assert judge(features(entry(**change)), 1, T)["label"] == label
 
 
 @pytest.mark.parametrize("change", [
@@ -54,8 +60,8 @@ def test_each_criterion_decides(change, label):
     {"input_pieces": 2},  # the input has two pieces, the skeleton one
 ])
 def test_skeleton_checks_make_wrong_skeletons_unstable(change):
-    assert judge(features(entry(), evidence()), 3)["label"] == "stable"
-    verdict = judge(features(entry(), evidence(**change)), 3)
+    assert judge(features(entry(), evidence()), 3, T)["label"] == "stable"
+    verdict = judge(features(entry(), evidence(**change)), 3, T)
     assert verdict["label"] == "unstable", verdict["reasons"]
 
 
@@ -72,7 +78,7 @@ def test_counts_of_pieces_and_loops():
 def test_run_verdict_judges_the_last_iteration():
     history = [entry(iteration=0), entry(d_mean=0.1, iteration=1), entry(iteration=2)]
     history[0]["verdict"] = {"label": None}
-    verdict = run_verdict(history, evidence())
+    verdict = run_verdict(history, evidence(), T)
     assert verdict["label"] == "stable" and verdict["iteration"] == 2
     assert [i["iteration"] for i in verdict["iterations"]] == [0, 1, 2]
     assert run_verdict(history[:1])["label"] is None
