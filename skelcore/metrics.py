@@ -20,8 +20,8 @@ signed cosine, so how the signs are chosen decides what the D_theta histogram sh
   describes (15 of 25 default runs end within 0.1 of it, against 0 of 25 tracked).
 `skelcore study` measured both over 375 runs (README, "The stability verdict"): the D_theta statistics
 alone predict a right skeleton about equally (best ROC AUC 0.70 outward, 0.63 tracked, intervals +-0.06),
-but the verdict calibrated on tracked normals labels three times as many right runs stable on held-out
-shapes (40 of 83 against 13 of 83, both at >= 90% right), so tracked is the default and outward an option.
+but the verdict calibrated on tracked normals labels several times as many right runs stable on held-out
+shapes (40 of 83 against 6 to 13 of 83, both at >= 90% right), so tracked is the default, outward an option.
 Reference normals for the boundedness test are always MST-oriented (Hoppe et al. 1992).
 A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
 of the statistics (counted in "n_undefined"); a tracked normal carries the previous one forward.
