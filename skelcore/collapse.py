@@ -3,11 +3,12 @@
 Every input point maps to a skeleton sample (the ball-cover owner of its contracted position). The ring
 triangles of the ORIGINAL surface, mapped through that owner, form a 2-complex on the samples: its edges
 join samples whose points are ring neighbours, its triangles are the surface triangles whose three corners
-went to three different samples. The contraction is a deformation of the shape onto its skeleton, so this
-complex has the loops of the shape, however the contracted points lie: a loop's hole is crossed by no
-surface triangle, a sheet or a blob that did not contract to a curve is filled by the triangles of both its
-sides, a short loop of three samples keeps its hole when no triangle spans it. No distance, angle or
-length threshold decides what a loop is.
+went to three different samples, plus every 3-cycle of its graph (a loop must pass at least four samples
+to be resolved). The contraction is a deformation of the shape onto its skeleton, so this complex has the
+loops of the shape, however the contracted points lie: a loop's hole is crossed by no surface triangle,
+and a sheet or a blob that did not contract to a curve is filled by the triangles of its sides. No
+distance, angle or length threshold decides what a loop is here (skelcore.loops then vetoes the few false
+ones that gaps between disagreeing fans leave).
 
 The complex is then reduced to a graph by operations that keep its homotopy type, so no loop is ever lost
 or made:
@@ -23,7 +24,6 @@ one per cavity, chosen by the persistence pairing (gudhi): that changes no loop.
 from __future__ import annotations
 
 import heapq
-import itertools
 import math
 
 import numpy as np
@@ -49,31 +49,6 @@ def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
     return np.column_stack([a[row], b[row], c])[found]
 
 
-FILL_FLAGS = True
-USE_WITNESS = False
-
-
-def witness_triangles(owner: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """(t,3) sorted triples of nodes that one point witnesses together: every triple among the nodes owning
-    a point and its neighbours along `edges`. A point's neighbourhood is a small disk of the surface, so
-    the nodes it reaches belong together; where neighbouring fans disagree, the union of fans has tiny
-    gaps, and a stretched part of the contraction (a plate pulled to its rim) would turn such a gap into a
-    long loop of nodes. A hole of the shape is wider than any neighbourhood, so no point fills it."""
-    if len(edges) == 0:
-        return np.zeros((0, 3), dtype=np.int64)
-    ends = np.concatenate([edges, edges[:, ::-1], np.repeat(np.unique(edges)[:, None], 2, axis=1)])
-    pairs = np.unique(np.column_stack([ends[:, 0], owner[ends[:, 1]]]), axis=0)  # (point, node) reached
-    starts = np.searchsorted(pairs[:, 0], np.unique(pairs[:, 0]))
-    counts = np.diff(np.append(starts, len(pairs)))
-    triples = []
-    for size in np.unique(counts[counts >= 3]):
-        rows = starts[counts == size][:, None] + np.arange(size)
-        nodes = pairs[rows, 1]
-        combos = np.array(list(itertools.combinations(range(size), 3)))
-        triples.append(nodes[:, combos].reshape(-1, 3))
-    return np.unique(np.concatenate(triples), axis=0) if triples else np.zeros((0, 3), dtype=np.int64)
-
-
 def _edge(u: int, v: int) -> tuple[int, int]:
     return (u, v) if u < v else (v, u)
 
@@ -97,19 +72,17 @@ class SampleComplex:
                 self.apex.setdefault(_edge(u, v), set()).add(w)
 
     @classmethod
-    def from_surface(cls, xyz: list, owner: np.ndarray, edges: np.ndarray, triangles: np.ndarray,
-                     fill_flags: bool = FILL_FLAGS) -> "SampleComplex":
+    def from_surface(cls, xyz: list, owner: np.ndarray, edges: np.ndarray, triangles: np.ndarray) -> "SampleComplex":
         """The complex of the surface `edges`/`triangles` (point ids) mapped through `owner` (point -> node),
-        with the samples that each point's closed neighbourhood reaches filled as one simplex (see
-        witness_triangles) and, with `fill_flags`, every 3-cycle of its graph filled."""
+        with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved (the
+        fans of a surface leave tiny gaps where neighbouring fans disagree, which a stretched part of the
+        contraction can spread over three samples)."""
         pairs = np.sort(owner[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
         pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
         corners = np.sort(owner[triangles], axis=1) if len(triangles) else np.zeros((0, 3), dtype=np.int64)
         distinct = (corners[:, 0] != corners[:, 1]) & (corners[:, 1] != corners[:, 2])
-        parts = [corners[distinct]] + ([witness_triangles(owner, edges)] if USE_WITNESS else [])
-        if fill_flags:
-            parts.append(surface_triangles(pairs, len(xyz)))
-        return cls(xyz, pairs, np.unique(np.concatenate(parts), axis=0))
+        corners = np.concatenate([corners[distinct], surface_triangles(pairs, len(xyz))])
+        return cls(xyz, pairs, np.unique(corners, axis=0))
 
     def triangles(self) -> list[tuple[int, int, int]]:
         return [(u, v, w) for (u, v), apexes in self.apex.items() for w in apexes if w > v]

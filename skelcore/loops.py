@@ -124,8 +124,6 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
             if key not in judged:
                 judged[key] = probe.crossings(np.array([xyz[node] for node in _ordered(graph, cycle)])) \
                     >= CROSSING_POINTS
-                import os
-                if os.environ.get("DBG"): print("cycle", len(cycle), probe.crossings(np.array([xyz[node] for node in _ordered(graph, cycle)])), probe.spacing)
             if not judged[key]:
                 false = _ordered(graph, cycle)
                 break
