@@ -2,9 +2,16 @@
 tie its skeleton together.
 
 Both rules compare each point with the cloud's own typical spacing, so they follow the sampling:
-- statistical outliers: a point whose mean distance to its `neighbours` nearest points exceeds the median
-  of that distance by more than `outlier_spread` robust standard deviations (1.4826 MAD). The median and
-  MAD are used rather than open3d's mean and standard deviation, which the outliers themselves inflate;
+- statistical outliers: a point whose mean distance to its `neighbours` nearest points (its spacing) is
+  both `outlier_ratio` times the median spacing of those neighbours (it lies apart from them, where a
+  sparsely sampled part is sparse all round) and `outlier_spread` robust standard deviations (1.4826 MAD)
+  above the cloud's median spacing (it lies apart from the surface as a whole). Median and MAD, rather than
+  open3d's mean and standard deviation, which the outliers themselves inflate;
+- noise: every kept point is projected onto the PCA plane of its `neighbours` nearest kept points
+  (centred on their mean), once. Sampling noise inflates the initial one-ring sizes s^0, so after the
+  first step smooths it, W_H = W_H0 s^0 / s^t pins the points before they contract, and noisy fans give
+  degenerate cotangents; the projection removes the normal part of the noise. On a clean surface it
+  moves a point by about the sagitta of its neighbourhood, a fraction of a point spacing;
 - stray pieces: the cloud is split into pieces where no chain of near neighbours (each step at most
   `piece_gap` times the typical spacing) joins them; pieces holding less than `min_piece_share` of the
   points are removed (a scan's stray clusters, far or near). A piece of the object holding that share is
@@ -23,21 +30,24 @@ from scipy.spatial import cKDTree
 
 from .errors import ParameterError
 from .io import Cloud
+from .neighbours import pca_frames
 
 
 @dataclass(frozen=True)
 class CleaningParams:
     remove_outliers: bool = True
     neighbours: int = 16  # for the spacing of each point
-    outlier_spread: float = 3.0  # robust standard deviations above the median spacing (the 3-sigma rule)
+    outlier_ratio: float = 1.5  # times the spacing of its own neighbours
+    outlier_spread: float = 3.0  # robust standard deviations above the cloud's median spacing (the 3-sigma rule)
     remove_stray: bool = True
+    denoise: bool = True  # project every point onto the PCA plane of its neighbours, once
     piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
     min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
 
     def validated(self) -> "CleaningParams":
         if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:
             raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
-        for name in ("outlier_spread", "piece_gap"):
+        for name in ("outlier_ratio", "outlier_spread", "piece_gap"):
             value = getattr(self, name)
             if not math.isfinite(value) or value <= 0:
                 raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
@@ -88,7 +98,8 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     if params.remove_outliers:
         median = np.median(spacing)
         mad = 1.4826 * np.median(np.abs(spacing - median))
-        keep &= spacing <= median + params.outlier_spread * max(mad, 1e-12 * median)
+        apart = spacing > params.outlier_ratio * np.median(spacing[index[:, 1:]], axis=1)
+        keep &= ~(apart & (spacing > median + params.outlier_spread * max(mad, 1e-12 * median)))
     if params.remove_stray:
         gap = params.piece_gap * np.median(spacing[keep])
         rows = np.repeat(np.arange(n), params.neighbours)
@@ -107,8 +118,8 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
 
 
 def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
-    """`cloud` without its outliers and stray pieces, with the counts in `cleaning` and a note; mesh faces
-    that lose a corner are dropped and the rest renumbered."""
+    """`cloud` without its outliers and stray pieces and, with `denoise`, projected onto its local planes;
+    the counts in `cleaning` and a note. Mesh faces that lose a corner are dropped, the rest renumbered."""
     report = clean(cloud.points, params)
     kept = report.kept
     faces = cloud.faces
@@ -119,4 +130,16 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())
+    points = denoised(cloud.points[kept], params.neighbours) if params.denoise else cloud.points[kept]
+    return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())
+
+
+def denoised(points: np.ndarray, neighbours: int) -> np.ndarray:
+    """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included)."""
+    if len(points) <= neighbours:
+        return points
+    _, index = cKDTree(points).query(points, k=neighbours, workers=-1)
+    _, frames = pca_frames(points, index)
+    normal = frames[:, :, 0]
+    offset = np.einsum("ij,ij->i", points - points[index].mean(axis=1), normal)
+    return points - offset[:, None] * normal

@@ -33,6 +33,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="most contraction iterations (default: %(default)s)")
     group.add_argument("--termination", type=float, default=defaults.termination,
                        help="stop when the one-ring size ratio falls by less than this (default: %(default)s)")
+    group.add_argument("--curve-share", type=float, default=defaults.curve_share,
+                       help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
+                            "(0: cloudcontr's rule alone) (default: %(default)s)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
@@ -58,7 +61,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
-                             max_iterations=args.max_iterations, termination=args.termination,
+                             max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
                              gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
 

@@ -3,11 +3,12 @@
 Every input point maps to a skeleton sample (the ball-cover owner of its contracted position). The ring
 triangles of the ORIGINAL surface, mapped through that owner, form a 2-complex on the samples: its edges
 join samples whose points are ring neighbours, its triangles are the surface triangles whose three corners
-went to three different samples. The contraction is a deformation of the shape onto its skeleton, so this
-complex has the loops of the shape, however the contracted points lie: a loop's hole is crossed by no
-surface triangle, a sheet or a blob that did not contract to a curve is filled by the triangles of both its
-sides, a short loop of three samples keeps its hole when no triangle spans it. No distance, angle or
-length threshold decides what a loop is.
+went to three different samples, plus every 3-cycle of its graph (a loop must pass at least four samples
+to be resolved). The contraction is a deformation of the shape onto its skeleton, so this complex has the
+loops of the shape, however the contracted points lie: a loop's hole is crossed by no surface triangle,
+and a sheet or a blob that did not contract to a curve is filled by the triangles of its sides. No
+distance, angle or length threshold decides what a loop is here (skelcore.loops then vetoes the few false
+ones that gaps between disagreeing fans leave).
 
 The complex is then reduced to a graph by operations that keep its homotopy type, so no loop is ever lost
 or made:
@@ -73,7 +74,9 @@ class SampleComplex:
     @classmethod
     def from_surface(cls, xyz: list, owner: np.ndarray, edges: np.ndarray, triangles: np.ndarray) -> "SampleComplex":
         """The complex of the surface `edges`/`triangles` (point ids) mapped through `owner` (point -> node),
-        with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved."""
+        with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved (the
+        fans of a surface leave tiny gaps where neighbouring fans disagree, which a stretched part of the
+        contraction can spread over three samples)."""
         pairs = np.sort(owner[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
         pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
         corners = np.sort(owner[triangles], axis=1) if len(triangles) else np.zeros((0, 3), dtype=np.int64)

@@ -14,11 +14,13 @@ from dataclasses import dataclass, field
 from typing import Generator
 
 import numpy as np
+from .curveness import curve_share
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .normalise import Normalisation
+from .normalise import Normalisation, robust_extent
 from .params import ContractionParams, default_k
+from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
 TERMINATION_MESSAGES = {
@@ -84,7 +86,7 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
     sizes0 = rings.sizes(unit)
     auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
     ids = np.arange(len(points))
-    extent0 = np.ptp(unit, axis=0)
+    extent0 = robust_extent(unit)
 
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
@@ -100,9 +102,11 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
         if failure is None:
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
-            # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold
-            if iteration > 1 and ratio - new_ratio < params.termination:
-                failure = ("ring_ratio", f"a_t fell by {ratio - new_ratio:.4f} < {params.termination:g}")
+            # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold; while the rings still
+            # shrink, a cloud that is not yet curve-like (a sheet) goes on contracting
+            drop = ratio - new_ratio
+            if iteration > 1 and drop < params.termination and not (drop >= 0 and not curve_like(candidate, params)):
+                failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             reason, detail = failure
             message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))
@@ -121,6 +125,15 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
             return
 
 
+def curve_like(unit_points: np.ndarray, params: ContractionParams) -> bool:
+    """Whether at least params.curve_share of the cloud (in normalised units) is curve-like at the skeleton's
+    default sample radius."""
+    if params.curve_share <= 0:
+        return True
+    diagonal = float(np.linalg.norm(robust_extent(unit_points)))
+    return curve_share(unit_points, SkeletonParams.sample_radius * diagonal) >= params.curve_share
+
+
 def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,
              sizes: np.ndarray) -> tuple[float, np.ndarray]:
     """W_L = W_L0 s_L^(t-1), capped; W_H,i = W_H0 s_i^0 / s_i^t, capped (DESIGN.md section 3, step 6)."""
@@ -132,7 +145,8 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
                wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool
                ) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
-    past params.bbox_growth of the original extent0, and collapse: once a cloud is a thin curve its rings
+    past params.bbox_growth of the original extent0 (robust extents: a few points flung out by degenerate
+    rings do not end the contraction of the rest), and collapse: once a cloud is a thin curve its rings
     degenerate and a step can pull the whole curve together; the longest extent falling below
     params.collapse of the current one in a single step is that, never a contraction onto the skeleton.
     The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
@@ -151,7 +165,7 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
-    if failure is None and (np.ptp(candidate, axis=0) > params.bbox_growth * extent0).any():
+    if failure is None and (robust_extent(candidate) > params.bbox_growth * extent0).any():
         failure = ("bbox_growth", "")
     if failure is None and not first_step:
         longest, before = np.ptp(candidate, axis=0).max(), np.ptp(current, axis=0).max()

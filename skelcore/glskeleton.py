@@ -57,7 +57,7 @@ import numpy as np
 from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans, one_rings
-from .normalise import Normalisation
+from .normalise import Normalisation, robust_extent
 from .params import ContractionParams, default_k
 from .solver import CholeskySolver
 
@@ -82,7 +82,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
     rings_time = time.perf_counter() - started
     sizes0 = rings.sizes(unit)
     auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
-    extent0 = np.ptp(unit, axis=0)
+    extent0 = robust_extent(unit)
     ids = np.arange(n)
     priority = np.random.default_rng(PRIORITY_SEED).permutation(n)  # merge order, by input id
 

@@ -27,3 +27,13 @@ class Normalisation:
 
     def inverse(self, points: np.ndarray) -> np.ndarray:
         return points / self.scale + self.centre
+
+
+ROBUST_SHARE = 0.01  # the share of points each side that a robust extent ignores
+
+
+def robust_extent(points: np.ndarray) -> np.ndarray:
+    """(3,) the extent of the middle 98% of the points along each axis: a few points flung far by a
+    degenerate ring, or stray points a scan left, do not change it."""
+    low, high = np.quantile(points, [ROBUST_SHARE, 1.0 - ROBUST_SHARE], axis=0)
+    return high - low

@@ -25,7 +25,8 @@ class ContractionParams:
     wl_max: float = 2048.0  # cap on W_L (Au et al. 2008)
     wh_max: float = 1e4  # cap on W_H
     max_iterations: int = 20
-    termination: float = 0.01  # stop when the ring-size ratio falls by less than this
+    termination: float = 0.01  # stop when the ring-size ratio falls by less than this ...
+    curve_share: float = 0.8  # ... and this share of the cloud is curve-like (0: cloudcontr's rule alone)
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
@@ -54,6 +55,8 @@ class ContractionParams:
             raise ParameterError(f"parameter sl={self.sl!r}: must be a finite number >= 1")
         if int(self.max_iterations) != self.max_iterations or not 1 <= self.max_iterations <= 1000:
             raise ParameterError(f"parameter max_iterations={self.max_iterations!r}: must be an integer between 1 and 1000")
+        if not math.isfinite(self.curve_share) or not 0 <= self.curve_share <= 1:
+            raise ParameterError(f"parameter curve_share={self.curve_share!r}: must be a number in [0, 1]")
         if not math.isfinite(self.collapse) or not 0 <= self.collapse < 1:
             raise ParameterError(f"parameter collapse={self.collapse!r}: must be a number in [0, 1)")
         if not math.isfinite(self.bbox_growth) or self.bbox_growth <= 1:

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import __version__, io
 from .clean import CleaningParams, cleaned
+from .curveness import curve_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
@@ -139,11 +140,13 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
     """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict (with the
     skeleton checks given the skeleton's evidence, see skeleton_evidence)."""
     iterations = []
+    radius = SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
     for state, measured in zip(states, metrics):
         iterations.append({
             "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
             "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
-            "ring_ratio": state.ring_ratio, "timings": state.timings, **measured.to_dict(),
+            "ring_ratio": state.ring_ratio, "curve_share": curve_share(state.points, radius),
+            "timings": state.timings, **measured.to_dict(),
         })
     final = states[-1]
     return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,

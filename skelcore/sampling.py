@@ -60,3 +60,4 @@ def ball_cover_by_piece(points: np.ndarray, radius: float, edges: np.ndarray) ->
         owner[ids] = local_owner + sum(len(s) for s in samples)
         samples.append(ids[local_samples])
     return np.concatenate(samples), owner
+

@@ -28,6 +28,7 @@ import numpy as np
 from .collapse import SampleComplex, collapse_to_graph, surface_triangles
 from .errors import InputError, ParameterError
 from .io import as_points
+from .loops import SurfaceProbe, cut_false_loops
 from .recentre import recentre
 from .refine import drop_collinear, merge_junctions, prune_spurs
 from .sampling import ball_cover_by_piece
@@ -36,6 +37,7 @@ from .sampling import ball_cover_by_piece
 @dataclass(frozen=True)
 class SkeletonParams:
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' bounding-box diagonal
+    cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
     prune_spurs: bool = True
@@ -111,6 +113,9 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     complex_ = SampleComplex.from_surface(xyz, owner, edges, triangles)
     collapse_to_graph(complex_)
     adj, parent = complex_.nbr, complex_.parent
+    if params.cut_false_loops and len(edges):
+        spacing = float(np.median(np.linalg.norm(original[edges[:, 0]] - original[edges[:, 1]], axis=1)))
+        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, SurfaceProbe(original, spacing))
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:

@@ -70,3 +70,12 @@ def test_run_reports_cleaning_in_metrics_and_params(tmp_path):
     assert metrics["cleaning"]["input_points"] == 2040 and metrics["cleaning"]["outliers_removed"] >= 30
     params = json.loads((tmp_path / "out" / "params.json").read_text())
     assert params["cleaning"]["remove_outliers"] is True
+
+
+def test_a_sparsely_sampled_half_is_no_outlier():
+    """Non-uniform density: a point is an outlier only when it lies apart from its own neighbours."""
+    points = ring(6000)
+    sparse_side = points[:, 0] > 0
+    keep = ~sparse_side | (np.random.default_rng(4).random(len(points)) < 0.3)
+    thinned = points[keep]
+    assert len(thinned) - len(clean(thinned).kept) <= 0.005 * len(thinned)

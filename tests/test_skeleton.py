@@ -121,12 +121,19 @@ def test_y_gives_one_junction_and_three_ends():
 
 def wavy_plate(hole=0.0, n=3000):
     """A wavy plate that did not contract to a curve: contracted points on a flat sheet, original points on
-    the plate; with `hole`, a hole of that radius through it."""
+    its top and bottom faces; with `hole`, a hole of that radius through it, with its wall."""
     rng = np.random.default_rng(0)
     xy = rng.uniform([-1, -0.4], [1, 0.4], (n, 2))
     xy = xy[np.linalg.norm(xy, axis=1) >= hole]
-    contracted = np.column_stack([xy, rng.normal(0, 0.005, len(xy))])
-    original = np.column_stack([xy, 0.1 * np.sin(3 * xy[:, 0]) * np.cos(4 * xy[:, 1])])
+    side = np.where(np.arange(len(xy)) % 2 == 0, 0.05, -0.05)
+    original = np.column_stack([xy, 0.1 * np.sin(3 * xy[:, 0]) * np.cos(4 * xy[:, 1]) + side])
+    if hole:
+        angle, height = rng.uniform(0, 2 * np.pi, 300), rng.uniform(-0.05, 0.05, 300)
+        wall = np.column_stack([hole * np.cos(angle), hole * np.sin(angle), height])
+        wall[:, 2] += 0.1 * np.sin(3 * wall[:, 0]) * np.cos(4 * wall[:, 1])
+        original = np.vstack([original, wall])
+    contracted = original * [1, 1, 0] + np.column_stack([np.zeros((len(original), 2)),
+                                                         rng.normal(0, 0.005, len(original))])
     return contracted, original
 
 
@@ -342,7 +349,7 @@ def test_whole_pipeline_on_the_cloudcontr_golden_case(reference_dir):
 
     data = np.load(reference_dir / "cloudcontr_simplejoint_v4770_matlab_result.npz")
     cloud = load(reference_dir / "cloudcontr_simplejoint_v4770.off")
-    final = run_contraction(cloud.points, ContractionParams(k=30, wl0=9.621282, wh0=1.0, sl=3.0, max_iterations=4))[-1]
+    final = run_contraction(cloud.points, ContractionParams(k=30, wl0=9.621282, wh0=1.0, sl=3.0, max_iterations=4, curve_share=0))[-1]
     skeleton = skeleton_of_state(final, cloud.points, SkeletonParams())
     assert topology(skeleton) == {"components": 1, "cycles": 0, "junctions": 1, "ends": 3}
     nodes = Normalisation.fit(cloud.points).forward(skeleton.nodes_array())  # MATLAB's normalised frame

@@ -1,0 +1,141 @@
+"""Which cycles of the skeleton graph are loops of the shape, and how a false one is removed: by a cut.
+
+The collapse keeps every loop of the complex the surface maps onto; a few of them can still be false: a
+plate or a blob whose contraction stopped at a hollow outline, where a gap between neighbouring fans
+stretches into a long loop. The rule tells them apart with the ORIGINAL surface and no length threshold:
+
+    a cycle is a loop of the shape when the original surface crosses a disk spanning it.
+
+The disk is the fan from the cycle's centroid to its edges. Around a real loop, the disk must leave the
+solid through the hole, so the surface crosses it along a curve, and there the surface normal lies in the
+disk's plane (a torus's inner wall, a drilled hole's wall, a linked ring's tube). A false loop's disk is
+sandwiched inside the solid: the faces of the plate it lies in run parallel to it, or no surface is near.
+A crossing is an original point within one point spacing of the disk whose PCA normal makes more than
+CROSSING_ANGLE degrees with the disk's normal; a loop needs CROSSING_POINTS of them, so that one noisy
+point does not make a loop.
+
+A false cycle is cut at its weakest edge, the one fewest surface edges support (ties: the longest), never
+merged to a point: the curve keeps its length, and its points keep their nodes.
+"""
+from __future__ import annotations
+
+import math
+
+import networkx as nx
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .neighbours import pca_frames
+
+CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
+CROSSING_POINTS = 4  # crossing points a loop needs
+NORMAL_K = 16  # neighbours for a point's PCA normal
+
+
+class SurfaceProbe:
+    """The original surface, for asking whether it crosses a disk."""
+
+    def __init__(self, original: np.ndarray, spacing: float) -> None:
+        self.points = original
+        self.tree = cKDTree(original)
+        self.spacing = spacing
+        self._normals: dict[int, np.ndarray] = {}
+
+    def normals(self, ids: np.ndarray) -> np.ndarray:
+        missing = np.array([i for i in ids.tolist() if i not in self._normals], dtype=np.int64)
+        if len(missing):
+            k = min(NORMAL_K, len(self.points))
+            _, neighbours = self.tree.query(self.points[missing], k=k)
+            _, frames = pca_frames(self.points, neighbours.reshape(len(missing), k))
+            for i, normal in zip(missing.tolist(), frames[:, :, 0]):
+                self._normals[i] = normal
+        return np.array([self._normals[i] for i in ids.tolist()]).reshape(-1, 3)
+
+    def crossings(self, corners: np.ndarray) -> int:
+        """Original points within one spacing of the fan disk over the closed polygon `corners`, whose
+        normal lies within 90 - CROSSING_ANGLE degrees of the disk's plane."""
+        centre = corners.mean(axis=0)
+        normal = np.linalg.svd(corners - centre)[2][2]
+        found: set[int] = set()
+        for a, b in zip(corners, np.roll(corners, -1, axis=0)):
+            triangle = np.array([centre, a, b])
+            middle = triangle.mean(axis=0)
+            reach = np.linalg.norm(triangle - middle, axis=1).max() + self.spacing
+            ids = np.asarray(self.tree.query_ball_point(middle, reach), dtype=np.int64)
+            if len(ids):
+                near = _triangle_distance(self.points[ids], triangle) <= self.spacing
+                found.update(ids[near].tolist())
+        if len(found) < CROSSING_POINTS:
+            return 0
+        ids = np.fromiter(found, dtype=np.int64)
+        across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
+        return int(across.sum())
+
+
+def _triangle_distance(points: np.ndarray, triangle: np.ndarray) -> np.ndarray:
+    """Distance of each point to the (filled) triangle."""
+    a, b, c = triangle
+    ab, ac = b - a, c - a
+    normal = np.cross(ab, ac)
+    area2 = np.linalg.norm(normal)
+    if area2 == 0:
+        return np.full(len(points), np.inf)
+    normal /= area2
+    rel = points - a
+    height = rel @ normal
+    foot = rel - height[:, None] * normal
+    # barycentric coordinates of the foot
+    d00, d01, d11 = ab @ ab, ab @ ac, ac @ ac
+    d20, d21 = foot @ ab, foot @ ac
+    denom = d00 * d11 - d01 * d01
+    v = (d11 * d20 - d01 * d21) / denom
+    w = (d00 * d21 - d01 * d20) / denom
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+    distance = np.abs(height)
+    if (~inside).any():
+        outside = points[~inside]
+        edges = [(a, b), (b, c), (c, a)]
+        distance[~inside] = np.min([_segment_distance(outside, p, q) for p, q in edges], axis=0)
+    return distance
+
+
+def _segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    d = q - p
+    t = np.clip((points - p) @ d / max(d @ d, 1e-300), 0.0, 1.0)
+    return np.linalg.norm(points - (p + t[:, None] * d), axis=1)
+
+
+def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
+                    probe: SurfaceProbe) -> int:
+    """Cut every cycle of `adj` that is no loop of the shape (see the module's rule) at its weakest edge,
+    shortest cycles first, until every cycle left is a loop. Returns the number of cuts."""
+    support: dict[tuple[int, int], int] = {}
+    pairs = np.sort(node_of_point[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    for (u, v), count in zip(*np.unique(pairs, axis=0, return_counts=True)):
+        support[(int(u), int(v))] = int(count)
+    judged: dict[frozenset, bool] = {}
+    cuts = 0
+    while True:
+        graph = nx.Graph((u, v, {"length": math.dist(xyz[u], xyz[v])}) for u in adj for v in adj[u] if u < v)
+        false = None
+        for cycle in sorted(nx.minimum_cycle_basis(graph, weight="length"), key=len):
+            key = frozenset(cycle)
+            if key not in judged:
+                judged[key] = probe.crossings(np.array([xyz[node] for node in _ordered(graph, cycle)])) \
+                    >= CROSSING_POINTS
+            if not judged[key]:
+                false = _ordered(graph, cycle)
+                break
+        if false is None:
+            return cuts
+        ring = list(zip(false, false[1:] + false[:1]))
+        u, v = min(ring, key=lambda e: (support.get((min(e), max(e)), 0), -math.dist(xyz[e[0]], xyz[e[1]])))
+        adj[u].discard(v)
+        adj[v].discard(u)
+        cuts += 1
+
+
+def _ordered(graph: nx.Graph, cycle: list[int]) -> list[int]:
+    """The nodes of a cycle (given as a set) in their order round it."""
+    return [u for u, _ in nx.find_cycle(graph.subgraph(cycle))]
