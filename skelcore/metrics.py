@@ -11,18 +11,17 @@ the normal of a contracted, nearly one-dimensional neighbourhood follow the samp
 
 Normal conventions (`NORMAL_CONVENTIONS`). The eigen-solver returns +n or -n at random, yet eq. 5 uses the
 signed cosine, so how the signs are chosen decides what the D_theta histogram shows.
-- "tracked" (the default): mean-centred covariance and each normal's sign carried over from the previous
-  iteration (n_k . n_{k-1} >= 0): D_theta is the total turn of a continuous normal field, 0 for an
-  unchanged cloud; its mean ends near 0.2-0.35 and never reaches the paper's 0.5.
-- "outward" (the paper's reading): eq. 6 centred on the anchor point (the covariance of the neighbours
-  about the point itself, not about their mean), and every normal, at iteration 0 and at k, oriented away
-  from its cloud's centroid. D_theta then moves from left-skewed toward a bell centred on 0.5 as the paper
-  describes (15 of 25 default runs end within 0.1 of it, against 0 of 25 tracked).
-`skelcore study` measured both over 375 runs (README, "The stability verdict"): the D_theta statistics
-alone predict a right skeleton about equally (best ROC AUC 0.70 outward, 0.63 tracked, intervals +-0.06),
-but the verdict calibrated on tracked normals labels several times as many right runs stable on held-out
-shapes (40 of 83 against 6 to 13 of 83, both at >= 90% right), so tracked is the default, outward an option.
-Reference normals for the boundedness test are always MST-oriented (Hoppe et al. 1992).
+- "outward" (the paper's reading, the default): eq. 6 centred on the anchor point (the covariance of the
+  neighbours about the point itself, not about their mean), and every normal, at iteration 0 and at k,
+  oriented away from its cloud's centroid. D_theta moves from left-skewed toward a bell centred on 0.5 as
+  the paper describes (in `skelcore study`, 15 of 25 default runs end within 0.1 of 0.5 with one peak).
+- "tracked": mean-centred covariance and each normal's sign carried over from the previous iteration
+  (n_k . n_{k-1} >= 0): D_theta is the total turn of a continuous normal field, 0 for an unchanged cloud;
+  its mean ends at 0.20-0.44 (1 of 25 default runs near 0.5).
+The study (375 runs, README "The stability verdict") found D_theta's statistics predicting a right skeleton
+about equally under both (best ROC AUC 0.69 [0.64, 0.75] outward, 0.67 [0.62, 0.72] tracked) and the
+calibrated verdicts identical on held-out shapes, so the default is the one that shows the paper's
+behaviour. Reference normals for the boundedness test are always MST-oriented (Hoppe et al. 1992).
 A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
 of the statistics (counted in "n_undefined"); a tracked normal carries the previous one forward.
 
@@ -71,7 +70,7 @@ _SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of the surface normals of the insi
 _TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 _SYMMETRY_LEVELS = np.linspace(0.02, 0.48, 24)
 NORMAL_CONVENTIONS = ("outward", "tracked")
-NORMAL_CONVENTION = "tracked"  # chosen by `skelcore study` (module docstring)
+NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
 
 
 # --- per-point features -------------------------------------------------------------------------
