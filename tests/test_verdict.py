@@ -8,7 +8,7 @@ from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, ex
 
 
 # Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
-T = StabilityThresholds(min_symmetry=0.8, d_theta_tolerance=0.1, delta_kappa_tolerance=0.05, min_inside_share=0.9,
+T = StabilityThresholds(max_peaks=1, min_symmetry=0.8, d_theta_tolerance=0.1, delta_kappa_tolerance=0.05, min_inside_share=0.9,
                         shrink_tolerance=0.01, max_step_shrink=0.5, min_spread_ratio=0.5, min_linearity=0.8,
                         loop_death=4.0)
 
