@@ -106,10 +106,11 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     return report
 
 
-def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
-    """`cloud` without its outliers and stray pieces, with the counts in `cleaning` and a note; mesh faces
-    that lose a corner are dropped and the rest renumbered."""
-    report = clean(cloud.points, params)
+def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: CleaningReport | None = None) -> Cloud:
+    """`cloud` without its outliers and stray pieces (those of `report` when given), with the counts in
+    `cleaning` and a note; its labels follow the points kept; mesh faces that lose a corner are dropped and
+    the rest renumbered."""
+    report = report or clean(cloud.points, params)
     kept = report.kept
     faces = cloud.faces
     if faces is not None and len(kept) < len(cloud.points):
@@ -119,4 +120,5 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())
+    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
+                 labels=None if cloud.labels is None else cloud.labels[kept])

@@ -54,6 +54,13 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--no-stray-removal", action="store_true",
                        help="keep small pieces apart from the object (removed by default: pieces under "
                             f"{CleaningParams.min_piece_share * 100:g}%% of the points)")
+    group.add_argument("--labels", metavar="FILE|PROPERTY", default=None,
+                       help="per-point integer labels: a file (.txt .csv .labels: one per line in the input's point "
+                            "order; .npy) or a vertex property of a PLY input (default: the PLY's label, class, "
+                            "scalar_label, ... property when present)")
+    group.add_argument("--label-weight", metavar="LABEL=W", action="append", default=[], type=_label_weight,
+                       help="contraction weight of the points labelled LABEL (a multiplier of W_L on their Laplacian "
+                            "rows, as pc-skeletor's semantic LBC); repeat for several labels; unnamed labels keep 1")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
@@ -68,7 +75,17 @@ def run_options(args: argparse.Namespace):
 
     cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal)
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning)
+                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
+                      labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())))
+
+
+def _label_weight(text: str) -> tuple[int, float]:
+    from .labels import parse_label_weight
+
+    try:
+        return parse_label_weight(text)
+    except SkelError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -137,13 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .pipeline import run_pipeline
+    from .api import run
 
-    options = run_options(args)
     progress = None if args.quiet else print
-    result = run_pipeline(args.input, args.out, options, progress=progress)
+    result = run(args.input, run_options(args), progress=progress)
+    out = result.save(args.out)
     if not args.quiet:
-        print(result.summary_line())
+        print(f"{result.summary()} -> {out}")
     return 0
 
 
