@@ -201,7 +201,7 @@ def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | 
     """The contraction weights of a run for params.json (None: every weight 1)."""
     if weights is None:
         return None
-    document = {"labels": options.labels or "PLY label property", "label_weights": dict(options.label_weights),
+    document = {"labels": options.labels or "the input's labels", "label_weights": dict(options.label_weights),
                 "weighted_points": int((weights != 1).sum()), "min": float(weights.min()),
                 "max": float(weights.max()), "mean": float(weights.mean())}
     if not options.label_weights:
