@@ -64,6 +64,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
+    """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination,
                              gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
@@ -71,6 +72,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 
 
 def run_options(args: argparse.Namespace):
+    """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
     from .pipeline import RunOptions
 
     cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal)
@@ -89,6 +91,7 @@ def _label_weight(text: str) -> tuple[int, float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of every `skelcore` sub-command."""
     parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
@@ -207,6 +210,7 @@ def _batch(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (0 ok, 1 some batch objects failed, 2 bad input or parameters, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

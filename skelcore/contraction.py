@@ -36,6 +36,7 @@ RESTART_FIELDS = ("method", "k", "normalise")
 
 @dataclass(frozen=True)
 class IterationState:
+    """One iteration of a contraction: the present points and the weights and figures of the step."""
     iteration: int  # 0 is the input
     points: np.ndarray  # (m,3) positions of the present points, in the user's coordinates
     point_ids: np.ndarray  # (m,) ids into the input of the present points
@@ -51,6 +52,7 @@ class IterationState:
 
     @property
     def n_points(self) -> int:
+        """The number of present points (GLSkeleton: fewer than the input after merges)."""
         return len(self.points)
 
     @property

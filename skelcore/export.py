@@ -31,6 +31,7 @@ def skeleton_document(skeleton: Skeleton, correspondence: bool = True) -> dict:
 
 
 def write_skeleton_json(path, skeleton: Skeleton, correspondence: bool = True) -> Path:
+    """Write skeleton.json (see skeleton_document)."""
     return _write(path, lambda f: json.dump(skeleton_document(skeleton, correspondence), f, allow_nan=False), "w")
 
 

@@ -23,6 +23,7 @@ MAX_POINTS = 2_000_000
 
 @dataclass
 class Cloud:
+    """A validated point cloud: points, optional mesh faces and labels, its name, notes on what loading fixed."""
     points: np.ndarray  # (n,3) float64, finite, unique
     faces: np.ndarray | None = None  # (m,3) int64 into points, when the file is a mesh
     name: str = "cloud"

@@ -67,6 +67,7 @@ class LaplacianSystem:
         self._m_diagonal = np.asarray(slot_of[np.arange(n), np.arange(n)]).ravel().astype(np.int64) - 1
 
     def laplacian_values(self, points: np.ndarray) -> np.ndarray:
+        """The values of L (eq. 1) at `points`, in the order of its fixed sparsity pattern."""
         _, _, weights = cotangent_weights(points, self._triangles)
         row_sum = np.bincount(self._rows, weights=weights, minlength=self.n)
         scale = np.where(np.abs(row_sum) > ROW_LIMIT, ROW_LIMIT / np.maximum(np.abs(row_sum), 1e-300), 1.0)
@@ -75,6 +76,7 @@ class LaplacianSystem:
         return values
 
     def laplacian(self, points: np.ndarray) -> sp.csr_matrix:
+        """L (eq. 1) at `points` as a CSR matrix."""
         return sp.csr_matrix((self.laplacian_values(points), self._l_indices, self._l_indptr), shape=(self.n, self.n))
 
     def normal_matrix(self, points: np.ndarray, wl: float, wh: np.ndarray,

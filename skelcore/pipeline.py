@@ -31,6 +31,7 @@ RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json
 
 @dataclass(frozen=True)
 class RunOptions:
+    """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
     params: ContractionParams = ContractionParams()
     sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the bounding-box diagonal
     seed: int = 0
@@ -53,12 +54,14 @@ class RunOptions:
 
     def skeleton_params(self) -> SkeletonParams:
         # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
+        """The skeleton parameters of this run, validated."""
         return SkeletonParams(sample_radius=self.sample_radius,
                               drop_collinear=self.params.method == "glskeleton").validated()
 
 
 @dataclass
 class RunResult:
+    """What run_pipeline wrote and computed: the folder, the cloud, the states, the skeleton, metrics.json."""
     out_dir: Path
     cloud: io.Cloud
     states: list[IterationState]
@@ -67,6 +70,7 @@ class RunResult:
     elapsed: float
 
     def summary_line(self) -> str:
+        """One line: iterations, termination, skeleton size and topology, verdict, time, folder."""
         topology = self.skeleton.topology()
         final = self.states[-1]
         return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
@@ -89,6 +93,7 @@ class IterationMetricsCache:
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
+        """The metrics of states[index], computing those before it first."""
         while len(self._metrics) <= index:
             state = states[len(self._metrics)]
             previous = self._metrics[-1] if self._metrics else None
@@ -97,6 +102,7 @@ class IterationMetricsCache:
         return self._metrics[index]
 
     def all(self, states: list[IterationState]) -> list[IterationMetrics]:
+        """The metrics of every state."""
         return [self.get(states, index) for index in range(len(states))]
 
 
@@ -152,6 +158,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
                weights: np.ndarray | None = None) -> list[IterationState]:
+    """Contract a cloud to the end; its states, with a progress line per accepted iteration."""
     states: list[IterationState] = []
     for state in contract(cloud.points, params, weights):
         if record(states, state) and state.iteration > 0:

@@ -107,6 +107,28 @@ def test_import_is_light_and_every_public_name_is_documented():
         assert (getattr(skelcore.Result, name).__doc__ or "").strip(), name
 
 
+def test_every_public_function_class_and_method_of_skelcore_has_a_docstring():
+    import importlib
+    import inspect
+    import pkgutil
+
+    missing = []
+    for info in pkgutil.iter_modules(skelcore.__path__):
+        module = importlib.import_module(f"skelcore.{info.name}")
+        for name, value in vars(module).items():
+            if name.startswith("_") or getattr(value, "__module__", None) != module.__name__:
+                continue
+            if not (inspect.isfunction(value) or inspect.isclass(value)):
+                continue
+            if not (inspect.getdoc(value) or "").strip() or inspect.getdoc(value).startswith(f"{name}("):
+                missing.append(f"{info.name}.{name}")
+            for member, attribute in (vars(value).items() if inspect.isclass(value) else ()):
+                function = attribute.fget if isinstance(attribute, property) else attribute
+                if not member.startswith("_") and inspect.isfunction(function) and not (function.__doc__ or "").strip():
+                    missing.append(f"{info.name}.{name}.{member}")
+    assert missing == []
+
+
 # ---------------------------------------------------------------- weights
 def _half_labels(points: np.ndarray) -> np.ndarray:
     return (points[:, 2] < np.median(points[:, 2])).astype(np.int64)
