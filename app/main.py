@@ -8,7 +8,8 @@ import threading
 from pathlib import Path
 
 from skelcore.errors import SkelError
-from skelcore.io import Cloud, load, validate
+from skelcore.api import load
+from skelcore.io import Cloud, validate
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
 

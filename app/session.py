@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from skelcore import contraction, pipeline
-from skelcore.contraction import IterationState, contract, record
+from skelcore.api import Result, contract
+from skelcore.contraction import IterationState, record
 from skelcore.errors import ParameterError
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
@@ -115,7 +116,7 @@ class Session:
                 raise ParameterError("a run to open must have ended (its last state carries a termination)")
             generator, states = None, list(history)
         else:
-            generator = contract(cloud.points, params, weights)
+            generator = contract(cloud, params=params, weights=weights)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
         self._generator, self._pending = generator, None
         self.run = Run(cloud, params, states, weights=weights,
@@ -187,8 +188,8 @@ class Session:
         run = self.run
         options = pipeline.RunOptions(params=run.start_params, sample_radius=self.skeleton_params.sample_radius,
                                       label_weights=tuple(sorted(run.label_weights.items())))
-        pipeline.write_results(out_dir, run.cloud, run.history[:index + 1], self.skeleton(index, run),
-                               self.metrics_upto(index, run), options, weights=run.weights)
+        Result(run.cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
+               options, run.weights).save(out_dir)
 
     def note(self, line: str) -> None:
         self.log.append(line)

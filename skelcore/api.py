@@ -52,7 +52,7 @@ class Result:
     metrics: list[IterationMetrics]  # the paper's metrics of each state (D_theta, delta_kappa, boundedness)
     options: pipeline.RunOptions  # every parameter of the run
     weights: np.ndarray | None = None  # the per-point contraction weights (None: all 1)
-    elapsed: float = 0.0  # seconds
+    elapsed: float | None = None  # seconds the run took (None: not timed)
     input_path: str | None = None  # the file it came from, if any
 
     @property
@@ -116,7 +116,8 @@ class Result:
         topology, final = self.topology, self.states[-1]
         return (f"{Path(self.cloud.name).name}: {final.iteration} iterations ({final.termination}), skeleton "
                 f"{self.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, {topology['junctions']} "
-                f"junctions, {topology['ends']} ends; verdict {self.verdict['label']}; {self.elapsed:.1f} s")
+                f"junctions, {topology['ends']} ends; verdict {self.verdict['label']}"
+                + ("" if self.elapsed is None else f"; {self.elapsed:.1f} s"))
 
     def __repr__(self) -> str:
         return f"<skelcore.Result {self.summary()}>"
@@ -186,8 +187,8 @@ def as_cloud(points_or_cloud, labels=None) -> io.Cloud:
     return io.validate(points_or_cloud, name="array", labels=labels)
 
 
-def contract(points, method: str = "lbc", *, weights=None, **params
-             ) -> Generator[IterationState, ContractionParams | None, None]:
+def contract(points, method: str | None = None, *, weights=None, params: ContractionParams | None = None,
+             **changes) -> Generator[IterationState, ContractionParams | None, None]:
     """The contraction as a generator, for stepping by hand: it yields the input state (iteration 0), then
     one IterationState per solve (`.points`, `.iteration`, `.wl`, `.wh`, `.ring_ratio`, `.termination` on
     the last). `generator.send(params)` with a ContractionParams retunes the following steps.
@@ -195,10 +196,13 @@ def contract(points, method: str = "lbc", *, weights=None, **params
         for state in skelcore.contract(points, max_iterations=3):
             print(state.iteration, state.ring_ratio)
 
-    points: an (n,3) array or a Cloud; weights: (n,) per-point contraction weights; **params as in
-    `skeletonize`."""
+    points: an (n,3) array or a Cloud; weights: (n,) per-point contraction weights; params: a whole
+    ContractionParams (default: the defaults); method and **changes: parameters by name on top of it."""
     cloud = as_cloud(points)
-    return _contract(cloud.points, contraction_params(method, params), weights)
+    merged = {**(params or ContractionParams()).to_dict(), **changes}
+    if method is not None:
+        merged["method"] = method
+    return _contract(cloud.points, contraction_params(merged.pop("method"), merged), weights)
 
 
 def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1", labels=None,

@@ -5,10 +5,10 @@ becomes W_L w_i L_i, so in the normal equations the Laplacian term is W_L^2 L^T 
 w_i > 1 is pulled towards its neighbours' centroid harder than its attraction holds it back, so it
 contracts further per step; w_i < 1 holds it closer to the input. Every weight 1 is plain LBC.
 
-pc-skeletor's SLBC (Meyer et al. 2023) is the case of two labels: it multiplies the rows of W_L L that
-belong to trunk points by a semantic weight (10 by default) and leaves the branch rows at 1. Here any
-number of integer labels each take a weight (`label_weights`, unnamed labels keep 1), or the weights are
-given per point. Labels come from a PLY vertex property (the first of LABEL_PROPERTIES present, or one named),
+pc-skeletor's SLBC (Meyer et al. 2023) has two classes: it multiplies the rows of W_L L of the trunk points
+whose neighbourhood lies wholly in the trunk by a semantic weight (10 by default); trunk points next to a
+branch and branch points keep 1. Here any number of integer labels each take a weight (`label_weights`,
+unnamed labels keep 1, boundary points take their own label's), or the weights are given per point. Labels come from a PLY vertex property (the first of LABEL_PROPERTIES present, or one named),
 or from a text/.npy file with one integer per point in the file's vertex order.
 """
 from __future__ import annotations
