@@ -12,14 +12,17 @@ import viser
 
 from .session import Session
 
-# ColorBrewer's Set1 (blue first: plain contracted points are red) then Dark2: distinct hues for categories; the label's rank picks one, cycling
-PALETTE = np.array([[55, 126, 184], [255, 127, 0], [77, 175, 74], [152, 78, 163], [228, 26, 28], [166, 86, 40],
-                    [247, 129, 191], [27, 158, 119], [217, 95, 2], [117, 112, 179], [102, 166, 30], [230, 171, 2]],
-                   dtype=np.uint8)
-MAX_WEIGHT_INPUTS = 12  # labels beyond these (by point count) keep their weight; the log says so
+# Distinct hues for categories, none of the scene's own (red contracted points, blue ends, orange junctions,
+# purple removed points): ColorBrewer's Dark2/Set1 picks; the label's rank picks one, cycling
+PALETTE = np.array([[77, 175, 74], [231, 41, 138], [166, 118, 29], [27, 158, 119], [230, 171, 2], [102, 102, 102],
+                    [166, 206, 227], [102, 166, 30], [251, 154, 153], [0, 90, 50]], dtype=np.uint8)
+MAX_WEIGHT_INPUTS = 12  # weight inputs for the labels with the most points; the others keep their weight
 
 
 class LabelPanel:
+    """The "Labels" GUI folder (placed at `order`), rebuilt for each cloud by `refresh`; weight edits go to
+    session.set_label_weights on the engine worker (`submit`), then `on_change` runs."""
+
     def __init__(self, gui: viser.GuiApi, session: Session, submit, on_change, order: float):
         self.gui, self.session, self.submit, self.on_change, self.order = gui, session, submit, on_change, order
         self.folder = None
@@ -39,8 +42,9 @@ class LabelPanel:
         shown = sorted(self.values[np.argsort(-counts, kind="stable")[:MAX_WEIGHT_INPUTS]].tolist())
         count_of = dict(zip(self.values.tolist(), counts.tolist()))
         with self.gui.add_folder("Labels", order=self.order) as self.folder:
-            self.gui.add_markdown(f"{len(self.values)} labels. Contraction weight per label (a multiplier of "
-                                  "W_L on its points' rows); applies on Restart.")
+            listed = "" if len(shown) == len(self.values) else f" (the {len(shown)} largest listed)"
+            self.gui.add_markdown(f"{len(self.values)} labels{listed}. Contraction weight per label (a multiplier "
+                                  "of W_L on its points' rows); applies on Restart.")
             for label in shown:
                 handle = self.gui.add_number(
                     f"Label {label} ({count_of[label]:,} pts)", min=0.01, max=1000.0, step=0.01,

@@ -228,8 +228,10 @@ def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
     assert recorded["label_weights"] == {"0": 0.5, "1": 4.0}
     assert recorded["weighted_points"] == len(labels) and recorded["max"] == 4.0
     assert json.loads((tmp_path / "file" / "params.json").read_text())["weights"]["labels"] == str(tmp_path / "labels.txt")
+    assert cli.main(["batch", str(tmp_path / "y.ply"), "--out", str(tmp_path / "batch"), "--no-report", "--quiet",
+                     *args[:-1]]) == 0
     weighted = skelcore.skeletonize(cloud.points, labels=labels, label_weights={1: 4, 0: 0.5})
-    for folder in ("prop", "file"):
+    for folder in ("prop", "file", "batch/y"):
         saved = json.loads((tmp_path / folder / "skeleton.json").read_text())
         assert saved["nodes"] == weighted.nodes.tolist()
     assert cli.main(["run", str(tmp_path / "y.ply"), "--out", str(tmp_path / "bad"), "--label-weight", "1=4",
