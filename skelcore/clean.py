@@ -27,6 +27,7 @@ from .io import Cloud
 
 @dataclass(frozen=True)
 class CleaningParams:
+    """Parameters of the cleaning before contraction (the module docstring gives the rules)."""
     remove_outliers: bool = True
     neighbours: int = 16  # for the spacing of each point
     outlier_spread: float = 3.0  # robust standard deviations above the median spacing (the 3-sigma rule)
@@ -35,6 +36,7 @@ class CleaningParams:
     min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
 
     def validated(self) -> "CleaningParams":
+        """These parameters, or a ParameterError naming the first out of range."""
         if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:
             raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
         for name in ("outlier_spread", "piece_gap"):
@@ -46,27 +48,32 @@ class CleaningParams:
         return self
 
     def to_dict(self) -> dict:
+        """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)
 
 
 @dataclass
 class CleaningReport:
+    """What cleaning found: the ids of the outliers and of the stray points, in input order."""
     input_points: int
     outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # removed ids, input order
     stray: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def kept(self) -> np.ndarray:
+        """The ids of the points kept, ascending."""
         mask = np.ones(self.input_points, dtype=bool)
         mask[self.outliers] = False
         mask[self.stray] = False
         return np.flatnonzero(mask)
 
     def to_dict(self) -> dict:
+        """The counts, for metrics.json."""
         return {"input_points": self.input_points, "outliers_removed": len(self.outliers),
                 "stray_removed": len(self.stray), "kept": self.input_points - len(self.outliers) - len(self.stray)}
 
     def note(self) -> str:
+        """One line for the cloud's notes."""
         return (f"cleaning removed {len(self.outliers)} outliers and {len(self.stray)} points of stray pieces "
                 f"({self.input_points} -> {self.input_points - len(self.outliers) - len(self.stray)} points)")
 
