@@ -14,11 +14,11 @@ import importlib
 __version__ = "0.1.0"
 
 __all__ = ["load", "skeletonize", "contract", "inspect", "Result", "Cloud", "ContractionParams",
-           "SkeletonParams", "IterationState", "Skeleton", "SkelError", "InputError", "ParameterError",
+           "CleaningParams", "SkeletonParams", "IterationState", "Skeleton", "SkelError", "InputError", "ParameterError",
            "LABEL_PROPERTIES", "__version__"]
 
 _HOMES = {"load": "api", "skeletonize": "api", "contract": "api", "inspect": "api", "Result": "api",
-          "Cloud": "io", "ContractionParams": "params", "SkeletonParams": "skeleton",
+          "Cloud": "io", "ContractionParams": "params", "CleaningParams": "clean", "SkeletonParams": "skeleton",
           "IterationState": "contraction", "Skeleton": "skeleton", "SkelError": "errors",
           "InputError": "errors", "ParameterError": "errors", "LABEL_PROPERTIES": "labels"}
 

@@ -19,6 +19,7 @@ from typing import Callable, Generator
 import numpy as np
 
 from . import io, pipeline
+from .clean import CleaningParams
 from .contraction import IterationState
 from .contraction import contract as _contract
 from .errors import ParameterError
@@ -46,7 +47,7 @@ def load(path, *, labels=None, sample: int | None = None, voxel_size: float | No
 @dataclass
 class Result:
     """A finished skeletonization: the cloud, every iteration state, the skeleton, the metrics, the verdict."""
-    cloud: io.Cloud  # the input as contracted (cloud.points, cloud.labels)
+    cloud: io.Cloud  # the points contracted, after duplicate removal and cleaning (cloud.points, .labels, .notes)
     states: list[IterationState]  # iteration 0 (the input) to the last; states[-1].termination says why it ended
     skeleton: Skeleton  # the curve skeleton of the last state
     metrics: list[IterationMetrics]  # the paper's metrics of each state (D_theta, delta_kappa, boundedness)
@@ -124,6 +125,7 @@ class Result:
 
 
 def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=None, label_weights=None,
+                cleaning: CleaningParams | bool = True,
                 sample_radius: float = pipeline.RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
                 voxel_size: float | None = None, max_points: int = io.MAX_POINTS,
                 progress: Callable[[str], None] | None = None, **params) -> Result:
@@ -136,6 +138,10 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
     labels: per-point integer labels: an (n,) array, a label file or a PLY vertex property name; a PLY
       input's label property is read without asking. label_weights: {label: weight}; unnamed labels keep 1.
       Give `weights` or `label_weights`, not both.
+    cleaning: statistical outliers and stray pieces are removed before contraction (True, the default, as
+      `skelcore run`), or not (False), or as a CleaningParams says. `result.cloud` holds the points contracted
+      (its `notes` say what was removed); the skeleton's correspondence, the states and `result.weights`
+      follow those points.
     sample_radius: the skeleton's ball radius, a fraction of the bounding-box diagonal.
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.
@@ -145,7 +151,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
         raise ParameterError("parameter labels: for an array input, give the labels as an array")
     options = pipeline.RunOptions(
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
-        voxel_size=voxel_size, max_points=max_points,
+        voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
         label_weights=tuple(sorted(check_label_weights(label_weights).items())))
     array_labels = None if isinstance(labels, (str, Path)) else labels
@@ -164,6 +170,17 @@ def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *,
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
                   time.perf_counter() - started, input_path)
+
+
+def cleaning_params(cleaning: CleaningParams | bool) -> CleaningParams:
+    """CleaningParams from True (the defaults), False (no cleaning) or a CleaningParams."""
+    if isinstance(cleaning, CleaningParams):
+        return cleaning.validated()
+    if cleaning is True:
+        return CleaningParams()
+    if cleaning is False:
+        return CleaningParams(remove_outliers=False, remove_stray=False)
+    raise ParameterError(f"parameter cleaning={cleaning!r}: must be True, False or a CleaningParams")
 
 
 def contraction_params(method: str, params: dict) -> ContractionParams:

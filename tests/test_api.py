@@ -162,8 +162,8 @@ def test_glskeleton_merged_points_carry_the_mean_weight_of_their_points():
 
     points = skelcore.load(REPO / "assets" / "y_branch.ply").points
     labels = _half_labels(points)
-    weights = weights_from_labels(labels, {1: 5.0})
     result = skelcore.skeletonize(points, method="glskeleton", labels=labels, label_weights={1: 5.0})
+    weights = weights_from_labels(result.cloud.labels, {1: 5.0})  # the labels of the points kept by cleaning
     assert np.array_equal(result.weights, weights)
     state = result.states[-1]
     assert state.n_points < len(points)  # points were merged
@@ -226,7 +226,8 @@ def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
                      "--out", str(tmp_path / "file"), *args]) == 0
     recorded = json.loads((tmp_path / "prop" / "params.json").read_text())["weights"]
     assert recorded["label_weights"] == {"0": 0.5, "1": 4.0}
-    assert recorded["weighted_points"] == len(labels) and recorded["max"] == 4.0
+    kept = json.loads((tmp_path / "prop" / "metrics.json").read_text())["cleaning"]["kept"]
+    assert recorded["weighted_points"] == kept and recorded["max"] == 4.0  # every weight is 4 or 0.5
     assert json.loads((tmp_path / "file" / "params.json").read_text())["weights"]["labels"] == str(tmp_path / "labels.txt")
     assert cli.main(["batch", str(tmp_path / "y.ply"), "--out", str(tmp_path / "batch"), "--no-report", "--quiet",
                      *args[:-1]]) == 0
@@ -244,10 +245,17 @@ def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
 def test_explicit_weights_are_listed_in_params_json(tmp_path):
     points = skelcore.load(REPO / "assets" / "capsule.ply").points
     weights = np.linspace(0.5, 2.0, len(points))
-    result = skelcore.skeletonize(points, weights=weights, max_iterations=2)
+    result = skelcore.skeletonize(points, weights=weights, max_iterations=2, cleaning=False)
     result.save(tmp_path)
     recorded = json.loads((tmp_path / "params.json").read_text())["weights"]
     assert np.allclose(recorded["values"], weights) and recorded["labels"] is None
+    # cleaning drops points: the weights of the points kept go with them
+    noisy = np.vstack([points, points.max(axis=0) + 5.0])
+    cleaned = skelcore.skeletonize(noisy, weights=np.append(weights, 9.0), max_iterations=2)
+    row_of = {tuple(point): row for row, point in enumerate(noisy.tolist())}
+    kept = np.array([row_of[tuple(point)] for point in cleaned.cloud.points.tolist()])
+    assert len(points) not in kept and np.array_equal(cleaned.weights, np.append(weights, 9.0)[kept])
+    assert any("cleaning removed" in note for note in cleaned.cloud.notes)
 
 
 def test_result_report_is_one_page(tmp_path):
