@@ -147,15 +147,14 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       max_iterations, termination, ...); unset ones take their defaults.
     progress: called with one line per iteration (e.g. print).
     """
-    if isinstance(labels, (str, Path)) and not isinstance(points_or_path, (str, Path)):
-        raise ParameterError("parameter labels: for an array input, give the labels as an array")
     options = pipeline.RunOptions(
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
         voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
         label_weights=tuple(sorted(check_label_weights(label_weights).items())))
-    array_labels = None if isinstance(labels, (str, Path)) else labels
-    return run(points_or_path, options, progress=progress, labels=array_labels, weights=weights)
+    if isinstance(labels, (str, Path)) and isinstance(points_or_path, (str, Path)):
+        labels = None  # read by the load, through options.labels
+    return run(points_or_path, options, progress=progress, labels=labels, weights=weights)
 
 
 def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *, labels=None, weights=None,
@@ -165,7 +164,7 @@ def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *,
     started = time.perf_counter()
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
-        points_or_path = as_cloud(points_or_path, labels)
+        points_or_path, labels = as_cloud(points_or_path, labels), None
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
@@ -239,8 +238,8 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
             raise ParameterError("inspect: a Result opens with its own parameters and weights")
         result = points_or_result
         return open_inspector(result.cloud, result.options.params, host=host, port=port or 0,
-                              label_weights=dict(result.options.label_weights), weights=result.weights,
-                              history=result.states)
+                              label_weights=dict(result.options.label_weights), history=result.states,
+                              weights=None if result.options.label_weights else result.weights)
     params = contraction_params(params.pop("method", "lbc"), params)
     if isinstance(points_or_result, (str, Path)):
         cloud = io.load(points_or_result, labels=labels)
