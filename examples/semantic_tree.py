@@ -46,8 +46,9 @@ def cross_section_radius(points: np.ndarray, heights: np.ndarray) -> float:
     return float(np.mean(radii))
 
 
-def figures(result: skelcore.Result, trunk: np.ndarray) -> dict:
-    original = result.cloud.points
+def figures(result: skelcore.Result) -> dict:
+    original = result.cloud.points  # the points contracted (cleaning may have dropped some)
+    trunk = result.cloud.labels == 1
     first = result.states[1]
     moved = np.linalg.norm(first.points[first.owner] - original, axis=1)
     final = result.states[-1].points[result.states[-1].owner]
@@ -88,7 +89,8 @@ def main(argv=None) -> int:
     for name, label_weights in (("unweighted", None), ("weighted", {1: args.weight})):
         result = skelcore.skeletonize(cloud, labels=labels, label_weights=label_weights)
         result.save(args.out / name)
-        rows[name] = figures(result, trunk)
+        rows[name] = figures(result)
+        print(f"{name}: {'; '.join(result.cloud.notes) or 'nothing removed'}")
     print(f"| figure | without weights | trunk weight {args.weight:g} |\n|---|---|---|")
     for key in rows["unweighted"]:
         cells = [f"{row[key]:.2f}" if isinstance(row[key], float) else str(row[key]) for row in rows.values()]

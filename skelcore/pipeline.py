@@ -53,8 +53,8 @@ class RunOptions:
         return weights_from_labels(cloud.labels, dict(self.label_weights))
 
     def skeleton_params(self) -> SkeletonParams:
-        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
         """The skeleton parameters of this run, validated."""
+        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
         return SkeletonParams(sample_radius=self.sample_radius,
                               drop_collinear=self.params.method == "glskeleton").validated()
 
