@@ -231,7 +231,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
     final = states[-1]
-    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
+    labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
+    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points, labels=labels))
     _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
     _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
     _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))

@@ -226,6 +226,8 @@ def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
                      "--out", str(tmp_path / "file"), *args]) == 0
     recorded = json.loads((tmp_path / "prop" / "params.json").read_text())["weights"]
     assert recorded["label_weights"] == {"0": 0.5, "1": 4.0}
+    contracted = skelcore.load(tmp_path / "prop" / "contracted.ply")  # keeps the labels of the points contracted
+    assert contracted.labels is not None and set(contracted.labels) == {0, 1}
     kept = json.loads((tmp_path / "prop" / "metrics.json").read_text())["cleaning"]["kept"]
     assert recorded["weighted_points"] == kept and recorded["max"] == 4.0  # every weight is 4 or 0.5
     assert json.loads((tmp_path / "file" / "params.json").read_text())["weights"]["labels"] == str(tmp_path / "labels.txt")
