@@ -70,9 +70,13 @@ def as_label(value, name: str) -> int:
 def parse_label_weight(text: str) -> tuple[int, float]:
     """'LABEL=W' as (label, weight), for the command line's --label-weight."""
     label, sep, weight = text.partition("=")
-    if not sep:
-        raise ParameterError(f"--label-weight {text!r}: expected LABEL=W, e.g. 1=10")
-    return next(iter(check_label_weights({label.strip(): weight.strip()}).items()))
+    try:
+        if not sep:
+            raise ParameterError("no '='")
+        return next(iter(check_label_weights({label.strip(): weight.strip()}).items()))
+    except ParameterError as error:
+        detail = str(error).removeprefix("parameter label_weights: ")
+        raise ParameterError(f"{text!r}: {detail} (LABEL=W: an integer label and a positive weight, e.g. 1=10)") from None
 
 
 def weights_from_labels(labels: np.ndarray, label_weights) -> np.ndarray:
