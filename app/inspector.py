@@ -20,13 +20,14 @@ from skelcore.io import FORMATS as INPUT_FORMATS, load, load_bytes
 from skelcore.params import METHODS
 
 from . import export
+from .labels import LabelPanel
 from .scene import COLOUR_RANGES, SceneView, colour_values, legend_html
 from .session import Session
 from .worker import Latest, Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
-COLOUR_MODES = ("plain", *COLOUR_RANGES)
+COLOUR_MODES = ("plain", *COLOUR_RANGES, "label")
 LOG_LINES = 8
 PLAY_INTERVAL = 0.25  # seconds: a small cloud contracts in a blink; Play paces it so it can be watched
 
@@ -103,7 +104,7 @@ class Inspector:
                                          initial_value=self.session.skeleton_params.sample_radius,
                                          hint="skeleton ball radius, fraction of the bounding-box diagonal")
             self.restart_button = gui.add_button("Restart with these parameters")
-        with gui.add_folder("View"):
+        with gui.add_folder("View") as view_folder:
             self.show = {layer: gui.add_checkbox(f"Show {layer}", True)
                          for layer in ("original", "contracted", "skeleton")}
             self.show["removed"] = gui.add_checkbox(
@@ -117,6 +118,8 @@ class Inspector:
                              "<span style='color:#ff9600'>&#9679;</span> junction, "
                              "<span style='color:#282828'>&#9679;</span> path; "
                              "<span style='color:#8c46dc'>&#9679;</span> removed point (GLSkeleton)")
+        self.labels = LabelPanel(gui, self.session, self.worker.submit, self._labels_changed,
+                                 order=view_folder.order + 0.5)
         with gui.add_folder("Load"):
             names = tuple(self.assets) or ("(no bundled assets)",)
             self.asset = gui.add_dropdown("Bundled asset", names, disabled=not self.assets)
@@ -307,10 +310,21 @@ class Inspector:
 
     def _set_colouring(self, mode: str) -> None:
         self.colour_by = mode
-        self.legend.content = legend_html(mode) if mode in COLOUR_RANGES else ""
+        self.legend.content = (legend_html(mode) if mode in COLOUR_RANGES
+                               else self.labels.legend_html() if mode == "label" else "")
         if mode not in COLOUR_RANGES:
-            self.view.set_colours((self.session.run, self.shown), None)
+            self._set_fixed_colours(self.session.run, self.shown)
         self.analyst.request((self.session.run, self.shown))
+
+    def _set_fixed_colours(self, run, index: int) -> None:
+        """Colours that need no metrics: plain, or by label."""
+        colours = self.labels.colours(run.history[index].point_ids) if self.colour_by == "label" else None
+        self.view.set_colours((run, index), colours, self.colour_by)
+
+    def _labels_changed(self) -> None:
+        if self.colour_by == "label":
+            self.legend.content = self.labels.legend_html()
+        self._update_status()
 
     def _draw_new_run(self, frame: bool = False) -> None:
         cloud = self.session.cloud
@@ -321,7 +335,10 @@ class Inspector:
         if frame:
             for client in self.server.get_clients().values():
                 self.view.frame_camera(client.camera)
-        self._show(0)
+        self.labels.refresh()
+        if self.colour_by == "label":
+            self.legend.content = self.labels.legend_html()
+        self._show(len(self.session.history) - 1)  # iteration 0, or the end of a finished run opened as such
 
     def _show(self, index: int, full: bool = True) -> None:
         """Draw history[index]: the points and the status now; metrics, plots and skeleton follow from
@@ -334,7 +351,7 @@ class Inspector:
             self.view.show_points((run, index), state.points)
             self.view.show_removed((run, index), self.session.cloud.points[state.removed_ids])
             if self.colour_by not in COLOUR_RANGES:
-                self.view.set_colours((run, index), None)
+                self._set_fixed_colours(run, index)
             self._update_status()
         self.server.flush()
         self._mark("points", run, index)
@@ -354,15 +371,16 @@ class Inspector:
         figures = (report.histogram_figure(history[-1], "d_theta", iteration=run.history[index].iteration),
                    report.histogram_figure(history[-1], "delta_kappa", iteration=run.history[index].iteration),
                    report.convergence_figure(history))
-        colours = None
-        if self.colour_by in COLOUR_RANGES:
-            colours = colour_values(report.per_point_values(history[-1], self.colour_by), self.colour_by)
+        mode, colours = self.colour_by, None
+        if mode in COLOUR_RANGES:
+            colours = colour_values(report.per_point_values(history[-1], mode), mode)
         if not self._current(run, index):
             return
         with self.server.atomic():
             self.hist_theta.figure, self.hist_kappa.figure, self.convergence.figure = figures
             self.verdict.content = report.verdict_text(verdict)
-            self.view.set_colours((run, index), colours, self.colour_by)
+            if mode in COLOUR_RANGES and mode == self.colour_by:  # other modes are set when the points are
+                self.view.set_colours((run, index), colours, mode)
         self.server.flush()
         self._mark("plots", run, index)
         if not self.view.visible["skeleton"]:

@@ -8,7 +8,8 @@ import threading
 from pathlib import Path
 
 from skelcore.errors import SkelError
-from skelcore.io import Cloud, load, validate
+from skelcore.api import load
+from skelcore.io import Cloud, validate
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
 
@@ -38,13 +39,14 @@ def host_problem(host: str) -> str | None:
 
 
 def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
-          params: ContractionParams = ContractionParams(), verbose: bool = False):
-    """Start a server and an inspector on `cloud`; returns (server, inspector). The caller stops them."""
+          params: ContractionParams = ContractionParams(), verbose: bool = False, **session_options):
+    """Start a server and an inspector on `cloud`; returns (server, inspector). The caller stops them.
+    session_options: label_weights, weights, history (see app.session.Session)."""
     import viser
 
     from .inspector import Inspector
 
-    session = Session(cloud, params)
+    session = Session(cloud, params, **session_options)
     server = viser.ViserServer(host=host, port=port, verbose=verbose)
     inspector = Inspector(server, session, assets=bundled_assets(), save_dir=save_dir)
     return server, inspector

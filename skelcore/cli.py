@@ -52,14 +52,25 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
+    group.add_argument("--no-denoise", action="store_true",
+                       help="keep the points where they are (by default each is projected once onto the PCA plane "
+                            "of its neighbours, which removes sampling noise)")
     group.add_argument("--no-outlier-removal", action="store_true",
                        help="keep points far from their neighbours (removed by default: statistical outliers)")
     group.add_argument("--no-stray-removal", action="store_true",
                        help="keep small pieces apart from the object (removed by default: pieces under "
                             f"{CleaningParams.min_piece_share * 100:g}%% of the points)")
+    group.add_argument("--labels", metavar="FILE|PROPERTY", default=None,
+                       help="per-point integer labels: a file (.txt .csv .labels: one per line in the input's point "
+                            "order; .npy) or a vertex property of a PLY input (default: the PLY's label, class, "
+                            "scalar_label, ... property when present)")
+    group.add_argument("--label-weight", metavar="LABEL=W", action="append", default=[], type=_label_weight,
+                       help="contraction weight of the points labelled LABEL (a multiplier of W_L on their Laplacian "
+                            "rows, as pc-skeletor's semantic LBC); repeat for several labels; unnamed labels keep 1")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
+    """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
                              gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
@@ -67,14 +78,27 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 
 
 def run_options(args: argparse.Namespace):
+    """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
     from .pipeline import RunOptions
 
-    cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal)
+    cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal,
+                              denoise=not args.no_denoise)
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning)
+                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
+                      labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())))
+
+
+def _label_weight(text: str) -> tuple[int, float]:
+    from .labels import parse_label_weight
+
+    try:
+        return parse_label_weight(text)
+    except SkelError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of every `skelcore` sub-command."""
     parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
@@ -140,13 +164,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .pipeline import run_pipeline
+    from .api import run
 
-    options = run_options(args)
     progress = None if args.quiet else print
-    result = run_pipeline(args.input, args.out, options, progress=progress)
+    result = run(args.input, run_options(args), progress=progress)
+    out = result.save(args.out)
     if not args.quiet:
-        print(result.summary_line())
+        print(f"{result.summary()} -> {out}")
     return 0
 
 
@@ -193,6 +217,7 @@ def _batch(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (0 ok, 1 some batch objects failed, 2 bad input or parameters, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

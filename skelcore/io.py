@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
@@ -22,19 +23,23 @@ MAX_POINTS = 2_000_000
 
 @dataclass
 class Cloud:
+    """A validated point cloud: points, optional mesh faces and labels, its name, notes on what loading fixed."""
     points: np.ndarray  # (n,3) float64, finite, unique
     faces: np.ndarray | None = None  # (m,3) int64 into points, when the file is a mesh
     name: str = "cloud"
     notes: list[str] = field(default_factory=list)
     cleaning: dict | None = None  # what skelcore.clean removed before contraction (counts), once it ran
+    labels: np.ndarray | None = None  # (n,) int64 per-point labels (skelcore.labels), when the input has them
 
 
 def load(path, *, sample: int | None = None, voxel_size: float | None = None,
-         max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
+         max_points: int = MAX_POINTS, seed: int = 0, labels=None) -> Cloud:
     """Read a file into a validated Cloud.
 
     sample: for a mesh, draw this many points evenly over its surface instead of using its vertices.
     voxel_size: downsample to one point per voxel (the way to bring a huge cloud under max_points).
+    labels: per-point labels (skelcore.labels.read_labels): a label file, a PLY vertex property name or an
+    array in the file's vertex order; None: a PLY file's label property (LABEL_PROPERTIES) when it has one.
     """
     path = Path(path)
     if not path.exists():
@@ -52,8 +57,12 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
         raise InputError(f"{path}: cannot read file ({_one_line(error)})") from None
     except Exception as error:  # a parser's own failure on a malformed file
         raise InputError(f"{path}: cannot parse as {suffix[1:].upper()} ({_one_line(error)})") from None
+    if labels is not None:
+        labels = read_labels(labels, path, len(points))
+    elif suffix == ".ply" and (prop := ply_label_property(path)) is not None:
+        labels = read_ply_labels(path, prop, len(points))
     return validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
-                    max_points=max_points, seed=seed)
+                    max_points=max_points, seed=seed, labels=labels)
 
 
 def load_bytes(data: bytes, filename: str, **options) -> Cloud:
@@ -74,10 +83,15 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
 
 
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
-             voxel_size: float | None = None, max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
-    """Check an array of points (and optional faces) and return a clean Cloud."""
+             voxel_size: float | None = None, max_points: int = MAX_POINTS, seed: int = 0, labels=None) -> Cloud:
+    """Check an array of points (and optional faces, per-point labels) and return a clean Cloud."""
     points = as_points(points, name)
     notes: list[str] = []
+    if labels is not None:
+        labels = as_labels(labels, len(points), name)
+        if sample is not None or voxel_size is not None:
+            labels = None
+            notes.append("labels dropped: they belong to the input points, not to a resampled cloud")
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         if len(faces) == 0:
@@ -110,6 +124,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             faces = remap[inverse.ravel()][faces]
             faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
         points = points[order]
+        labels = None if labels is None else labels[order]
     if len(points) < MIN_POINTS:
         raise InputError(f"{name}: only {len(points)} distinct points, at least {MIN_POINTS} are needed")
     centred = points - points.mean(axis=0)
@@ -118,7 +133,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         raise InputError(f"{name}: all points are identical")
     if singular[1] <= 1e-9 * singular[0]:
         raise InputError(f"{name}: all points lie on one line; a surface is needed")
-    return Cloud(points=points, faces=faces, name=name, notes=notes)
+    return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels)
 
 
 def as_points(value, name: str) -> np.ndarray:

@@ -87,6 +87,7 @@ class StabilityThresholds:
     min_progress: float = 0.25  # run: share of a mean's gap to its target to close from first to last iteration
 
     def validated(self) -> "StabilityThresholds":
+        """These thresholds, or a ParameterError naming the first out of range."""
         for name, value in asdict(self).items():
             if not np.isfinite(value) or value < 0:
                 raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
@@ -304,6 +305,7 @@ class IterationMetrics:
         return values
 
     def to_dict(self) -> dict:
+        """The statistics, boundedness and verdict for metrics.json (no per-point arrays)."""
         return {"d_theta": self.d_theta_stats, "delta_kappa": self.delta_kappa_stats,
                 "boundedness": self.boundedness, "verdict": self.verdict}
 

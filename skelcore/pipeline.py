@@ -16,10 +16,11 @@ from typing import Callable
 import numpy as np
 
 from . import __version__, io
-from .clean import CleaningParams, cleaned
+from .clean import CleaningParams, clean, cleaned
 from .curveness import curve_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
-from .errors import InputError
+from .errors import InputError, ParameterError
+from .labels import check_weights, weights_from_labels
 from .metrics import IterationMetrics, MetricsReference, run_verdict
 from .params import ContractionParams, default_k
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
@@ -31,6 +32,7 @@ RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json
 
 @dataclass(frozen=True)
 class RunOptions:
+    """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
     params: ContractionParams = ContractionParams()
     sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the bounding-box diagonal
     seed: int = 0
@@ -39,8 +41,20 @@ class RunOptions:
     max_points: int = io.MAX_POINTS
     metrics_k: int = METRICS_K
     cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
+    labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
+    label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
+
+    def weights(self, cloud: io.Cloud) -> np.ndarray | None:
+        """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""
+        if not self.label_weights:
+            return None
+        if cloud.labels is None:
+            raise InputError(f"{cloud.name}: label weights given but the input has no labels "
+                             f"(a PLY label property or --labels FILE)")
+        return weights_from_labels(cloud.labels, dict(self.label_weights))
 
     def skeleton_params(self) -> SkeletonParams:
+        """The skeleton parameters of this run, validated."""
         # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
         return SkeletonParams(sample_radius=self.sample_radius,
                               drop_collinear=self.params.method == "glskeleton").validated()
@@ -48,6 +62,7 @@ class RunOptions:
 
 @dataclass
 class RunResult:
+    """What run_pipeline wrote and computed: the folder, the cloud, the states, the skeleton, metrics.json."""
     out_dir: Path
     cloud: io.Cloud
     states: list[IterationState]
@@ -56,6 +71,7 @@ class RunResult:
     elapsed: float
 
     def summary_line(self) -> str:
+        """One line: iterations, termination, skeleton size and topology, verdict, time, folder."""
         topology = self.skeleton.topology()
         final = self.states[-1]
         return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
@@ -78,6 +94,7 @@ class IterationMetricsCache:
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
+        """The metrics of states[index], computing those before it first."""
         while len(self._metrics) <= index:
             state = states[len(self._metrics)]
             previous = self._metrics[-1] if self._metrics else None
@@ -86,6 +103,7 @@ class IterationMetricsCache:
         return self._metrics[index]
 
     def all(self, states: list[IterationState]) -> list[IterationMetrics]:
+        """The metrics of every state."""
         return [self.get(states, index) for index in range(len(states))]
 
 
@@ -93,24 +111,57 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
                  progress: Callable[[str], None] | None = None) -> RunResult:
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
     started = time.perf_counter()
-    options.skeleton_params()  # bad skeleton parameters fail before any work
-    cloud = cleaned(io.load(input_path, sample=options.sample, voxel_size=options.voxel_size,
-                            max_points=options.max_points, seed=options.seed), options.cleaning)
+    run = compute(input_path, options, progress)
+    elapsed = time.perf_counter() - started
+    summary = write_results(out_dir, run.cloud, run.states, run.skeleton, run.metrics, options,
+                            input_path=input_path, elapsed=elapsed, weights=run.weights)
+    return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, elapsed)
+
+
+@dataclass
+class Computed:
+    """What a run computes, before anything is written."""
+    cloud: io.Cloud
+    states: list[IterationState]
+    metrics: list[IterationMetrics]
+    skeleton: Skeleton
+    weights: np.ndarray | None  # the per-point contraction weights used (None: all 1)
+
+
+def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
+            labels=None, weights=None) -> Computed:
+    """The whole run on a file path or a validated Cloud: load (with the options' sampling and labels;
+    `labels` overrides options.labels and may be an array), clean (unless the cloud was), contract to the
+    end, the paper's metrics of every state, the skeleton of the last. `weights`: explicit per-point
+    contraction weights of the cloud before cleaning, else those of options.label_weights."""
+    options.params.validated()
+    options.skeleton_params()  # bad parameters fail before any work
+    if weights is not None and options.label_weights:
+        raise ParameterError("parameter weights: give per-point weights or label weights, not both")
+    if isinstance(source, io.Cloud):
+        cloud = source
+    else:
+        cloud = io.load(source, sample=options.sample, voxel_size=options.voxel_size, max_points=options.max_points,
+                        seed=options.seed, labels=options.labels if labels is None else labels)
+    weights = None if weights is None else check_weights(weights, len(cloud.points))
+    if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
+        report = clean(cloud.points, options.cleaning)
+        cloud = cleaned(cloud, options.cleaning, report=report)
+        weights = None if weights is None else weights[report.kept]
     for note in cloud.notes:
         _say(progress, f"{cloud.name}: {note}")
-    states = run_states(cloud, options.params, progress)
-    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
-    metrics = metrics_cache.all(states)
-    skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
-    elapsed = time.perf_counter() - started
-    summary = write_results(out_dir, cloud, states, skeleton, metrics, options, input_path=input_path, elapsed=elapsed)
-    return RunResult(Path(out_dir), cloud, states, skeleton, summary, elapsed)
+    weights = options.weights(cloud) if weights is None else weights
+    states = run_states(cloud, options.params, progress, weights)
+    metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed).all(states)
+    return Computed(cloud, states, metrics, skeleton_of_state(states[-1], cloud.points, options.skeleton_params()),
+                    weights)
 
 
-def run_states(cloud: io.Cloud, params: ContractionParams,
-               progress: Callable[[str], None] | None = None) -> list[IterationState]:
+def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
+               weights: np.ndarray | None = None) -> list[IterationState]:
+    """Contract a cloud to the end; its states, with a progress line per accepted iteration."""
     states: list[IterationState] = []
-    for state in contract(cloud.points, params):
+    for state in contract(cloud.points, params, weights):
         if record(states, state) and state.iteration > 0:
             seconds = sum(state.timings.values())
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
@@ -138,8 +189,11 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
             "verdict": run_verdict(metrics)}
 
 
-def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None) -> dict:
-    """params.json: everything needed to reproduce the run, the resolved defaults included."""
+def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None,
+                    weights: np.ndarray | None = None) -> dict:
+    """params.json: everything needed to reproduce the run, the resolved defaults included. `weights`: the
+    run's per-point contraction weights; given through labels, the labels source and label weights say them,
+    otherwise their values are listed."""
     params = states[0].params
     resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
     return {
@@ -148,13 +202,26 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
         "retuned": [state.message for state in states if "retuned" in state.message],
+        "weights": weights_document(weights, options),
         "skelcore_version": __version__, "solver": backend(),
     }
 
 
+def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | None:
+    """The contraction weights of a run for params.json (None: every weight 1)."""
+    if weights is None:
+        return None
+    document = {"labels": options.labels or "the input's labels", "label_weights": dict(options.label_weights),
+                "weighted_points": int((weights != 1).sum()), "min": float(weights.min()),
+                "max": float(weights.max()), "mean": float(weights.mean())}
+    if not options.label_weights:
+        document.update(labels=None, values=weights.tolist())
+    return document
+
+
 def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
                   metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
-                  elapsed: float | None = None) -> dict:
+                  elapsed: float | None = None, weights: np.ndarray | None = None) -> dict:
     """Write the five result files, each atomically (a temporary file renamed into place)."""
     from .export import skeleton_document, write_points_ply, write_skeleton_ply
 
@@ -167,11 +234,12 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
     final = states[-1]
-    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
+    labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
+    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points, labels=labels))
     _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
     _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
     _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path)))
+    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
     return summary
 
 

@@ -20,6 +20,7 @@ except ImportError:  # the plain-wheel fallback
 
 
 def backend() -> str:
+    """The name of the sparse Cholesky in use."""
     return "scikit-sparse (CHOLMOD)" if analyze is not None else "cholespy (CHOLMOD)"
 
 
@@ -31,6 +32,7 @@ class CholeskySolver:
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
 
     def solve(self, system: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+        """Solve system @ x = rhs (rhs (n,) or (n,k)); a SolverError when the factorisation fails."""
         system = system.tocsr()
         try:
             if analyze is not None:
