@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import time
@@ -18,7 +19,7 @@ import numpy as np
 from . import __version__, io
 from .clean import CleaningParams, cleaned
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
-from .errors import InputError
+from .errors import InputError, OutputError, SkelError
 from .metrics import IterationMetrics, MetricsReference, run_verdict
 from .params import ContractionParams, default_k
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
@@ -26,6 +27,7 @@ from .solver import backend
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
+EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
 
 @dataclass(frozen=True)
@@ -97,10 +99,13 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
                             max_points=options.max_points, seed=options.seed), options.cleaning)
     for note in cloud.notes:
         _say(progress, f"{cloud.name}: {note}")
-    states = run_states(cloud, options.params, progress)
-    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
-    metrics = metrics_cache.all(states)
-    skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    try:
+        states = run_states(cloud, options.params, progress)
+        metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
+        metrics = metrics_cache.all(states)
+        skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    except SkelError as error:
+        raise named(error, cloud.name) from None
     elapsed = time.perf_counter() - started
     summary = write_results(out_dir, cloud, states, skeleton, metrics, options, input_path=input_path, elapsed=elapsed)
     return RunResult(Path(out_dir), cloud, states, skeleton, summary, elapsed)
@@ -140,7 +145,8 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
     params = states[0].params
     resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
     return {
-        "input": str(Path(input_path).resolve()) if input_path is not None else cloud.name,
+        # without a path (the inspector's bundles) only the file's name: no server path leaves the server
+        "input": str(Path(input_path).resolve()) if input_path is not None else Path(cloud.name).name,
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
@@ -163,22 +169,66 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     summary = metrics_document(cloud, states, metrics)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
-    final = states[-1]
-    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
-    _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
-    _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path)))
+    contracted, skeleton = states[-1].points * cloud.scale, _at_scale(skeleton, cloud.scale)
+    write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted))
+    write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
+    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
+    write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
+    write_atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path)))
     return summary
 
 
-def _atomic(path: Path, write: Callable[[Path], None]) -> None:
+def named(error: SkelError, name: str) -> SkelError:
+    """The error with the input's name in front of its message, unless the message names it already."""
+    message = str(error)
+    return error if name in message else type(error)(f"{name}: {message}")
+
+
+def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
+    """The skeleton in the file's coordinates (io.Cloud.scale: not 1 only for extreme coordinates)."""
+    if scale == 1.0:
+        return skeleton
+    graph = skeleton.graph.copy()
+    for _, attrs in graph.nodes(data=True):
+        attrs["pos"] = np.asarray(attrs["pos"]) * scale
+    for _, _, attrs in graph.edges(data=True):
+        attrs["length"] = attrs["length"] * scale
+    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale)
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """write(temporary) then rename it to `path`: a failure (a full disk) leaves the file as it was and
+    raises an OutputError naming it."""
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         write(temporary)
         os.replace(temporary, path)
+    except OSError as error:
+        reason = "the disk is full" if error.errno in (errno.ENOSPC, errno.EDQUOT) else error.strerror or "error"
+        raise OutputError(f"{path}: cannot write ({reason}); the files written before it are kept") from None
+    except SkelError as error:  # a writer's own message, about the temporary file
+        raise OutputError(f"{str(error).replace(str(temporary), str(path))}; the files written before it "
+                          f"are kept") from None
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def prepare_output(out_dir, force: bool = False) -> Path:
+    """The output folder, created; one that already holds a run's results is refused, or with `force`
+    emptied of them first (other files stay), so no file of an earlier run is left beside the new ones."""
+    out_dir = Path(out_dir)
+    earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
+    earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
+    if earlier and not force:
+        raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
+                          f"choose another folder or pass --force to replace them")
+    try:
+        for path in earlier:
+            path.unlink()
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputError(f"{out_dir}: cannot prepare the output folder ({error.strerror})") from None
+    return out_dir
 
 
 def _write_json(path: Path, document: dict) -> None:
