@@ -12,6 +12,7 @@ import dataclasses
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from skelcore import contraction, pipeline
 from skelcore.contraction import IterationState, contract, record
@@ -77,9 +78,9 @@ class Session:
 
     def _start(self, cloud: Cloud, params: ContractionParams) -> None:
         params = params.validated()
-        generator = contract(cloud.points, params)
+        generator = contract(cloud.points, params, stages=True)
         first = next(generator)  # the one-rings: an error here leaves the current run as it was
-        self._generator, self._pending = generator, None
+        self._generator, self._pending, self._within_step = generator, None, False
         self.run = Run(cloud, params, [first])
         self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}")
 
@@ -103,12 +104,22 @@ class Session:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")
         return message
 
-    def step(self) -> IterationState | None:
-        """One iteration (retuned by gen.send when parameters changed); None when the run has ended."""
+    def step(self, paused: Callable[[], bool] = lambda: False) -> IterationState | None:
+        """One iteration (retuned by gen.send when parameters changed); None when the run has ended, or
+        when `paused()` turned true between two stages of the step: the next call resumes it there."""
         if self.finished:
             return None
-        pending, self._pending = self._pending, None
-        state = self._generator.send(pending)  # send(None) is next()
+        if self._within_step:
+            state = next(self._generator)
+        else:
+            pending, self._pending = self._pending, None
+            state = self._generator.send(pending)  # send(None) is next()
+        while state is None:  # between two stages of the step
+            self._within_step = True
+            if paused():
+                return None
+            state = next(self._generator)
+        self._within_step = False
         record(self.run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")

@@ -60,18 +60,20 @@ class IterationState:
         return np.flatnonzero(~present)
 
 
-def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
-             ) -> Generator[IterationState, ContractionParams | None, None]:
+def contract(points: np.ndarray, params: ContractionParams = ContractionParams(), *, stages: bool = False
+             ) -> Generator[IterationState | None, ContractionParams | None, None]:
     """Yield the input state, then one state per solve; `send(params)` retunes the following steps.
 
     The last state yielded carries `termination`. When a rule rejects the candidate of a step (NaN,
     solver failure, bounding-box growth, ring ratio no longer falling: cloudcontr discards that step),
     the last accepted state is yielded again with the reason set.
+    stages: also yield None between the stages of a step (Laplacian, solve, checks), so that a caller
+    can stop within a step and resume it later with next() (the inspector's Pause).
     """
     params = params.validated()
     if params.method != "lbc":
         from .glskeleton import contract_with_reduction
-        yield from contract_with_reduction(points, params)
+        yield from contract_with_reduction(points, params, stages=stages)
         return
     points = np.asarray(points, dtype=np.float64)
     normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
@@ -95,8 +97,10 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
-        candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh, params, extent0,
-                                                 first_step=iteration == 1)
+        candidate, failure, timings = yield from solve_stages(system_builder, solver, current, wl, wh, params,
+                                                              extent0, first_step=iteration == 1, stages=stages)
+        if stages:
+            yield None
         if failure is None:
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
@@ -128,9 +132,10 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
     return wl, np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
 
 
-def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
-               wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool
-               ) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
+def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
+                 wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool,
+                 stages: bool = False
+                 ) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
     past params.bbox_growth of the original extent0, and collapse: once a cloud is a thin curve its rings
     degenerate and a step can pull the whole curve together; the longest extent falling below
@@ -138,9 +143,13 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
     contraction to show (and judge), not a degenerate one.
 
-    Returns (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
+    A generator for `yield from`: with `stages` it yields None between the Laplacian and the solve; its
+    value is (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
     laplacian_start = time.perf_counter()
     system = system_builder.normal_matrix(current, wl, wh)
+    laplacian_end = time.perf_counter()
+    if stages:  # a pause may land here, between the Laplacian and its solve
+        yield None
     solve_start = time.perf_counter()
     failure = None
     try:
@@ -148,7 +157,7 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     except SolverError as error:
         failure, candidate = ("solver_failure", str(error)), None
     solve_end = time.perf_counter()
-    timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
+    timings = {"laplacian": laplacian_end - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
     if failure is None and (np.ptp(candidate, axis=0) > params.bbox_growth * extent0).any():

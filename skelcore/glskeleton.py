@@ -54,7 +54,7 @@ from typing import Generator
 
 import numpy as np
 
-from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
+from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans, one_rings
 from .normalise import Normalisation
@@ -69,8 +69,8 @@ MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed 
 PRIORITY_SEED = 0
 
 
-def contract_with_reduction(points: np.ndarray, params: ContractionParams
-                            ) -> Generator[IterationState, ContractionParams | None, None]:
+def contract_with_reduction(points: np.ndarray, params: ContractionParams, *, stages: bool = False
+                            ) -> Generator[IterationState | None, ContractionParams | None, None]:
     """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract."""
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
@@ -99,8 +99,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
         # per point), so its attraction row is weighted by m to keep eq. 2's balance of the input cloud.
         wh = np.minimum(wh * np.bincount(owner, minlength=len(ids)), params.wh_max)
-        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params, extent0,
-                                                 first_step=iteration == 1)
+        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
+                                                              first_step=iteration == 1, stages=stages)
+        if stages:
+            yield None
         if failure is not None:
             reason, detail = failure
             message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))

@@ -110,11 +110,15 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
         raise InputError(f"{display}: unknown format '{suffix or display}' (supported: {' '.join(FORMATS)})")
     with tempfile.TemporaryDirectory(prefix="skelcore-upload-") as tmp:
         target = Path(tmp) / f"upload{suffix}"
-        target.write_bytes(data)
+        try:
+            target.write_bytes(data)
+        except OSError as error:
+            raise InputError(f"{display}: cannot store the upload to read it ({error.strerror})") from None
         try:
             cloud = load(target, **options)
-        except InputError as error:
-            raise InputError(str(error).replace(str(target), display)) from None
+        except InputError as error:  # the same error (a TooLargeError keeps its voxel size), named for the user
+            error.args = (str(error).replace(str(target), display),)
+            raise error from None
     cloud.name = display
     return cloud
 
