@@ -97,7 +97,11 @@ def _parser_words(error: Exception) -> str:
         return f"a field it needs is missing: {text.strip(chr(39) + chr(34) + '()')}"
     if isinstance(error, RecursionError):
         return "nested too deeply"
-    if isinstance(error, (ValueError, TypeError, IndexError)) and not re.search(r"[\\/]\w+\.\w+|\bline \d+, in\b", text):
+    if isinstance(error, IndexError):
+        return "an index refers to an element that does not exist"
+    if type(error).__name__ == "JSONDecodeError":
+        return "its JSON part is damaged"
+    if isinstance(error, (ValueError, TypeError)) and not re.search(r"[\\/]\w+\.\w+|\bline \d+, in\b", text):
         return f"damaged or not in this format: {text}"
     return "damaged or not in this format"
 
