@@ -13,14 +13,27 @@ import os
 
 import numpy as np
 
+from .errors import ParameterError
+
 PIPELINE_BYTES_PER_POINT = 4_800
 CLI_SHARE = 0.5  # of the memory available when the run starts
 INSPECTOR_SHARE = 0.25
 GIB = 2.0 ** 30
+AVAILABLE_VARIABLE = "SKELCORE_AVAILABLE_MB"
 
 
 def available_bytes() -> int:
-    """Memory the system can give without swapping (MemAvailable), or its physical size."""
+    """Memory the system can give without swapping (MemAvailable), or its physical size; the environment
+    variable SKELCORE_AVAILABLE_MB states it instead (a machine shared with other work, or a test)."""
+    stated = os.environ.get(AVAILABLE_VARIABLE)
+    if stated:
+        try:
+            value = float(stated)
+        except ValueError:
+            value = -1.0
+        if not value > 0:
+            raise ParameterError(f"{AVAILABLE_VARIABLE}={stated!r}: must be a positive number of megabytes")
+        return int(value * 2**20)
     try:
         with open("/proc/meminfo", encoding="ascii") as handle:
             for line in handle:
