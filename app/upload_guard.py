@@ -13,7 +13,9 @@ handlers with wrappers that call the originals only for transfers within bounds:
   at most `total_cap` bytes announced, and a transfer that receives nothing for `idle_seconds` is dropped.
 
 Refused and dropped transfers are removed from viser's buffer at once, their parts are ignored when they
-keep coming, and the client's own progress display is closed. `on_refused(client_id, filename, reason)`
+keep coming, and the client's own progress display is closed. A client's transfers are freed when its
+connection ends, whether or not it ever became a viser client (viser frees them only for clients that
+sent their camera first, so a raw websocket client's unfinished upload stayed forever). `on_refused(client_id, filename, reason)`
 then tells the person in our words.
 """
 from __future__ import annotations
@@ -62,7 +64,9 @@ class UploadGuard:
         self._interface.unregister_handler(_messages.FileTransferPart, self._part_original)
         self._interface.register_handler(_messages.FileTransferStartUpload, self._start)
         self._interface.register_handler(_messages.FileTransferPart, self._part)
-        server.on_client_disconnect(lambda client: self._loop_call(self._forget_client, client.client_id))
+        # every connection's end, also of a client that never became a viser client (viser frees an
+        # unfinished upload only for clients that sent a camera first)
+        self._interface.on_client_disconnect(lambda connection: self._forget_client(connection.client_id))
         self._closed = threading.Event()
         self._sweeper = threading.Thread(target=self._sweep_loop, name="skel-inspect-upload-sweep", daemon=True)
         self._sweeper.start()
