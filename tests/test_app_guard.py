@@ -289,3 +289,28 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
     finally:
         inspector.save_on_server.value = False
         inspector.save_dir = None
+
+
+@pytest.mark.browser
+def test_a_browser_with_the_token_url_gets_the_inspector():
+    from browser_support import browser_missing, launch, open_inspector
+
+    if browser_missing():
+        pytest.skip(browser_missing())
+    from playwright.sync_api import sync_playwright
+
+    cloud = validate(make_shape("torus", 500).points, name="torus.xyz")
+    server, inspector = serve(cloud, "127.0.0.1", 0, token="browser-token")
+    try:
+        with sync_playwright() as playwright:
+            browser = launch(playwright)
+            page = open_inspector(browser, f"http://127.0.0.1:{server.get_port()}/?token=browser-token")
+            assert len(server.get_clients()) == 1  # its websocket passed the gate with the cookie
+            stranger = browser.new_context().new_page()
+            response = stranger.goto(f"http://127.0.0.1:{server.get_port()}/")
+            assert response.status == 403
+            page.context.close()
+            browser.close()
+    finally:
+        inspector.close()
+        server.stop()

@@ -154,3 +154,22 @@ def test_two_small_clusters_far_apart_give_a_message(tmp_path, capsys):
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "clusters.xyz" in err and "Traceback" not in err
+
+
+def test_solver_failures_are_in_our_words(monkeypatch):
+    import scipy.sparse as sp
+
+    from skelcore import solver
+    from skelcore.errors import SolverError
+
+    for complaint in ("../Cholesky/t_cholmod_rowfac.c:430: not positive definite (code 1)", "std::bad_alloc",
+                      "cholmod_l_analyze.c: something else"):
+        def fail(system, rhs, complaint=complaint):
+            raise RuntimeError(complaint)
+
+        monkeypatch.setattr(solver, "analyze", None)
+        monkeypatch.setattr(solver, "_solve_cholespy", fail)
+        with pytest.raises(SolverError) as error:
+            solver.CholeskySolver().solve(sp.identity(3, format="csr"), np.ones((3, 3)))
+        message = str(error.value)
+        assert "\n" not in message and not any(word in message for word in INTERNAL + (".c",)), message
