@@ -321,7 +321,7 @@ class Inspector:
             self.offer = (error.voxel_size, read)
             self.downsample_button.label = f"Load downsampled (voxel {error.voxel_size:g})"
             self.downsample_button.visible = True
-            raise InputError(f"{error}. Or press 'Load downsampled' in Load.") from None
+            raise InputError(f"{error}: press '{self.downsample_button.label}' in Load") from None
         self.offer = None
         self.downsample_button.visible = False
         self.session.load(cloud)

@@ -121,10 +121,13 @@ class UploadGuard:
         client = self.server.get_clients().get(transfer.client_id)
         size = transfer.announced
         if client is not None and isinstance(size, int) and size >= 0:
-            # close the browser's own progress display of this transfer
-            client._websock_connection.queue_message(_messages.FileTransferPartAck(
+            # The browser's own progress display of this transfer: marked complete, so that the upload
+            # button takes files again, then removed, so that it never reads "uploaded successfully".
+            connection = client._websock_connection
+            connection.queue_message(_messages.FileTransferPartAck(
                 source_component_uuid=transfer.component, transfer_uuid=uuid, transferred_bytes=size,
                 total_bytes=size))
+            connection.queue_message(_messages.RemoveNotificationMessage(uuid=f"upload-{uuid}"))
         self.on_refused(transfer.client_id, transfer.filename, reason)
 
     def _drop(self, uuid: str) -> None:

@@ -11,7 +11,7 @@ import sys
 import traceback
 
 from .clean import CleaningParams
-from .errors import SkelError
+from .errors import SkelError, TooLargeError
 from .params import ContractionParams
 from .skeleton import SkeletonParams
 
@@ -201,7 +201,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.handler(args)
     except SkelError as error:
-        print(f"skelcore {args.command}: error: {error}", file=sys.stderr)
+        advice = (f" (--voxel-size {error.voxel_size:g}, or raise --max-points)"
+                  if isinstance(error, TooLargeError) else "")
+        print(f"skelcore {args.command}: error: {error}{advice}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print(f"skelcore {args.command}: interrupted", file=sys.stderr)

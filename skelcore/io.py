@@ -56,7 +56,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
         most = sizing.points_in(path, suffix)
         if most * sizing.PARSE_BYTES_PER_POINT[suffix] > budget:
             raise InputError(f"{path}: may hold up to {most:,} points, too many to read within the memory "
-                             f"budget of {budget / memory.GIB:.1f} GiB; thin it out before loading")
+                             f"budget of {memory.describe(budget)}; thin it out before loading")
         points, faces = _READERS[suffix](path)
     except InputError:
         raise
@@ -157,11 +157,10 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     cap = min(max_points, memory.point_cap(budget))
     if len(points) > cap:
         why = (f"the cap of {cap:,}" if cap == max_points else
-               f"the cap of {cap:,} that the memory budget of {budget / memory.GIB:.1f} GiB allows")
+               f"the cap of {cap:,} that the memory budget of {memory.describe(budget)} allows")
         voxel = memory.voxel_size_for(points, max(cap, MIN_POINTS))
-        raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; downsample them with a voxel size "
-                            f"of {voxel:g} (--voxel-size {voxel:g}) or raise the cap (--max-points)",
-                            len(points), cap, voxel)
+        raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; a voxel size of {voxel:g} brings "
+                            f"them under", len(points), cap, voxel)
     unique, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
     if len(unique) < len(points):
         notes.append(f"removed {len(points) - len(unique)} duplicate points")

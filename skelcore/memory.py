@@ -48,6 +48,11 @@ def budget_bytes(share: float = CLI_SHARE) -> int:
     return int(available_bytes() * share)
 
 
+def describe(size: float) -> str:
+    """A number of bytes for people: GiB from 1 GiB, MiB below."""
+    return f"{size / GIB:.1f} GiB" if size >= GIB else f"{size / 2**20:.0f} MiB"
+
+
 def point_cap(budget: int) -> int:
     """The most points a run may have within `budget` bytes."""
     return max(0, int(budget // PIPELINE_BYTES_PER_POINT))

@@ -314,3 +314,28 @@ def test_a_browser_with_the_token_url_gets_the_inspector():
     finally:
         inspector.close()
         server.stop()
+
+
+def test_a_cloud_over_the_inspector_budget_is_offered_downsampled(served, monkeypatch):
+    import app.inspector
+    from skelcore import memory
+
+    server, inspector = served
+    monkeypatch.setattr(app.inspector, "_budget", lambda: 1000 * memory.PIPELINE_BYTES_PER_POINT)
+    points = make_shape("torus", 5000).points
+    content = "\n".join(" ".join(map(str, p)) for p in points).encode()
+    client = RawClient(server.get_port(), camera=True)
+    transfer = client.start(inspector.upload._impl.uuid, len(content), 1, name="dense.xyz")
+    client.part(inspector.upload._impl.uuid, transfer, 0, content)
+    client.ws.ping().wait(60)
+    settle(lambda: inspector.offer is not None, "the offer of a voxel size")
+    assert inspector.wait_idle(120)
+    assert inspector.downsample_button.visible and "voxel" in inspector.downsample_button.label
+    assert any("dense.xyz" in line and "Load downsampled" in line for line in inspector.session.log)
+    assert inspector.session.cloud.name != "dense.xyz"  # the session stayed as it was
+    voxel, read = inspector.offer
+    inspector.worker.submit(lambda: inspector._load(lambda: read(voxel)))
+    assert inspector.wait_idle(120)
+    assert inspector.session.cloud.name == "dense.xyz" and len(inspector.session.cloud.points) <= 1000
+    assert not inspector.downsample_button.visible and inspector.offer is None
+    client.close()

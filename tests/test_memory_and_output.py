@@ -36,7 +36,7 @@ def test_points_over_the_budget_are_refused_with_a_voxel_size_that_fits(tmp_path
         io.load(path, budget=budget)
     message = str(error.value)
     assert "\n" not in message and "big.ply" in message and "memory budget" in message
-    assert error.value.cap == 1000 and f"--voxel-size {error.value.voxel_size:g}" in message
+    assert error.value.cap == 1000 and f"voxel size of {error.value.voxel_size:g}" in message
     cloud = io.load(path, budget=budget, voxel_size=error.value.voxel_size)
     assert 300 < len(cloud.points) <= 1000  # fits, without throwing most of the cloud away
 
@@ -203,3 +203,11 @@ def test_bundle_params_name_no_server_path(tmp_path):
     session.step()
     session.write_results(1, tmp_path / "bundle")
     assert json.loads((tmp_path / "bundle" / "params.json").read_text())["input"] == "small.xyz"
+
+
+def test_the_command_line_names_the_flags_that_bring_a_cloud_under(tmp_path, capsys):
+    path = tmp_path / "big.ply"
+    write_points_ply(path, sphere(5000))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--max-points", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "big.ply" in err and "--voxel-size" in err and "--max-points" in err
