@@ -119,4 +119,5 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())
+    return Cloud(points=cloud.points[kept], faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
+                 scale=cloud.scale)

@@ -95,11 +95,12 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
     started = time.perf_counter()
     options.skeleton_params()  # bad skeleton parameters fail before any work
-    cloud = cleaned(io.load(input_path, sample=options.sample, voxel_size=options.voxel_size,
-                            max_points=options.max_points, seed=options.seed), options.cleaning)
-    for note in cloud.notes:
-        _say(progress, f"{cloud.name}: {note}")
+    cloud = io.load(input_path, sample=options.sample, voxel_size=options.voxel_size,
+                    max_points=options.max_points, seed=options.seed)
     try:
+        cloud = cleaned(cloud, options.cleaning)
+        for note in cloud.notes:
+            _say(progress, f"{cloud.name}: {note}")
         states = run_states(cloud, options.params, progress)
         metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed)
         metrics = metrics_cache.all(states)
