@@ -19,7 +19,7 @@ import threading
 import urllib.parse
 from pathlib import Path
 
-from skelcore.errors import SkelError
+from skelcore.errors import SkelError, TooLargeError
 from skelcore.io import Cloud, load, validate
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import ContractionParams
@@ -133,6 +133,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     parser.add_argument("--port", type=int, default=8080, help="port (the next free one is taken if busy)")
     parser.add_argument("--save-dir", type=Path, help="where 'Also save on server' writes screenshots and bundles")
+    parser.add_argument("--voxel-size", type=float, help="downsample INPUT to one point per voxel of this size "
+                                                         "(for a cloud over the inspector's memory budget)")
     parser.add_argument("--no-token", action="store_true",
                         help="serve a non-loopback --host without a token: anyone who can reach it can drive the "
                              "session, upload files and write into --save-dir")
@@ -150,10 +152,12 @@ def main(argv: list[str] | None = None) -> int:
               + ("anyone who reaches it can drive the session (--no-token)" if token is None else
                  "the page and its websocket require the token in the URL below"), file=sys.stderr, flush=True)
     try:
-        cloud = load(args.input, budget=budget_bytes(INSPECTOR_SHARE)) if args.input else default_cloud(bundled_assets())
+        cloud = (load(args.input, voxel_size=args.voxel_size, budget=budget_bytes(INSPECTOR_SHARE)) if args.input
+                 else default_cloud(bundled_assets()))
         server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir, token=token)
     except SkelError as error:
-        print(f"skel-inspect: {error}", file=sys.stderr)
+        advice = f" (--voxel-size {error.voxel_size:g})" if isinstance(error, TooLargeError) else ""
+        print(f"skel-inspect: {error}{advice}", file=sys.stderr)
         return 2
     except OSError as error:
         print(f"skel-inspect: cannot serve on {args.host}:{args.port} ({error.strerror or error})", file=sys.stderr)
