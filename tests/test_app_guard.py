@@ -13,7 +13,6 @@ import uuid
 from pathlib import Path
 
 import msgspec
-import numpy as np
 import psutil
 import pytest
 import websockets.sync.client

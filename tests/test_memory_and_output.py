@@ -16,7 +16,7 @@ import pytest
 
 from skelcore import io, memory, pipeline
 from skelcore.cli import main
-from skelcore.errors import OutputError, TooLargeError
+from skelcore.errors import TooLargeError
 from skelcore.export import write_points_ply
 from skelcore.shapes import make_shape
 
