@@ -12,11 +12,12 @@ import dataclasses
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from skelcore import contraction, pipeline
-from skelcore.api import Result, contract
+from skelcore.api import Result
 from skelcore.contraction import IterationState, record
 from skelcore.errors import ParameterError
 from skelcore.io import Cloud
@@ -116,9 +117,9 @@ class Session:
                 raise ParameterError("a run to open must have ended (its last state carries a termination)")
             generator, states = None, list(history)
         else:
-            generator = contract(cloud, params=params, weights=weights)
+            generator = contraction.contract(cloud.points, params, weights, stages=True)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
-        self._generator, self._pending = generator, None
+        self._generator, self._pending, self._within_step = generator, None, False
         self.run = Run(cloud, params, states, weights=weights,
                        label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
                        else {})
@@ -145,12 +146,22 @@ class Session:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")
         return message
 
-    def step(self) -> IterationState | None:
-        """One iteration (retuned by gen.send when parameters changed); None when the run has ended."""
+    def step(self, paused: Callable[[], bool] = lambda: False) -> IterationState | None:
+        """One iteration (retuned by gen.send when parameters changed); None when the run has ended, or
+        when `paused()` turned true between two stages of the step: the next call resumes it there."""
         if self.finished:
             return None
-        pending, self._pending = self._pending, None
-        state = self._generator.send(pending)  # send(None) is next()
+        if self._within_step:
+            state = next(self._generator)
+        else:
+            pending, self._pending = self._pending, None
+            state = self._generator.send(pending)  # send(None) is next()
+        while state is None:  # between two stages of the step
+            self._within_step = True
+            if paused():
+                return None
+            state = next(self._generator)
+        self._within_step = False
         record(self.run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")

@@ -35,7 +35,7 @@ from typing import Iterator
 from . import __version__, io
 from .errors import InputError, ParameterError, SkelError
 from .metrics import StabilityThresholds
-from .pipeline import RESULT_FILES, RunOptions, run_pipeline
+from .pipeline import RESULT_FILES, RunOptions, run_pipeline, write_atomic
 
 DONE_FILE = "done.json"
 SUMMARY_COLUMNS = (
@@ -385,12 +385,7 @@ def _cpus() -> int:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_text(text)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    write_atomic(path, lambda temporary: temporary.write_text(text))
 
 
 # --- benchmark ----------------------------------------------------------------------------------

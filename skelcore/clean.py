@@ -140,7 +140,7 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
     points = denoised(cloud.points[kept], params.neighbours) if params.denoise else cloud.points[kept]
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
-                 labels=None if cloud.labels is None else cloud.labels[kept])
+                 labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
 
 def denoised(points: np.ndarray, neighbours: int) -> np.ndarray:

@@ -6,14 +6,17 @@ no traceback reaches the user.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 
 from .clean import CleaningParams
-from .errors import SkelError
+from .errors import SkelError, TooLargeError
 from .params import ContractionParams
 from .skeleton import SkeletonParams
 
 EXIT_INPUT = 2
+EXIT_INTERNAL = 3
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
@@ -106,6 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("input", help="point cloud or mesh (.ply .pcd .xyz .pts .txt .off .obj .stl .glb)")
     run.add_argument("--out", required=True, help="output folder")
     run.add_argument("--quiet", action="store_true", help="no progress lines")
+    run.add_argument("--force", action="store_true",
+                     help="replace the results of an earlier run in --out (without it such a folder is refused)")
     add_parameter_flags(run)
     run.set_defaults(handler=_run)
 
@@ -165,7 +170,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from .api import run
+    from .pipeline import prepare_output
 
+    prepare_output(args.out, force=args.force)
     progress = None if args.quiet else print
     result = run(args.input, run_options(args), progress=progress)
     out = result.save(args.out)
@@ -223,11 +230,34 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.handler(args)
     except SkelError as error:
-        print(f"skelcore {args.command}: error: {error}", file=sys.stderr)
+        advice = (f" (--voxel-size {error.voxel_size:g}, or raise --max-points)"
+                  if isinstance(error, TooLargeError) else "")
+        print(f"skelcore {args.command}: error: {error}{advice}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print(f"skelcore {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BaseException as error:  # noqa: BLE001 -- no traceback reaches the user, whatever failed
+        if isinstance(error, SystemExit):
+            raise
+        print(f"skelcore {args.command}: error: {unexpected_words(error)}", file=sys.stderr)
+        if os.environ.get("SKELCORE_TRACEBACK"):
+            traceback.print_exc()
+        return EXIT_INTERNAL
+
+
+def unexpected_words(error: BaseException) -> str:
+    """An error skelcore did not foresee, in one line of our words (no C++ names, no source paths)."""
+    text = " ".join(str(error).split())
+    if isinstance(error, MemoryError) or "bad_alloc" in text:
+        return "ran out of memory; downsample the input (--voxel-size) or lower --max-points"
+    if isinstance(error, OSError):
+        where = f"{error.filename}: " if error.filename else ""
+        return f"{where}{error.strerror or 'input/output error'}"
+    if isinstance(error, RecursionError):
+        return "the input is nested too deeply to process"
+    return (f"internal error ({type(error).__name__}); please report it with the input and command "
+            f"(set SKELCORE_TRACEBACK=1 to see where it happened)")
 
 
 if __name__ == "__main__":

@@ -57,7 +57,7 @@ from typing import Generator
 
 import numpy as np
 
-from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
+from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans, one_rings
 from .normalise import Normalisation, robust_extent
@@ -72,8 +72,8 @@ MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed 
 PRIORITY_SEED = 0
 
 
-def contract_with_reduction(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None = None
-                            ) -> Generator[IterationState, ContractionParams | None, None]:
+def contract_with_reduction(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None = None, *,
+                            stages: bool = False) -> Generator[IterationState | None, ContractionParams | None, None]:
     """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract. `weights`: (n,)
     per-point contraction weights of the input points, checked; a merged point carries their mean over the
     input points it stands for."""
@@ -108,8 +108,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
-        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params, extent0,
-                                                 first_step=iteration == 1, row_weights=row_weights)
+        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
+                                                              first_step=iteration == 1, stages=stages,
+                                                              row_weights=row_weights)
+        if stages:
+            yield None
         if failure is not None:
             reason, detail = failure
             message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))

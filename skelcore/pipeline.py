@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import time
@@ -19,7 +20,7 @@ from . import __version__, io
 from .clean import CleaningParams, clean, cleaned
 from .curveness import curve_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
-from .errors import InputError, ParameterError
+from .errors import InputError, OutputError, ParameterError, SkelError
 from .labels import check_weights, weights_from_labels
 from .metrics import IterationMetrics, MetricsReference, run_verdict
 from .params import ContractionParams, default_k
@@ -28,6 +29,7 @@ from .solver import backend
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
+EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
 
 @dataclass(frozen=True)
@@ -144,17 +146,20 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         cloud = io.load(source, sample=options.sample, voxel_size=options.voxel_size, max_points=options.max_points,
                         seed=options.seed, labels=options.labels if labels is None else labels)
     weights = None if weights is None else check_weights(weights, len(cloud.points))
-    if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
-        report = clean(cloud.points, options.cleaning)
-        cloud = cleaned(cloud, options.cleaning, report=report)
-        weights = None if weights is None else weights[report.kept]
-    for note in cloud.notes:
-        _say(progress, f"{cloud.name}: {note}")
-    weights = options.weights(cloud) if weights is None else weights
-    states = run_states(cloud, options.params, progress, weights)
-    metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed).all(states)
-    return Computed(cloud, states, metrics, skeleton_of_state(states[-1], cloud.points, options.skeleton_params()),
-                    weights)
+    try:
+        if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
+            report = clean(cloud.points, options.cleaning)
+            cloud = cleaned(cloud, options.cleaning, report=report)
+            weights = None if weights is None else weights[report.kept]
+        for note in cloud.notes:
+            _say(progress, f"{cloud.name}: {note}")
+        weights = options.weights(cloud) if weights is None else weights
+        states = run_states(cloud, options.params, progress, weights)
+        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed).all(states)
+        skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    except SkelError as error:
+        raise named(error, cloud.name) from None
+    return Computed(cloud, states, metrics, skeleton, weights)
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
@@ -197,7 +202,8 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
     params = states[0].params
     resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
     return {
-        "input": str(Path(input_path).resolve()) if input_path is not None else cloud.name,
+        # without a path (the inspector's bundles) only the file's name: no server path leaves the server
+        "input": str(Path(input_path).resolve()) if input_path is not None else Path(cloud.name).name,
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
@@ -235,21 +241,67 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
         summary["elapsed_seconds"] = elapsed
     final = states[-1]
     labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
-    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points, labels=labels))
-    _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
-    _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
+    contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
+    write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted, labels=labels))
+    write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
+    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
+    write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
+    write_atomic(out_dir / "params.json",
+                 lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
     return summary
 
 
-def _atomic(path: Path, write: Callable[[Path], None]) -> None:
+def named(error: SkelError, name: str) -> SkelError:
+    """The error with the input's name in front of its message, unless the message names it already."""
+    message = str(error)
+    return error if name in message else type(error)(f"{name}: {message}")
+
+
+def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
+    """The skeleton in the file's coordinates (io.Cloud.scale: not 1 only for extreme coordinates)."""
+    if scale == 1.0:
+        return skeleton
+    graph = skeleton.graph.copy()
+    for _, attrs in graph.nodes(data=True):
+        attrs["pos"] = np.asarray(attrs["pos"]) * scale
+    for _, _, attrs in graph.edges(data=True):
+        attrs["length"] = attrs["length"] * scale
+    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale)
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """write(temporary) then rename it to `path`: a failure (a full disk) leaves the file as it was and
+    raises an OutputError naming it."""
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         write(temporary)
         os.replace(temporary, path)
+    except OSError as error:
+        reason = "the disk is full" if error.errno in (errno.ENOSPC, errno.EDQUOT) else error.strerror or "error"
+        raise OutputError(f"{path}: cannot write ({reason}); the files written before it are kept") from None
+    except SkelError as error:  # a writer's own message, about the temporary file
+        raise OutputError(f"{str(error).replace(str(temporary), str(path))}; the files written before it "
+                          f"are kept") from None
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def prepare_output(out_dir, force: bool = False) -> Path:
+    """The output folder, created; one that already holds a run's results is refused, or with `force`
+    emptied of them first (other files stay), so no file of an earlier run is left beside the new ones."""
+    out_dir = Path(out_dir)
+    earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
+    earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
+    if earlier and not force:
+        raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
+                          f"choose another folder or pass --force to replace them")
+    try:
+        for path in earlier:
+            path.unlink()
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputError(f"{out_dir}: cannot prepare the output folder ({error.strerror})") from None
+    return out_dir
 
 
 def _write_json(path: Path, document: dict) -> None:
