@@ -8,6 +8,7 @@ thread that always works on the state shown last, so a slow skeleton never holds
 """
 from __future__ import annotations
 
+import re
 import threading
 import time
 from pathlib import Path
@@ -15,20 +16,25 @@ from pathlib import Path
 import viser
 
 from skelcore import report
-from skelcore.errors import InputError, ParameterError
+from skelcore.errors import InputError, ParameterError, TooLargeError
 from skelcore.io import FORMATS as INPUT_FORMATS, load, load_bytes
+from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import METHODS
+from skelcore.pipeline import write_atomic
 from skelcore.verdict import explanation_markdown
 
 from . import export
+from .labels import LabelPanel
 from .scene import COLOUR_RANGES, SceneView, colour_values, legend_html
 from .session import Session
+from .upload_guard import UploadGuard
 from .worker import Latest, Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
-COLOUR_MODES = ("plain", *COLOUR_RANGES)
+COLOUR_MODES = ("plain", *COLOUR_RANGES, "label")
 LOG_LINES = 8
+SAVE_NAME_LENGTH = 80  # characters of a cloud's name kept in the names of exported files
 PLAY_INTERVAL = 0.25  # seconds: a small cloud contracts in a blink; Play paces it so it can be watched
 
 
@@ -49,6 +55,8 @@ class Inspector:
         self.worker = Worker(self._report_error)
         self.analyst = Latest(self._analyse,
                               lambda message, client: self._report_error(message, client, pause=False))
+        self.upload_guard = UploadGuard(server, max_upload_bytes, self._upload_refused)
+        self.offer = None  # (what, read) of a too large cloud offered voxel-downsampled
         server.gui.configure_theme(control_width="large", dark_mode=False)
         self._build_gui()
         self.worker.submit(self._draw_new_run)
@@ -63,6 +71,7 @@ class Inspector:
         return self.worker.wait_idle(timeout) and self.analyst.wait_idle(timeout)
 
     def close(self) -> None:
+        self.upload_guard.close()
         self.worker.close()
         self.analyst.close()
 
@@ -104,7 +113,7 @@ class Inspector:
                                          initial_value=self.session.skeleton_params.sample_radius,
                                          hint="skeleton ball radius, fraction of the bounding-box diagonal")
             self.restart_button = gui.add_button("Restart with these parameters")
-        with gui.add_folder("View"):
+        with gui.add_folder("View") as view_folder:
             self.show = {layer: gui.add_checkbox(f"Show {layer}", True)
                          for layer in ("original", "contracted", "skeleton")}
             self.show["removed"] = gui.add_checkbox(
@@ -118,17 +127,22 @@ class Inspector:
                              "<span style='color:#ff9600'>&#9679;</span> junction, "
                              "<span style='color:#282828'>&#9679;</span> path; "
                              "<span style='color:#8c46dc'>&#9679;</span> removed point (GLSkeleton)")
+        self.labels = LabelPanel(gui, self.session, self.worker.submit, self._labels_changed,
+                                 order=view_folder.order + 0.5)
         with gui.add_folder("Load"):
             names = tuple(self.assets) or ("(no bundled assets)",)
             self.asset = gui.add_dropdown("Bundled asset", names, disabled=not self.assets)
             self.load_button = gui.add_button("Load asset", disabled=not self.assets)
             self.upload = gui.add_upload_button(
                 "Upload cloud", hint=f"{' '.join(INPUT_FORMATS)}, at most {self.max_upload_bytes // 2**20} MiB")
+            self.downsample_button = gui.add_button("Load downsampled", visible=False,
+                                                    hint="the last cloud too large for this server, voxel-downsampled")
         with gui.add_folder("Export"):
             self.resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
             self.save_on_server = gui.add_checkbox(
                 "Also save on server", False, disabled=self.save_dir is None,
-                hint=f"into {self.save_dir}" if self.save_dir else "start skel-inspect with --save-dir to enable")
+                hint="into the folder skel-inspect was given with --save-dir" if self.save_dir
+                else "start skel-inspect with --save-dir to enable")
             self.shot_button = gui.add_button("Screenshot")
             self.bundle_button = gui.add_button("Export bundle")
         with gui.add_folder("Log", expand_by_default=False):
@@ -201,7 +215,8 @@ class Inspector:
             path = self.assets.get(self.asset.value)
             if path is not None:  # only names of files the server listed itself
                 self.worker.pause()
-                submit(lambda: self._load(lambda: load(path), event.client), event.client)
+                submit(lambda: self._load(lambda voxel=None: load(path, voxel_size=voxel, budget=_budget()),
+                                          event.client), event.client)
 
         @self.upload.on_upload
         async def _(event: viser.GuiEvent) -> None:
@@ -212,7 +227,15 @@ class Inspector:
                              f"{self.max_upload_bytes / 2**20:.0f} MiB")
                 return
             self.worker.pause()
-            submit(lambda: self._load(lambda: load_bytes(upload.content, upload.name), event.client), event.client)
+            submit(lambda: self._load(lambda voxel=None: load_bytes(upload.content, upload.name, voxel_size=voxel,
+                                                                    budget=_budget()), event.client), event.client)
+
+        @self.downsample_button.on_click
+        async def _(event: viser.GuiEvent) -> None:
+            if self.offer is not None:
+                voxel, read = self.offer
+                self.worker.pause()
+                submit(lambda: self._load(lambda: read(voxel), event.client), event.client)
 
         @self.shot_button.on_click
         async def _(event: viser.GuiEvent) -> None:
@@ -276,8 +299,8 @@ class Inspector:
         self._show(len(self.session.history) - 1)
 
     def _tick(self, full: bool) -> bool:
-        """One Play / Run-to-end iteration; False ends the loop."""
-        state = self.session.step()
+        """One Play / Run-to-end iteration; False ends the loop. A pause lands between two stages."""
+        state = self.session.step(paused=lambda: not self.worker.playing)
         going = state is not None and not self.session.finished
         if not going:
             self.play_button.label = "Play"
@@ -296,7 +319,15 @@ class Inspector:
         self._draw_new_run(frame=False)
 
     def _load(self, read, client=None) -> None:
-        cloud = read()  # an InputError leaves the session as it was
+        try:
+            cloud = read()  # an InputError leaves the session as it was
+        except TooLargeError as error:
+            self.offer = (error.voxel_size, read)
+            self.downsample_button.label = f"Load downsampled (voxel {error.voxel_size:g})"
+            self.downsample_button.visible = True
+            raise InputError(f"{error}: press '{self.downsample_button.label}' in Load") from None
+        self.offer = None
+        self.downsample_button.visible = False
         self.session.load(cloud)
         self._draw_new_run(frame=True)
         if cloud.notes:
@@ -308,10 +339,21 @@ class Inspector:
 
     def _set_colouring(self, mode: str) -> None:
         self.colour_by = mode
-        self.legend.content = legend_html(mode) if mode in COLOUR_RANGES else ""
+        self.legend.content = (legend_html(mode) if mode in COLOUR_RANGES
+                               else self.labels.legend_html() if mode == "label" else "")
         if mode not in COLOUR_RANGES:
-            self.view.set_colours((self.session.run, self.shown), None)
+            self._set_fixed_colours(self.session.run, self.shown)
         self.analyst.request((self.session.run, self.shown))
+
+    def _set_fixed_colours(self, run, index: int) -> None:
+        """Colours that need no metrics: plain, or by label."""
+        colours = self.labels.colours(run.history[index].point_ids) if self.colour_by == "label" else None
+        self.view.set_colours((run, index), colours, self.colour_by)
+
+    def _labels_changed(self) -> None:
+        if self.colour_by == "label":
+            self.legend.content = self.labels.legend_html()
+        self._update_status()
 
     def _draw_new_run(self, frame: bool = False) -> None:
         cloud = self.session.cloud
@@ -322,7 +364,10 @@ class Inspector:
         if frame:
             for client in self.server.get_clients().values():
                 self.view.frame_camera(client.camera)
-        self._show(0)
+        self.labels.refresh()
+        if self.colour_by == "label":
+            self.legend.content = self.labels.legend_html()
+        self._show(len(self.session.history) - 1)  # iteration 0, or the end of a finished run opened as such
 
     def _show(self, index: int, full: bool = True) -> None:
         """Draw history[index]: the points and the status now; metrics, plots and skeleton follow from
@@ -335,7 +380,7 @@ class Inspector:
             self.view.show_points((run, index), state.points)
             self.view.show_removed((run, index), self.session.cloud.points[state.removed_ids])
             if self.colour_by not in COLOUR_RANGES:
-                self.view.set_colours((run, index), None)
+                self._set_fixed_colours(run, index)
             self._update_status()
         self.server.flush()
         self._mark("points", run, index)
@@ -355,15 +400,16 @@ class Inspector:
         figures = (report.histogram_figure(history[-1], "d_theta", iteration=run.history[index].iteration),
                    report.histogram_figure(history[-1], "delta_kappa", iteration=run.history[index].iteration),
                    report.convergence_figure(history))
-        colours = None
-        if self.colour_by in COLOUR_RANGES:
-            colours = colour_values(report.per_point_values(history[-1], self.colour_by), self.colour_by)
+        mode, colours = self.colour_by, None
+        if mode in COLOUR_RANGES:
+            colours = colour_values(report.per_point_values(history[-1], mode), mode)
         if not self._current(run, index):
             return
         with self.server.atomic():
             self.hist_theta.figure, self.hist_kappa.figure, self.convergence.figure = figures
             self.verdict.content = explanation_markdown(verdict)
-            self.view.set_colours((run, index), colours, self.colour_by)
+            if mode in COLOUR_RANGES and mode == self.colour_by:  # other modes are set when the points are
+                self.view.set_colours((run, index), colours, mode)
         self.server.flush()
         self._mark("plots", run, index)
         if not self.view.visible["skeleton"]:
@@ -434,7 +480,9 @@ class Inspector:
         return export.png_bytes(rgba)
 
     def _stem(self) -> str:
-        return f"{Path(self.session.cloud.name).stem}-it{self.session.history[self.shown].iteration:03d}"
+        """The name of exported files: the cloud's, made safe for any file system and shortened."""
+        name = re.sub(r"[^A-Za-z0-9._-]+", "_", Path(self.session.cloud.name).stem).strip("._-")
+        return f"{name[:SAVE_NAME_LENGTH] or 'cloud'}-it{self.session.history[self.shown].iteration:03d}"
 
     def _send_screenshot(self, client) -> None:
         png = self._render(client)
@@ -450,9 +498,12 @@ class Inspector:
         if client is not None:
             client.send_file_download(name, data, save_immediately=True)
         if self.save_dir is not None and self.save_on_server.value:
-            self.save_dir.mkdir(parents=True, exist_ok=True)
-            (self.save_dir / name).write_bytes(data)
-            self.session.note(f"saved {self.save_dir / name}")
+            try:
+                self.save_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                raise InputError(f"cannot create the save folder ({error.strerror})") from None
+            write_atomic(self.save_dir / name, lambda path: path.write_bytes(data))  # a full disk keeps what was saved
+            self.session.note(f"saved {name} on the server")
 
     # ------------------------------------------------------------------ messages
     def _notify(self, client, title: str, body: str, color: str = "red") -> None:
@@ -460,11 +511,28 @@ class Inspector:
         for target in clients:
             target.add_notification(title, body, color=color, auto_close_seconds=15.0)
 
+    def _upload_refused(self, client_id: int, name: str, reason: str) -> None:
+        client = self.server.get_clients().get(client_id)
+        if client is not None:
+            self._notify(client, "Upload refused", f"{Path(name).name}: {reason}")
+
     def _report_error(self, message: str, client, pause: bool = True) -> None:
-        """A failed engine job stops Play; a failed analysis (skeleton, metrics) only says so."""
+        """A failed engine job stops Play; a failed analysis (skeleton, metrics) only says so. Server
+        paths in the message are cut to their last part: no server path reaches a browser."""
+        message = without_paths(message)
         if pause:
             self.worker.pause()
             self.play_button.label = "Play"
         self.session.note(f"error: {message}")
         self._notify(client, "Error", message)
         self._update_status()
+
+
+def without_paths(message: str) -> str:
+    """`message` with every absolute path cut to its file name."""
+    return re.sub(r"(?<![\w.])/(?:[^\s/:;,'\"()]+/)+([^\s/:;,'\"()]*)", r"\1", message)
+
+
+def _budget() -> int:
+    """The memory a run in the inspector may take: a smaller share of the machine than the command line's."""
+    return budget_bytes(INSPECTOR_SHARE)

@@ -1,14 +1,27 @@
-"""`skel-inspect [INPUT] [--host 127.0.0.1] [--port 8080]`: serve the inspector on one cloud."""
+"""`skel-inspect [INPUT] [--host 127.0.0.1] [--port 8080]`: serve the inspector on one cloud.
+
+Guarded as Jupyter guards its server: it listens on this machine only unless told otherwise. Bound to
+any other address it prints a warning, and the page and its websocket then require a token, printed in
+the URL (`?token=...`; the page's response sets it as a cookie, which the websocket then carries).
+`--no-token` turns the token off, explicitly.
+"""
 from __future__ import annotations
 
 import argparse
+import hmac
+import http
+import http.cookies
+import ipaddress
+import secrets
 import socket
 import sys
 import threading
+import urllib.parse
 from pathlib import Path
 
-from skelcore.errors import SkelError
+from skelcore.errors import SkelError, TooLargeError
 from skelcore.io import Cloud, load, validate
+from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
 
@@ -37,15 +50,81 @@ def host_problem(host: str) -> str | None:
     return None
 
 
-def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
-          params: ContractionParams = ContractionParams(), verbose: bool = False):
-    """Start a server and an inspector on `cloud`; returns (server, inspector). The caller stops them."""
-    import viser
+def is_loopback(host: str) -> bool:
+    """Whether every address `host` names is on this machine only."""
+    try:
+        addresses = {info[4][0] for info in socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)}
+        return all(ipaddress.ip_address(address.split("%")[0]).is_loopback for address in addresses)
+    except (OSError, ValueError):
+        return False
 
+
+def token_gate(token: str, cookie: str):
+    """A websockets `process_request` wrapper: requests without the token (in the URL's query or the
+    cookie the page's response set) are answered 403, and a websocket must come from the page's origin."""
+    def wrap(inner):
+        def process_request(connection, request):
+            query = urllib.parse.parse_qs(urllib.parse.urlsplit(request.path).query)
+            given = (query.get("token") or [""])[0]
+            jar = http.cookies.SimpleCookie()
+            try:
+                jar.load(request.headers.get("Cookie", ""))
+            except http.cookies.CookieError:
+                pass
+            kept = jar[cookie].value if cookie in jar else ""
+            by_query = hmac.compare_digest(given.encode(), token.encode())
+            if not (by_query or hmac.compare_digest(kept.encode(), token.encode())):
+                return connection.respond(http.HTTPStatus.FORBIDDEN,
+                                          "skel-inspect: open the URL with the token the server printed\n")
+            origin = request.headers.get("Origin")
+            if (request.headers.get("Upgrade", "").lower() == "websocket" and origin
+                    and urllib.parse.urlsplit(origin).netloc != request.headers.get("Host")):
+                return connection.respond(http.HTTPStatus.FORBIDDEN, "skel-inspect: cross-origin websocket\n")
+            response = inner(connection, request) if inner is not None else None
+            if by_query and response is not None:
+                response.headers["Set-Cookie"] = f"{cookie}={token}; Path=/; HttpOnly; SameSite=Strict"
+            return response
+        return process_request
+    return wrap
+
+
+_SERVER_START = threading.Lock()
+
+
+def viser_server(host: str, port: int, *, token: str | None = None, verbose: bool = False):
+    """A viser server whose every request passes `token_gate` when a token is given.
+
+    viser hands its HTTP handler to websockets' `serve` inside its server thread and offers no way in;
+    `serve` is wrapped while (and only while) this server starts, under a lock."""
+    import viser
+    import websockets.asyncio.server as websockets_server
+
+    if token is None:
+        return viser.ViserServer(host=host, port=port, verbose=verbose)
+    with _SERVER_START:
+        original = websockets_server.serve
+
+        def serve(handler, *args, process_request=None, **kwargs):
+            cookie = f"skel_inspect_token_{args[1] if len(args) > 1 else kwargs.get('port', port)}"
+            return original(handler, *args, process_request=token_gate(token, cookie)(process_request), **kwargs)
+
+        websockets_server.serve = serve
+        try:
+            return viser.ViserServer(host=host, port=port, verbose=verbose)
+        finally:
+            websockets_server.serve = original
+
+
+def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
+          params: ContractionParams = ContractionParams(), verbose: bool = False, token: str | None = None,
+          **session_options):
+    """Start a server and an inspector on `cloud`; returns (server, inspector). The caller stops them.
+    With a token, every page and websocket request must carry it. session_options: label_weights, weights,
+    history (see app.session.Session)."""
     from .inspector import Inspector
 
-    session = Session(cloud, params)
-    server = viser.ViserServer(host=host, port=port, verbose=verbose)
+    session = Session(cloud, params, **session_options)
+    server = viser_server(host, port, token=token, verbose=verbose)
     inspector = Inspector(server, session, assets=bundled_assets(), save_dir=save_dir)
     return server, inspector
 
@@ -56,6 +135,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     parser.add_argument("--port", type=int, default=8080, help="port (the next free one is taken if busy)")
     parser.add_argument("--save-dir", type=Path, help="where 'Also save on server' writes screenshots and bundles")
+    parser.add_argument("--voxel-size", type=float, help="downsample INPUT to one point per voxel of this size "
+                                                         "(for a cloud over the inspector's memory budget)")
+    parser.add_argument("--no-token", action="store_true",
+                        help="serve a non-loopback --host without a token: anyone who can reach it can drive the "
+                             "session, upload files and write into --save-dir")
     args = parser.parse_args(argv)
     problem = host_problem(args.host)
     if not 0 <= args.port <= 65535:
@@ -63,17 +147,27 @@ def main(argv: list[str] | None = None) -> int:
     if problem:
         print(f"skel-inspect: {problem}", file=sys.stderr)
         return 2
+    exposed = not is_loopback(args.host)
+    token = secrets.token_urlsafe(24) if exposed and not args.no_token else None
+    if exposed:
+        print(f"skel-inspect: warning: --host {args.host} is reachable from other machines; "
+              + ("anyone who reaches it can drive the session (--no-token)" if token is None else
+                 "the page and its websocket require the token in the URL below"), file=sys.stderr, flush=True)
     try:
-        cloud = load(args.input) if args.input else default_cloud(bundled_assets())
-        server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir)
+        cloud = (load(args.input, voxel_size=args.voxel_size, budget=budget_bytes(INSPECTOR_SHARE)) if args.input
+                 else default_cloud(bundled_assets()))
+        server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir, token=token)
     except SkelError as error:
-        print(f"skel-inspect: {error}", file=sys.stderr)
+        advice = f" (--voxel-size {error.voxel_size:g})" if isinstance(error, TooLargeError) else ""
+        print(f"skel-inspect: {error}{advice}", file=sys.stderr)
         return 2
     except OSError as error:
         print(f"skel-inspect: cannot serve on {args.host}:{args.port} ({error.strerror or error})", file=sys.stderr)
         return 2
+    shown_host = socket.gethostname() if args.host in ("0.0.0.0", "::", "") else args.host
+    query = f"/?token={token}" if token else ""
     print(f"skel-inspect: {Path(cloud.name).name} ({len(cloud.points):,} points) at "
-          f"http://{args.host}:{server.get_port()}  (Ctrl+C to stop)", flush=True)
+          f"http://{shown_host}:{server.get_port()}{query}  (Ctrl+C to stop)", flush=True)
     try:
         threading.Event().wait()
     except KeyboardInterrupt:

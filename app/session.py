@@ -12,10 +12,16 @@ import dataclasses
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
+
+import numpy as np
 
 from skelcore import contraction, pipeline
-from skelcore.contraction import IterationState, contract, record
+from skelcore.api import Result
+from skelcore.contraction import IterationState, record
+from skelcore.errors import ParameterError
 from skelcore.io import Cloud
+from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
@@ -33,15 +39,24 @@ class Run:
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
     evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
+    weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
+    label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any
 
 
 class Session:
+    """label_weights: {label: contraction weight} for clouds with labels, applied on every (re)start.
+    weights: explicit per-point weights of `cloud` (replaced by label weights once those are set, dropped on
+    load). history: the states of a finished run on `cloud` (e.g. a skelcore.Result's) to open at."""
+
     def __init__(self, cloud: Cloud, params: ContractionParams = ContractionParams(),
-                 skeleton_params: SkeletonParams = SkeletonParams()):
+                 skeleton_params: SkeletonParams = SkeletonParams(), *, label_weights=None, weights=None,
+                 history: list[IterationState] | None = None):
         self.skeleton_params = skeleton_params.validated()
         self.log: list[str] = []
         self._lock = threading.Lock()
-        self._start(cloud, params)
+        self.label_weights = check_label_weights(label_weights)
+        self._point_weights = None if weights is None else check_weights(weights, len(cloud.points))
+        self._start(cloud, params, history)
 
     # -- the run
     @property
@@ -75,15 +90,43 @@ class Session:
 
     def load(self, cloud: Cloud) -> None:
         """Start a run on a new cloud with the current parameters (automatic k and W_L0 stay automatic)."""
-        self._start(cloud, self.latest.params)
+        point_weights, self._point_weights = self._point_weights, None
+        try:
+            self._start(cloud, self.latest.params)
+        except Exception:
+            self._point_weights = point_weights
+            raise
 
-    def _start(self, cloud: Cloud, params: ContractionParams) -> None:
+    def set_label_weights(self, label_weights) -> None:
+        """Contraction weights per label, used from the next restart."""
+        self.label_weights = check_label_weights(label_weights)
+        self._point_weights = None
+        self.note(f"label weights {_weights_text(self.label_weights)}: applies on restart")
+
+    def weights_for(self, cloud: Cloud) -> np.ndarray | None:
+        """The per-point contraction weights a run on `cloud` uses."""
+        if self._point_weights is not None:
+            return self._point_weights
+        if self.label_weights and cloud.labels is not None:
+            return weights_from_labels(cloud.labels, self.label_weights)
+        return None
+
+    def _start(self, cloud: Cloud, params: ContractionParams, history: list[IterationState] | None = None) -> None:
         params = params.validated()
-        generator = contract(cloud.points, params)
-        first = next(generator)  # the one-rings: an error here leaves the current run as it was
-        self._generator, self._pending = generator, None
-        self.run = Run(cloud, params, [first])
-        self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}")
+        weights = self.weights_for(cloud)
+        if history:
+            if history[-1].termination is None:
+                raise ParameterError("a run to open must have ended (its last state carries a termination)")
+            generator, states = None, list(history)
+        else:
+            generator = contraction.contract(cloud.points, params, weights, stages=True)
+            states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
+        self._generator, self._pending, self._within_step = generator, None, False
+        self.run = Run(cloud, params, states, weights=weights,
+                       label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
+                       else {})
+        weighted = "" if weights is None else f", weights in [{weights.min():g}, {weights.max():g}]"
+        self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}{weighted}")
 
     def tune(self, params: ContractionParams) -> str:
         """Take the panel's parameters: live ones apply from the next step, the others on restart.
@@ -105,12 +148,22 @@ class Session:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")
         return message
 
-    def step(self) -> IterationState | None:
-        """One iteration (retuned by gen.send when parameters changed); None when the run has ended."""
+    def step(self, paused: Callable[[], bool] = lambda: False) -> IterationState | None:
+        """One iteration (retuned by gen.send when parameters changed); None when the run has ended, or
+        when `paused()` turned true between two stages of the step: the next call resumes it there."""
         if self.finished:
             return None
-        pending, self._pending = self._pending, None
-        state = self._generator.send(pending)  # send(None) is next()
+        if self._within_step:
+            state = next(self._generator)
+        else:
+            pending, self._pending = self._pending, None
+            state = self._generator.send(pending)  # send(None) is next()
+        while state is None:  # between two stages of the step
+            self._within_step = True
+            if paused():
+                return None
+            state = next(self._generator)
+        self._within_step = False
         record(self.run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
@@ -155,9 +208,10 @@ class Session:
         """The files of `skelcore run` (skeleton.json/.ply, contracted.ply, metrics.json, params.json)
         for the run up to history[index]."""
         run = self.run
-        options = pipeline.RunOptions(params=run.start_params, sample_radius=self.skeleton_params.sample_radius)
-        pipeline.write_results(out_dir, run.cloud, run.history[:index + 1], self.skeleton(index, run),
-                               self.metrics_upto(index, run), options)
+        options = pipeline.RunOptions(params=run.start_params, sample_radius=self.skeleton_params.sample_radius,
+                                      label_weights=tuple(sorted(run.label_weights.items())))
+        Result(run.cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
+               options, run.weights).save(out_dir)
 
     def note(self, line: str) -> None:
         self.log.append(line)
@@ -166,6 +220,10 @@ class Session:
 
 def _assignments(params: ContractionParams, names: list[str]) -> str:
     return ", ".join(f"{name}={getattr(params, name)}" for name in names)
+
+
+def _weights_text(label_weights: dict[int, float]) -> str:
+    return ", ".join(f"{label}={weight:g}" for label, weight in sorted(label_weights.items())) or "none"
 
 
 def _describe(params: ContractionParams) -> str:

@@ -28,8 +28,17 @@ def _guarded(job: Callable[[], object], client, on_error: ErrorHandler) -> bool:
         on_error(str(error), client)
     except Exception as error:
         traceback.print_exc()
-        on_error(f"internal error: {type(error).__name__}: {error}", client)
+        on_error(_in_our_words(error), client)
     return False
+
+
+def _in_our_words(error: Exception) -> str:
+    """An unforeseen failure as one line for a browser: no exception text, which may hold server paths."""
+    if isinstance(error, MemoryError) or "bad_alloc" in str(error):
+        return "the server ran out of memory; load a smaller or voxel-downsampled cloud"
+    if isinstance(error, OSError):
+        return f"the server cannot read or write a file ({error.strerror or 'input/output error'})"
+    return f"internal error ({type(error).__name__}); the server's log has the details"
 
 
 class Worker:

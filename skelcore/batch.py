@@ -34,8 +34,8 @@ from typing import Iterator
 
 from . import __version__, io
 from .errors import InputError, ParameterError, SkelError
+from .pipeline import RESULT_FILES, RunOptions, run_pipeline, write_atomic
 from .verdict import StabilityThresholds
-from .pipeline import RESULT_FILES, RunOptions, run_pipeline
 
 DONE_FILE = "done.json"
 SUMMARY_COLUMNS = (
@@ -61,6 +61,7 @@ class Job:
 
 @dataclass
 class BatchResult:
+    """The outcome of a batch: one summary row per object, the report page, the time taken."""
     out_dir: Path
     rows: list[dict]
     report: Path | None
@@ -68,9 +69,11 @@ class BatchResult:
 
     @property
     def failed(self) -> list[dict]:
+        """The rows of the objects that failed."""
         return [row for row in self.rows if row["status"] == "failed"]
 
     def summary_line(self) -> str:
+        """One line: objects done, reused and failed, the time, the output folder."""
         reused = sum(bool(row["reused"]) for row in self.rows)
         done = len(self.rows) - len(self.failed)
         report = f", {self.report.name}" if self.report else ""
@@ -243,6 +246,7 @@ def _one_line(error: BaseException) -> str:
 # --- the batch ----------------------------------------------------------------------------------
 
 def plan(inputs: list[str], out_dir, options: RunOptions, force: bool = False) -> list[Job]:
+    """One Job per input object (files, folders and globs expanded), each with its output folder."""
     paths = collect_inputs(inputs, out_dir)
     digest = options_digest(options)
     return [Job(name, str(path), str(Path(out_dir) / name), options, digest, force)
@@ -381,12 +385,7 @@ def _cpus() -> int:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temporary.write_text(text)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    write_atomic(path, lambda temporary: temporary.write_text(text))
 
 
 # --- benchmark ----------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from .solver import CholeskySolver, backend
 
 def run_bench(sizes: list[int], *, iterations: int = 4, method: str = "lbc", baseline: bool = False,
               metrics: bool = False, out=print) -> list[dict]:
+    """Time the contraction per stage on tori of the given sizes; print a table and return its rows."""
     methods = ["lbc", "glskeleton"] if method == "both" else [method]
     out(f"skelcore bench: torus, {iterations} iterations per run, solver {backend()}")
     rows = []

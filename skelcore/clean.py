@@ -35,6 +35,7 @@ from .neighbours import pca_frames
 
 @dataclass(frozen=True)
 class CleaningParams:
+    """Parameters of the cleaning before contraction (the module docstring gives the rules)."""
     remove_outliers: bool = True
     neighbours: int = 16  # for the spacing of each point
     outlier_ratio: float = 1.5  # times the spacing of its own neighbours
@@ -45,6 +46,7 @@ class CleaningParams:
     min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
 
     def validated(self) -> "CleaningParams":
+        """These parameters, or a ParameterError naming the first out of range."""
         if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:
             raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
         for name in ("outlier_ratio", "outlier_spread", "piece_gap"):
@@ -56,27 +58,32 @@ class CleaningParams:
         return self
 
     def to_dict(self) -> dict:
+        """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)
 
 
 @dataclass
 class CleaningReport:
+    """What cleaning found: the ids of the outliers and of the stray points, in input order."""
     input_points: int
     outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # removed ids, input order
     stray: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def kept(self) -> np.ndarray:
+        """The ids of the points kept, ascending."""
         mask = np.ones(self.input_points, dtype=bool)
         mask[self.outliers] = False
         mask[self.stray] = False
         return np.flatnonzero(mask)
 
     def to_dict(self) -> dict:
+        """The counts, for metrics.json."""
         return {"input_points": self.input_points, "outliers_removed": len(self.outliers),
                 "stray_removed": len(self.stray), "kept": self.input_points - len(self.outliers) - len(self.stray)}
 
     def note(self) -> str:
+        """One line for the cloud's notes."""
         return (f"cleaning removed {len(self.outliers)} outliers and {len(self.stray)} points of stray pieces "
                 f"({self.input_points} -> {self.input_points - len(self.outliers) - len(self.stray)} points)")
 
@@ -117,10 +124,11 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     return report
 
 
-def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
-    """`cloud` without its outliers and stray pieces and, with `denoise`, projected onto its local planes;
-    the counts in `cleaning` and a note. Mesh faces that lose a corner are dropped, the rest renumbered."""
-    report = clean(cloud.points, params)
+def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: CleaningReport | None = None) -> Cloud:
+    """`cloud` without its outliers and stray pieces (those of `report` when given) and, with `denoise`,
+    projected onto its local planes; the counts in `cleaning` and a note; its labels follow the points kept;
+    mesh faces that lose a corner are dropped and the rest renumbered."""
+    report = report or clean(cloud.points, params)
     kept = report.kept
     faces = cloud.faces
     if faces is not None and len(kept) < len(cloud.points):
@@ -131,7 +139,8 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams()) -> Cloud:
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
     points = denoised(cloud.points[kept], params.neighbours) if params.denoise else cloud.points[kept]
-    return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict())
+    return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
+                 labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
 
 def denoised(points: np.ndarray, neighbours: int) -> np.ndarray:

@@ -6,14 +6,17 @@ no traceback reaches the user.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 
 from .clean import CleaningParams
-from .errors import SkelError
+from .errors import SkelError, TooLargeError
 from .params import ContractionParams
 from .skeleton import SkeletonParams
 
 EXIT_INPUT = 2
+EXIT_INTERNAL = 3
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
@@ -52,14 +55,25 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
+    group.add_argument("--no-denoise", action="store_true",
+                       help="keep the points where they are (by default each is projected once onto the PCA plane "
+                            "of its neighbours, which removes sampling noise)")
     group.add_argument("--no-outlier-removal", action="store_true",
                        help="keep points far from their neighbours (removed by default: statistical outliers)")
     group.add_argument("--no-stray-removal", action="store_true",
                        help="keep small pieces apart from the object (removed by default: pieces under "
                             f"{CleaningParams.min_piece_share * 100:g}%% of the points)")
+    group.add_argument("--labels", metavar="FILE|PROPERTY", default=None,
+                       help="per-point integer labels: a file (.txt .csv .labels: one per line in the input's point "
+                            "order; .npy) or a vertex property of a PLY input (default: the PLY's label, class, "
+                            "scalar_label, ... property when present)")
+    group.add_argument("--label-weight", metavar="LABEL=W", action="append", default=[], type=_label_weight,
+                       help="contraction weight of the points labelled LABEL (a multiplier of W_L on their Laplacian "
+                            "rows, as pc-skeletor's semantic LBC); repeat for several labels; unnamed labels keep 1")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
+    """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
                              gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
@@ -67,14 +81,27 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 
 
 def run_options(args: argparse.Namespace):
+    """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
     from .pipeline import RunOptions
 
-    cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal)
+    cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal,
+                              denoise=not args.no_denoise)
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
-                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning)
+                      sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
+                      labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())))
+
+
+def _label_weight(text: str) -> tuple[int, float]:
+    from .labels import parse_label_weight
+
+    try:
+        return parse_label_weight(text)
+    except SkelError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argparse parser of every `skelcore` sub-command."""
     parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
@@ -82,6 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("input", help="point cloud or mesh (.ply .pcd .xyz .pts .txt .off .obj .stl .glb)")
     run.add_argument("--out", required=True, help="output folder")
     run.add_argument("--quiet", action="store_true", help="no progress lines")
+    run.add_argument("--force", action="store_true",
+                     help="replace the results of an earlier run in --out (without it such a folder is refused)")
     add_parameter_flags(run)
     run.set_defaults(handler=_run)
 
@@ -177,13 +206,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from .pipeline import run_pipeline
+    from .api import run
+    from .pipeline import prepare_output
 
-    options = run_options(args)
+    prepare_output(args.out, force=args.force)
     progress = None if args.quiet else print
-    result = run_pipeline(args.input, args.out, options, progress=progress)
+    result = run(args.input, run_options(args), progress=progress)
+    out = result.save(args.out)
     if not args.quiet:
-        print(result.summary_line())
+        print(f"{result.summary()} -> {out}")
     return 0
 
 
@@ -256,16 +287,40 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (0 ok, 1 some batch objects failed, 2 bad input or parameters, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return args.handler(args)
     except SkelError as error:
-        print(f"skelcore {args.command}: error: {error}", file=sys.stderr)
+        advice = (f" (--voxel-size {error.voxel_size:g}, or raise --max-points)"
+                  if isinstance(error, TooLargeError) else "")
+        print(f"skelcore {args.command}: error: {error}{advice}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print(f"skelcore {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BaseException as error:  # noqa: BLE001 -- no traceback reaches the user, whatever failed
+        if isinstance(error, SystemExit):
+            raise
+        print(f"skelcore {args.command}: error: {unexpected_words(error)}", file=sys.stderr)
+        if os.environ.get("SKELCORE_TRACEBACK"):
+            traceback.print_exc()
+        return EXIT_INTERNAL
+
+
+def unexpected_words(error: BaseException) -> str:
+    """An error skelcore did not foresee, in one line of our words (no C++ names, no source paths)."""
+    text = " ".join(str(error).split())
+    if isinstance(error, MemoryError) or "bad_alloc" in text:
+        return "ran out of memory; downsample the input (--voxel-size) or lower --max-points"
+    if isinstance(error, OSError):
+        where = f"{error.filename}: " if error.filename else ""
+        return f"{where}{error.strerror or 'input/output error'}"
+    if isinstance(error, RecursionError):
+        return "the input is nested too deeply to process"
+    return (f"internal error ({type(error).__name__}); please report it with the input and command "
+            f"(set SKELCORE_TRACEBACK=1 to see where it happened)")
 
 
 if __name__ == "__main__":

@@ -85,6 +85,7 @@ class SampleComplex:
         return cls(xyz, pairs, np.unique(corners, axis=0))
 
     def triangles(self) -> list[tuple[int, int, int]]:
+        """Every triangle once, as (u, v, w) with u < v < w."""
         return [(u, v, w) for (u, v), apexes in self.apex.items() for w in apexes if w > v]
 
     def drop_cavity_triangles(self) -> None:
@@ -107,6 +108,7 @@ class SampleComplex:
                 self.remove_triangle(*sorted(birth))
 
     def triangle_count(self) -> int:
+        """The number of triangles."""
         return sum(len(apexes) for apexes in self.apex.values()) // 3
 
     def link_condition(self, u: int, v: int) -> bool:
@@ -138,6 +140,7 @@ class SampleComplex:
         self.xyz[keep] = tuple(float(c) for c in at)
 
     def remove_triangle(self, u: int, v: int, w: int) -> None:
+        """Remove the triangle (u, v, w) from its three edges."""
         for a, b, c in ((u, v, w), (u, w, v), (v, w, u)):
             self.apex[_edge(a, b)].discard(c)
 

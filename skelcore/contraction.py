@@ -16,6 +16,7 @@ from typing import Generator
 import numpy as np
 from .curveness import curve_share
 from .errors import ParameterError, SolverError
+from .labels import check_weights
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
 from .normalise import Normalisation, robust_extent
@@ -37,6 +38,7 @@ RESTART_FIELDS = ("method", "k", "normalise")
 
 @dataclass(frozen=True)
 class IterationState:
+    """One iteration of a contraction: the present points and the weights and figures of the step."""
     iteration: int  # 0 is the input
     points: np.ndarray  # (m,3) positions of the present points, in the user's coordinates
     point_ids: np.ndarray  # (m,) ids into the input of the present points
@@ -52,6 +54,7 @@ class IterationState:
 
     @property
     def n_points(self) -> int:
+        """The number of present points (GLSkeleton: fewer than the input after merges)."""
         return len(self.points)
 
     @property
@@ -62,20 +65,25 @@ class IterationState:
         return np.flatnonzero(~present)
 
 
-def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
-             ) -> Generator[IterationState, ContractionParams | None, None]:
+def contract(points: np.ndarray, params: ContractionParams = ContractionParams(), weights=None, *,
+             stages: bool = False) -> Generator[IterationState | None, ContractionParams | None, None]:
     """Yield the input state, then one state per solve; `send(params)` retunes the following steps.
 
     The last state yielded carries `termination`. When a rule rejects the candidate of a step (NaN,
     solver failure, bounding-box growth, ring ratio no longer falling: cloudcontr discards that step),
     the last accepted state is yielded again with the reason set.
+    weights: optional (n,) positive per-point contraction weights; point i's Laplacian row of eq. 2 is
+    W_L w_i L_i (see skelcore.labels). None: every weight is 1.
+    stages: also yield None between the stages of a step (Laplacian, solve, checks), so that a caller
+    can stop within a step and resume it later with next() (the inspector's Pause).
     """
     params = params.validated()
+    points = np.asarray(points, dtype=np.float64)
+    weights = None if weights is None else check_weights(weights, len(points))
     if params.method != "lbc":
         from .glskeleton import contract_with_reduction
-        yield from contract_with_reduction(points, params)
+        yield from contract_with_reduction(points, params, weights, stages=stages)
         return
-    points = np.asarray(points, dtype=np.float64)
     normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
     unit = normalisation.forward(points)
     k = params.k or default_k(len(points))
@@ -97,8 +105,11 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
-        candidate, failure, timings = solve_step(system_builder, solver, current, wl, wh, params, extent0,
-                                                 first_step=iteration == 1)
+        candidate, failure, timings = yield from solve_stages(system_builder, solver, current, wl, wh, params,
+                                                              extent0, first_step=iteration == 1, stages=stages,
+                                                              row_weights=weights)
+        if stages:
+            yield None
         if failure is None:
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
@@ -141,9 +152,10 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
     return wl, np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
 
 
-def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
-               wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool
-               ) -> tuple[np.ndarray | None, tuple[str, str] | None, dict]:
+def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
+                 wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool,
+                 stages: bool = False, row_weights: np.ndarray | None = None
+                 ) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
     past params.bbox_growth of the original extent0 (robust extents: a few points flung out by degenerate
     rings do not end the contraction of the rest), and collapse: once a cloud is a thin curve its rings
@@ -152,9 +164,15 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
     contraction to show (and judge), not a degenerate one.
 
-    Returns (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
+    row_weights: per-point contraction weights of the present points (None: all 1).
+
+    A generator for `yield from`: with `stages` it yields None between the Laplacian and the solve; its
+    value is (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
     laplacian_start = time.perf_counter()
-    system = system_builder.normal_matrix(current, wl, wh)
+    system = system_builder.normal_matrix(current, wl, wh, row_weights)
+    laplacian_end = time.perf_counter()
+    if stages:  # a pause may land here, between the Laplacian and its solve
+        yield None
     solve_start = time.perf_counter()
     failure = None
     try:
@@ -162,7 +180,7 @@ def solve_step(system_builder: LaplacianSystem, solver: CholeskySolver, current:
     except SolverError as error:
         failure, candidate = ("solver_failure", str(error)), None
     solve_end = time.perf_counter()
-    timings = {"laplacian": solve_start - laplacian_start, "solve": solve_end - solve_start}
+    timings = {"laplacian": laplacian_end - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
     if failure is None and (robust_extent(candidate) > params.bbox_growth * extent0).any():
@@ -184,10 +202,11 @@ def record(history: list[IterationState], state: IterationState) -> bool:
     return True
 
 
-def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams()) -> list[IterationState]:
+def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),
+                    weights=None) -> list[IterationState]:
     """Run to the end; the last state carries the termination reason."""
     history: list[IterationState] = []
-    for state in contract(points, params):
+    for state in contract(points, params, weights):
         record(history, state)
     return history
 

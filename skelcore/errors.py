@@ -15,3 +15,15 @@ class ParameterError(SkelError):
 
 class SolverError(SkelError):
     """The linear solve of a contraction step failed."""
+
+
+class TooLargeError(InputError):
+    """A cloud has more points than the cap or the memory budget allows; `voxel_size` brings it under."""
+
+    def __init__(self, message: str, points: int, cap: int, voxel_size: float):
+        super().__init__(message)
+        self.points, self.cap, self.voxel_size = points, cap, voxel_size
+
+
+class OutputError(SkelError):
+    """A result cannot be written (full disk, no permission); files written before it are kept."""

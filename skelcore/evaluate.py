@@ -36,6 +36,7 @@ TOPOLOGY_KEYS = ("components", "cycles", "junctions", "ends")
 
 @dataclass(frozen=True)
 class CurveGraph:
+    """A curve graph to score: node positions and undirected edges."""
     nodes: np.ndarray  # (m,3) float64
     edges: np.ndarray  # (e,2) int64, unique pairs i < j, no self-loops
     name: str = "graph"
@@ -151,6 +152,7 @@ def evaluate(skeleton: CurveGraph, truth: CurveGraph) -> dict:
 
 
 def evaluate_files(skeleton_path, truth_path) -> dict:
+    """Score a skeleton file against a ground-truth file (see `evaluate`)."""
     return evaluate(load_graph(skeleton_path), load_graph(truth_path))
 
 

@@ -31,6 +31,7 @@ def skeleton_document(skeleton: Skeleton, correspondence: bool = True) -> dict:
 
 
 def write_skeleton_json(path, skeleton: Skeleton, correspondence: bool = True) -> Path:
+    """Write skeleton.json (see skeleton_document)."""
     return _write(path, lambda f: json.dump(skeleton_document(skeleton, correspondence), f, allow_nan=False), "w")
 
 
@@ -69,17 +70,29 @@ def write_skeleton_graphml(path, skeleton: Skeleton) -> Path:
     return _write(path, lambda f: nx.write_graphml(graph, f), "wb")
 
 
-def write_points_ply(path, points, dtype=np.float64) -> Path:
-    """Binary little-endian PLY of (n,3) points, float64 (`double`) or float32 (`float`) xyz."""
+def write_points_ply(path, points, dtype=np.float64, labels=None) -> Path:
+    """Binary little-endian PLY of (n,3) points, float64 (`double`) or float32 (`float`) xyz, and with
+    `labels` (n,) an int `label` vertex property (read back by skelcore.io.load)."""
     points = np.asarray(points)
     if points.ndim != 2 or points.shape[1] != 3:
         raise InputError(f"{path}: points to write must be an (n, 3) array, got shape {points.shape}")
     kind = {np.dtype(np.float64): "double", np.dtype(np.float32): "float"}.get(np.dtype(dtype))
     if kind is None:
         raise InputError(f"{path}: dtype must be float32 or float64, got {np.dtype(dtype)}")
+    fields = [(axis, np.dtype(dtype).newbyteorder("<")) for axis in "xyz"]
+    if labels is not None:
+        labels = np.asarray(labels)
+        if labels.shape != (len(points),):
+            raise InputError(f"{path}: {labels.size} labels for {len(points)} points")
+        fields.append(("label", np.dtype("<i4")))
     header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(points)}\n"
-              f"property {kind} x\nproperty {kind} y\nproperty {kind} z\nend_header\n")
-    body = np.ascontiguousarray(points, dtype=np.dtype(dtype).newbyteorder("<")).tobytes()
+              f"property {kind} x\nproperty {kind} y\nproperty {kind} z\n"
+              + ("property int label\n" if labels is not None else "") + "end_header\n")
+    rows = np.empty(len(points), dtype=fields)
+    rows["x"], rows["y"], rows["z"] = points.T
+    if labels is not None:
+        rows["label"] = labels
+    body = rows.tobytes()
     return _write(path, lambda f: f.write(header.encode("ascii") + body), "wb")
 
 

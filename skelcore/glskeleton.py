@@ -32,6 +32,9 @@ Attraction weights (not in LCWR): LBC's W_H,i times m_i, the number of input poi
   while LCWR leaves its attraction at one point's: every reduction acts as a larger W_L (x2.6 on the helix
   by step 3, about one s_L step ahead of LBC) and a thin coil shrinks onto its axis. With the weight, eq. 2
   keeps the balance it has on the input cloud.
+Per-point contraction weights (semantic LBC, skelcore.labels; not in LCWR): a point's Laplacian row is scaled
+  by the mean weight of the input points it stands for. The merge rule reads the unweighted Laplacian: it
+  judges whether a neighbourhood has converged, not how hard it is pulled.
 Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 sum lambda), lambda the
   eigenvalues (ascending) of the covariance of the present points, tends to 1 as the cloud becomes a line.
   From step COVARIANCE_FROM on, stop when |e_t - e_{t-1}| (1 - removed share of the input in step t)
@@ -54,7 +57,7 @@ from typing import Generator
 
 import numpy as np
 
-from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_step
+from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans, one_rings
 from .normalise import Normalisation, robust_extent
@@ -69,9 +72,11 @@ MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed 
 PRIORITY_SEED = 0
 
 
-def contract_with_reduction(points: np.ndarray, params: ContractionParams
-                            ) -> Generator[IterationState, ContractionParams | None, None]:
-    """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract."""
+def contract_with_reduction(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None = None, *,
+                            stages: bool = False) -> Generator[IterationState | None, ContractionParams | None, None]:
+    """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract. `weights`: (n,)
+    per-point contraction weights of the input points, checked; a merged point carries their mean over the
+    input points it stands for."""
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
     normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
@@ -98,9 +103,16 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
         # per point), so its attraction row is weighted by m to keep eq. 2's balance of the input cloud.
-        wh = np.minimum(wh * np.bincount(owner, minlength=len(ids)), params.wh_max)
-        candidate, failure, timings = solve_step(builder, solver, current, wl, wh, params, extent0,
-                                                 first_step=iteration == 1)
+        stands_for = np.bincount(owner, minlength=len(ids))
+        wh = np.minimum(wh * stands_for, params.wh_max)
+        # Per-point contraction weights: the mean over the input points a point stands for, so a point of
+        # one label keeps its label's weight and a merge across labels blends them by point count.
+        row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
+        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
+                                                              first_step=iteration == 1, stages=stages,
+                                                              row_weights=row_weights)
+        if stages:
+            yield None
         if failure is not None:
             reason, detail = failure
             message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))

@@ -5,55 +5,114 @@ problem; recoverable oddities (duplicate points) are fixed and reported in `Clou
 """
 from __future__ import annotations
 
+import errno
+import re
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from . import memory, sizing
+from .errors import InputError, TooLargeError
+from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
 FORMATS = POINT_FORMATS + MESH_FORMATS
 MIN_POINTS = 20
 MAX_POINTS = 2_000_000
+# Coordinates beyond these magnitudes are rescaled by a power of two (exact) before anything squares a
+# distance or divides by an extent: squares overflow past ~1e154, extents past ~1e308.
+EXTREME_MAGNITUDE = 2.0 ** 128
+EXTREME_EXTENT = 2.0 ** -128
 
 
 @dataclass
 class Cloud:
+    """A validated point cloud: points, optional mesh faces and labels, its name, notes on what loading fixed."""
     points: np.ndarray  # (n,3) float64, finite, unique
     faces: np.ndarray | None = None  # (m,3) int64 into points, when the file is a mesh
     name: str = "cloud"
     notes: list[str] = field(default_factory=list)
     cleaning: dict | None = None  # what skelcore.clean removed before contraction (counts), once it ran
+    labels: np.ndarray | None = None  # (n,) int64 per-point labels (skelcore.labels), when the input has them
+    scale: float = 1.0  # the file's coordinates are points * scale (a power of two; 1 unless extreme)
 
 
 def load(path, *, sample: int | None = None, voxel_size: float | None = None,
-         max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
+         max_points: int = MAX_POINTS, budget: int | None = None, seed: int = 0, labels=None) -> Cloud:
     """Read a file into a validated Cloud.
 
     sample: for a mesh, draw this many points evenly over its surface instead of using its vertices.
     voxel_size: downsample to one point per voxel (the way to bring a huge cloud under max_points).
+    labels: per-point labels (skelcore.labels.read_labels): a label file, a PLY vertex property name or an
+    array in the file's vertex order; None: a PLY file's label property (LABEL_PROPERTIES) when it has one.
+    budget: bytes a run on the cloud may take (default: skelcore.memory's share for the command line);
+    the file is sized before it is parsed, and the cloud's points are checked against it.
     """
     path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: file not found")
-    if not path.is_file():
-        raise InputError(f"{path}: not a regular file")
+    budget = memory.budget_bytes() if budget is None else budget
     suffix = path.suffix.lower()
-    if suffix not in FORMATS:
-        raise InputError(f"{path}: unknown format '{suffix or path.name}' (supported: {' '.join(FORMATS)})")
     try:
+        _check_file(path)
+        if suffix not in FORMATS:
+            raise InputError(f"{path}: unknown format '{suffix or path.name}' (supported: {' '.join(FORMATS)})")
+        most = sizing.points_in(path, suffix)
+        if most * sizing.PARSE_BYTES_PER_POINT[suffix] > budget:
+            raise InputError(f"{path}: may hold up to {most:,} points, too many to read within the memory "
+                             f"budget of {memory.describe(budget)}; thin it out before loading")
         points, faces = _READERS[suffix](path)
     except InputError:
         raise
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(f"{path}: cannot read file ({_one_line(error)})") from None
+    except MemoryError:
+        raise InputError(f"{path}: ran out of memory while reading the file") from None
+    except OSError as error:
+        raise InputError(f"{path}: cannot read file ({error.strerror or 'input/output error'})") from None
+    except UnicodeDecodeError as error:
+        raise InputError(f"{path}: not UTF-8 text (byte 0x{error.object[error.start]:02x} at offset "
+                         f"{error.start})") from None
     except Exception as error:  # a parser's own failure on a malformed file
-        raise InputError(f"{path}: cannot parse as {suffix[1:].upper()} ({_one_line(error)})") from None
+        raise InputError(f"{path}: cannot parse as {suffix[1:].upper()} ({_parser_words(error)})") from None
+    if labels is not None:
+        labels = read_labels(labels, path, len(points))
+    elif suffix == ".ply" and (prop := ply_label_property(path)) is not None:
+        labels = read_ply_labels(path, prop, len(points))
     return validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
-                    max_points=max_points, seed=seed)
+                    max_points=max_points, budget=budget, seed=seed, labels=labels)
+
+
+def _check_file(path: Path) -> None:
+    """A readable regular file, or an InputError saying why not (a symlink loop is not 'not found')."""
+    try:
+        info = path.stat()
+    except OSError as error:
+        reason = {errno.ENOENT: "file not found", errno.ELOOP: "a loop of symbolic links, no file at its end",
+                  errno.EACCES: "permission denied", errno.ENAMETOOLONG: "the path is too long",
+                  errno.ENOTDIR: "a part of the path is not a folder"}.get(error.errno)
+        raise InputError(f"{path}: {reason or 'cannot read file (' + (error.strerror or 'error') + ')'}") from None
+    if not path.is_file():
+        raise InputError(f"{path}: not a regular file")
+    if info.st_size == 0:
+        raise InputError(f"{path}: the file is empty, it holds no points")
+
+
+def _parser_words(error: Exception) -> str:
+    """A parser's failure in our words: no internal reprs, C++ exception names or source paths."""
+    text = _one_line(error)
+    if "bad_alloc" in text:
+        return "out of memory"
+    if isinstance(error, KeyError):
+        return f"a field it needs is missing: {text.strip(chr(39) + chr(34) + '()')}"
+    if isinstance(error, RecursionError):
+        return "nested too deeply"
+    if isinstance(error, IndexError):
+        return "an index refers to an element that does not exist"
+    if type(error).__name__ == "JSONDecodeError":
+        return "its JSON part is damaged"
+    if isinstance(error, (ValueError, TypeError)) and not re.search(r"[\\/]\w+\.\w+|\bline \d+, in\b", text):
+        return f"damaged or not in this format: {text}"
+    return "damaged or not in this format"
 
 
 def load_bytes(data: bytes, filename: str, **options) -> Cloud:
@@ -64,20 +123,31 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
         raise InputError(f"{display}: unknown format '{suffix or display}' (supported: {' '.join(FORMATS)})")
     with tempfile.TemporaryDirectory(prefix="skelcore-upload-") as tmp:
         target = Path(tmp) / f"upload{suffix}"
-        target.write_bytes(data)
+        try:
+            target.write_bytes(data)
+        except OSError as error:
+            raise InputError(f"{display}: cannot store the upload to read it ({error.strerror})") from None
         try:
             cloud = load(target, **options)
-        except InputError as error:
-            raise InputError(str(error).replace(str(target), display)) from None
+        except InputError as error:  # the same error (a TooLargeError keeps its voxel size), named for the user
+            error.args = (str(error).replace(str(target), display),)
+            raise error from None
     cloud.name = display
     return cloud
 
 
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
-             voxel_size: float | None = None, max_points: int = MAX_POINTS, seed: int = 0) -> Cloud:
-    """Check an array of points (and optional faces) and return a clean Cloud."""
+             voxel_size: float | None = None, max_points: int = MAX_POINTS, budget: int | None = None,
+             seed: int = 0, labels=None) -> Cloud:
+    """Check an array of points (and optional faces, per-point labels) and return a clean Cloud; more points
+    than max_points or the memory budget allows raise a TooLargeError with the voxel size that fits."""
     points = as_points(points, name)
     notes: list[str] = []
+    if labels is not None:
+        labels = as_labels(labels, len(points), name)
+        if sample is not None or voxel_size is not None:
+            labels = None
+            notes.append("labels dropped: they belong to the input points, not to a resampled cloud")
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         if len(faces) == 0:
@@ -97,9 +167,14 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         points = voxel_downsample(points, voxel_size)
         faces = None
         notes.append(f"voxel downsampling ({voxel_size:g}) kept {len(points)} of {before} points")
-    if len(points) > max_points:
-        raise InputError(f"{name}: {len(points):,} points exceed the cap of {max_points:,}; "
-                         f"downsample with a voxel size (--voxel-size) or raise the cap (--max-points)")
+    budget = memory.budget_bytes() if budget is None else budget
+    cap = min(max_points, memory.point_cap(budget))
+    if len(points) > cap:
+        why = (f"the cap of {cap:,}" if cap == max_points else
+               f"the cap of {cap:,} that the memory budget of {memory.describe(budget)} allows")
+        voxel = memory.voxel_size_for(points, max(cap, MIN_POINTS))
+        raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; a voxel size of {voxel:g} brings "
+                            f"them under", len(points), cap, voxel)
     unique, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
     if len(unique) < len(points):
         notes.append(f"removed {len(points) - len(unique)} duplicate points")
@@ -110,15 +185,29 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             faces = remap[inverse.ravel()][faces]
             faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
         points = points[order]
+        labels = None if labels is None else labels[order]
     if len(points) < MIN_POINTS:
         raise InputError(f"{name}: only {len(points)} distinct points, at least {MIN_POINTS} are needed")
+    points, scale = _tame(points)
+    if scale != 1.0:
+        notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     centred = points - points.mean(axis=0)
     singular = np.linalg.svd(centred[:: max(1, len(points) // 100_000)], compute_uv=False)
     if singular[0] <= 1e-12 * max(1.0, np.abs(points).max()):
         raise InputError(f"{name}: all points are identical")
     if singular[1] <= 1e-9 * singular[0]:
         raise InputError(f"{name}: all points lie on one line; a surface is needed")
-    return Cloud(points=points, faces=faces, name=name, notes=notes)
+    return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale)
+
+
+def _tame(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Points scaled by a power of two so that the largest coordinate is about 1, when they are extreme."""
+    magnitude = float(np.abs(points).max())
+    extent = float(np.max(points.max(axis=0) / 2 - points.min(axis=0) / 2))  # halves: no overflow
+    if EXTREME_EXTENT < extent and magnitude < EXTREME_MAGNITUDE:
+        return points, 1.0
+    exponent = np.frexp(magnitude)[1]
+    return np.ldexp(points, -exponent), float(np.ldexp(1.0, exponent))
 
 
 def as_points(value, name: str) -> np.ndarray:
@@ -170,15 +259,25 @@ def _read_off(path: Path):
     header = lines[0][0].upper()
     if header not in ("OFF", "NOFF", "COFF", "CNOFF", "NCOFF"):
         raise InputError(f"{path}: not an OFF file (header {lines[0][0][:20]!r})")
-    counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 else (lines[1], lines[2:])
+    counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 or len(lines) < 2 else (lines[1], lines[2:])
+    if len(counts) < 2 or not all(value.isdigit() for value in counts[:2]):
+        raise InputError(f"{path}: the OFF header needs two non-negative whole counts (vertices, faces), "
+                         f"got {' '.join(counts)[:40]!r}")
     n_vertices, n_faces = int(counts[0]), int(counts[1])
-    if len(body) < n_vertices:
-        raise InputError(f"{path}: OFF header promises {n_vertices} vertices but the file has {len(body)}")
+    if len(body) < n_vertices + n_faces:
+        raise InputError(f"{path}: the OFF header promises {n_vertices} vertices and {n_faces} faces but the "
+                         f"file has {len(body)} rows")
     # vertex lines may carry a normal (N) and a colour (C) after x y z
+    if any(len(fields) < 3 for fields in body[:n_vertices]):
+        raise InputError(f"{path}: an OFF vertex row has fewer than 3 coordinates")
     points = np.asarray([fields[:3] for fields in body[:n_vertices]], dtype=np.float64)
     triangles = []
-    for fields in body[n_vertices:n_vertices + n_faces]:
-        polygon = [int(value) for value in fields[1:1 + int(fields[0])]]
+    for row, fields in enumerate(body[n_vertices:n_vertices + n_faces], start=1):
+        size = int(fields[0])
+        if size < 3 or len(fields) < 1 + size:
+            raise InputError(f"{path}: OFF face {row} has {min(size, len(fields) - 1)} vertex indices; "
+                             f"a face needs at least 3")
+        polygon = [int(value) for value in fields[1:1 + size]]
         triangles.extend([polygon[0], polygon[i], polygon[i + 1]] for i in range(1, len(polygon) - 1))
     return points, (np.asarray(triangles, dtype=np.int64) if triangles else None)
 

@@ -45,6 +45,7 @@ class LaplacianSystem:
         self._l_indices = unique_keys % n
         l_rows = unique_keys // n
         self._l_indptr = np.searchsorted(l_rows, np.arange(n + 1))
+        self._l_rows = l_rows
 
         # (L^T L)_ab = sum_r L_ra L_rb: every ordered pair of entries that share a row of L.
         row_length = np.diff(self._l_indptr)
@@ -66,6 +67,7 @@ class LaplacianSystem:
         self._m_diagonal = np.asarray(slot_of[np.arange(n), np.arange(n)]).ravel().astype(np.int64) - 1
 
     def laplacian_values(self, points: np.ndarray) -> np.ndarray:
+        """The values of L (eq. 1) at `points`, in the order of its fixed sparsity pattern."""
         _, _, weights = cotangent_weights(points, self._triangles)
         row_sum = np.bincount(self._rows, weights=weights, minlength=self.n)
         scale = np.where(np.abs(row_sum) > ROW_LIMIT, ROW_LIMIT / np.maximum(np.abs(row_sum), 1e-300), 1.0)
@@ -74,11 +76,17 @@ class LaplacianSystem:
         return values
 
     def laplacian(self, points: np.ndarray) -> sp.csr_matrix:
+        """L (eq. 1) at `points` as a CSR matrix."""
         return sp.csr_matrix((self.laplacian_values(points), self._l_indices, self._l_indptr), shape=(self.n, self.n))
 
-    def normal_matrix(self, points: np.ndarray, wl: float, wh: np.ndarray) -> sp.csr_matrix:
-        """W_L^2 L^T L + W_H^2, the matrix of the normal equations of eq. 2."""
+    def normal_matrix(self, points: np.ndarray, wl: float, wh: np.ndarray,
+                      row_weights: np.ndarray | None = None) -> sp.csr_matrix:
+        """W_L^2 L^T L + W_H^2, the matrix of the normal equations of eq. 2. `row_weights` (n,): per-point
+        contraction weights w, the system's Laplacian rows become W_L w_i L_i (semantic LBC: w_i multiplies
+        point i's contraction weight), so the first term is W_L^2 L^T diag(w^2) L."""
         values = self.laplacian_values(points)
+        if row_weights is not None:
+            values = values * row_weights[self._l_rows]
         data = np.bincount(self._pair_slots, weights=values[self._pair_first] * values[self._pair_second],
                            minlength=len(self._m_indices)) * wl**2
         data[self._m_diagonal] += wh**2

@@ -42,6 +42,7 @@ class SurfaceProbe:
         self._normals: dict[int, np.ndarray] = {}
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
+        """(len(ids), 3) PCA normals of those original points (unsigned), each computed once."""
         missing = np.array([i for i in ids.tolist() if i not in self._normals], dtype=np.int64)
         if len(missing):
             k = min(NORMAL_K, len(self.points))

@@ -304,6 +304,7 @@ class IterationMetrics:
         return values
 
     def to_dict(self) -> dict:
+        """The statistics, boundedness and verdict for metrics.json (no per-point arrays)."""
         return {"d_theta": self.d_theta_stats, "delta_kappa": self.delta_kappa_stats,
                 "boundedness": self.boundedness, "curve": self.curve, "verdict": self.verdict}
 
@@ -485,6 +486,9 @@ class InsideTest:
         from scipy import ndimage
 
         keep = np.linalg.norm(np.nan_to_num(normals), axis=1) > 0.5  # mesh vertices without faces have none
+        if keep.sum() < 4:
+            raise InputError("no part of the cloud is large enough for its extent to have a surface normal "
+                             "(small clusters far apart?); skeletonise the parts one by one")
         samples, normals = samples[keep], normals[keep]
         tree = cKDTree(samples)
         spacing, _ = tree.query(samples, k=2, workers=-1)

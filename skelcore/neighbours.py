@@ -17,12 +17,14 @@ from scipy.spatial import cKDTree
 
 @dataclass(frozen=True)
 class OneRings:
+    """The one-ring of every point: neighbours in fan order (CSR) and the ring triangles (i, j, l)."""
     indptr: np.ndarray  # (n+1,) CSR offsets into `indices`
     indices: np.ndarray  # fan neighbours of each point, in angular order
     triangles: np.ndarray  # (m,3) fan triangles (i, j, l), i the centre, j then l counter-clockwise
 
     @property
     def n_points(self) -> int:
+        """The number of points the rings are over."""
         return len(self.indptr) - 1
 
     def centres(self) -> np.ndarray:

@@ -10,6 +10,7 @@ UNIT_EXTENT = 1.6
 
 @dataclass(frozen=True)
 class Normalisation:
+    """The similarity to the working frame: bounding box centred, largest extent scaled to UNIT_EXTENT."""
     centre: np.ndarray
     scale: float
 
@@ -23,9 +24,11 @@ class Normalisation:
         return cls(centre=np.zeros(3), scale=1.0)
 
     def forward(self, points: np.ndarray) -> np.ndarray:
+        """Points in the working frame."""
         return (points - self.centre) * self.scale
 
     def inverse(self, points: np.ndarray) -> np.ndarray:
+        """Points back in the user's frame."""
         return points / self.scale + self.centre
 
 

@@ -17,6 +17,7 @@ def default_k(n_points: int) -> int:
 
 @dataclass(frozen=True)
 class ContractionParams:
+    """Parameters of a contraction (LBC and GLSkeleton); defaults are cloudcontr's."""
     method: str = "lbc"
     k: int | None = None  # neighbours for the one-rings; None: default_k(n)
     wl0: float | None = None  # initial contraction weight; None: 1 / (5 * mean one-ring edge length)
@@ -36,6 +37,7 @@ class ContractionParams:
     gl_merge_share: float = 0.3  # at most this share of the points may absorb a neighbour per step (1: no cap, as LCWR)
 
     def validated(self) -> "ContractionParams":
+        """These parameters, or a ParameterError naming the first out of range."""
         def positive(name: str, value: float | None, allow_none: bool = False) -> None:
             if value is None and allow_none:
                 return
@@ -64,7 +66,9 @@ class ContractionParams:
         return self
 
     def replace(self, **changes) -> "ContractionParams":
+        """A copy with `changes` applied, validated."""
         return dataclasses.replace(self, **changes).validated()
 
     def to_dict(self) -> dict:
+        """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)

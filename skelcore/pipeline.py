@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import time
@@ -16,10 +17,11 @@ from typing import Callable
 import numpy as np
 
 from . import __version__, io
-from .clean import CleaningParams, cleaned
+from .clean import CleaningParams, clean, cleaned
 from .curveness import curve_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
-from .errors import InputError
+from .errors import InputError, OutputError, ParameterError, SkelError
+from .labels import check_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .params import ContractionParams, default_k
 from .persistence import persistence_summary
@@ -29,10 +31,12 @@ from .verdict import run_verdict
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
+EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
 
 @dataclass(frozen=True)
 class RunOptions:
+    """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
     params: ContractionParams = ContractionParams()
     sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the bounding-box diagonal
     seed: int = 0
@@ -42,8 +46,20 @@ class RunOptions:
     metrics_k: int = METRICS_K
     normal_convention: str = NORMAL_CONVENTION  # D_theta's normals (skelcore.metrics)
     cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
+    labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
+    label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
+
+    def weights(self, cloud: io.Cloud) -> np.ndarray | None:
+        """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""
+        if not self.label_weights:
+            return None
+        if cloud.labels is None:
+            raise InputError(f"{cloud.name}: label weights given but the input has no labels "
+                             f"(a PLY label property or --labels FILE)")
+        return weights_from_labels(cloud.labels, dict(self.label_weights))
 
     def skeleton_params(self) -> SkeletonParams:
+        """The skeleton parameters of this run, validated."""
         # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
         return SkeletonParams(sample_radius=self.sample_radius,
                               drop_collinear=self.params.method == "glskeleton").validated()
@@ -51,6 +67,7 @@ class RunOptions:
 
 @dataclass
 class RunResult:
+    """What run_pipeline wrote and computed: the folder, the cloud, the states, the skeleton, metrics.json."""
     out_dir: Path
     cloud: io.Cloud
     states: list[IterationState]
@@ -59,6 +76,7 @@ class RunResult:
     elapsed: float
 
     def summary_line(self) -> str:
+        """One line: iterations, termination, skeleton size and topology, verdict, time, folder."""
         topology = self.skeleton.topology()
         final = self.states[-1]
         return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
@@ -93,6 +111,7 @@ class IterationMetricsCache:
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
+        """The metrics of states[index], computing those before it first."""
         while len(self._metrics) <= index:
             state = states[len(self._metrics)]
             previous = self._metrics[-1] if self._metrics else None
@@ -101,6 +120,7 @@ class IterationMetricsCache:
         return self._metrics[index]
 
     def all(self, states: list[IterationState]) -> list[IterationMetrics]:
+        """The metrics of every state."""
         return [self.get(states, index) for index in range(len(states))]
 
 
@@ -108,24 +128,60 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
                  progress: Callable[[str], None] | None = None) -> RunResult:
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
     started = time.perf_counter()
-    options.skeleton_params()  # bad skeleton parameters fail before any work
-    cloud = cleaned(io.load(input_path, sample=options.sample, voxel_size=options.voxel_size,
-                            max_points=options.max_points, seed=options.seed), options.cleaning)
-    for note in cloud.notes:
-        _say(progress, f"{cloud.name}: {note}")
-    states = run_states(cloud, options.params, progress)
-    metrics_cache = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention)
-    metrics = metrics_cache.all(states)
-    skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    run = compute(input_path, options, progress)
     elapsed = time.perf_counter() - started
-    summary = write_results(out_dir, cloud, states, skeleton, metrics, options, input_path=input_path, elapsed=elapsed)
-    return RunResult(Path(out_dir), cloud, states, skeleton, summary, elapsed)
+    summary = write_results(out_dir, run.cloud, run.states, run.skeleton, run.metrics, options,
+                            input_path=input_path, elapsed=elapsed, weights=run.weights)
+    return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, elapsed)
 
 
-def run_states(cloud: io.Cloud, params: ContractionParams,
-               progress: Callable[[str], None] | None = None) -> list[IterationState]:
+@dataclass
+class Computed:
+    """What a run computes, before anything is written."""
+    cloud: io.Cloud
+    states: list[IterationState]
+    metrics: list[IterationMetrics]
+    skeleton: Skeleton
+    weights: np.ndarray | None  # the per-point contraction weights used (None: all 1)
+
+
+def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
+            labels=None, weights=None) -> Computed:
+    """The whole run on a file path or a validated Cloud: load (with the options' sampling and labels;
+    `labels` overrides options.labels and may be an array), clean (unless the cloud was), contract to the
+    end, the paper's metrics of every state, the skeleton of the last. `weights`: explicit per-point
+    contraction weights of the cloud before cleaning, else those of options.label_weights."""
+    options.params.validated()
+    options.skeleton_params()  # bad parameters fail before any work
+    if weights is not None and options.label_weights:
+        raise ParameterError("parameter weights: give per-point weights or label weights, not both")
+    if isinstance(source, io.Cloud):
+        cloud = source
+    else:
+        cloud = io.load(source, sample=options.sample, voxel_size=options.voxel_size, max_points=options.max_points,
+                        seed=options.seed, labels=options.labels if labels is None else labels)
+    weights = None if weights is None else check_weights(weights, len(cloud.points))
+    try:
+        if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
+            report = clean(cloud.points, options.cleaning)
+            cloud = cleaned(cloud, options.cleaning, report=report)
+            weights = None if weights is None else weights[report.kept]
+        for note in cloud.notes:
+            _say(progress, f"{cloud.name}: {note}")
+        weights = options.weights(cloud) if weights is None else weights
+        states = run_states(cloud, options.params, progress, weights)
+        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention).all(states)
+        skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+    except SkelError as error:
+        raise named(error, cloud.name) from None
+    return Computed(cloud, states, metrics, skeleton, weights)
+
+
+def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
+               weights: np.ndarray | None = None) -> list[IterationState]:
+    """Contract a cloud to the end; its states, with a progress line per accepted iteration."""
     states: list[IterationState] = []
-    for state in contract(cloud.points, params):
+    for state in contract(cloud.points, params, weights):
         if record(states, state) and state.iteration > 0:
             seconds = sum(state.timings.values())
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
@@ -155,24 +211,41 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
             "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
 
 
-def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None) -> dict:
-    """params.json: everything needed to reproduce the run, the resolved defaults included."""
+def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None,
+                    weights: np.ndarray | None = None) -> dict:
+    """params.json: everything needed to reproduce the run, the resolved defaults included. `weights`: the
+    run's per-point contraction weights; given through labels, the labels source and label weights say them,
+    otherwise their values are listed."""
     params = states[0].params
     resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
     return {
-        "input": str(Path(input_path).resolve()) if input_path is not None else cloud.name,
+        # without a path (the inspector's bundles) only the file's name: no server path leaves the server
+        "input": str(Path(input_path).resolve()) if input_path is not None else Path(cloud.name).name,
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
         "normal_convention": options.normal_convention,
         "retuned": [state.message for state in states if "retuned" in state.message],
+        "weights": weights_document(weights, options),
         "skelcore_version": __version__, "solver": backend(),
     }
 
 
+def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | None:
+    """The contraction weights of a run for params.json (None: every weight 1)."""
+    if weights is None:
+        return None
+    document = {"labels": options.labels or "the input's labels", "label_weights": dict(options.label_weights),
+                "weighted_points": int((weights != 1).sum()), "min": float(weights.min()),
+                "max": float(weights.max()), "mean": float(weights.mean())}
+    if not options.label_weights:
+        document.update(labels=None, values=weights.tolist())
+    return document
+
+
 def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
                   metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
-                  elapsed: float | None = None) -> dict:
+                  elapsed: float | None = None, weights: np.ndarray | None = None) -> dict:
     """Write the five result files, each atomically (a temporary file renamed into place)."""
     from .export import skeleton_document, write_points_ply, write_skeleton_ply
 
@@ -185,21 +258,68 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     summary = metrics_document(cloud, states, metrics, skeleton_evidence(skeleton, final, cloud.points))
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
-    _atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, final.points))
-    _atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    _atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
-    _atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    _atomic(out_dir / "params.json", lambda path: _write_json(path, params_document(cloud, states, options, input_path)))
+    labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
+    contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
+    write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted, labels=labels))
+    write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
+    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
+    write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
+    write_atomic(out_dir / "params.json",
+                 lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
     return summary
 
 
-def _atomic(path: Path, write: Callable[[Path], None]) -> None:
+def named(error: SkelError, name: str) -> SkelError:
+    """The error with the input's name in front of its message, unless the message names it already."""
+    message = str(error)
+    return error if name in message else type(error)(f"{name}: {message}")
+
+
+def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
+    """The skeleton in the file's coordinates (io.Cloud.scale: not 1 only for extreme coordinates)."""
+    if scale == 1.0:
+        return skeleton
+    graph = skeleton.graph.copy()
+    for _, attrs in graph.nodes(data=True):
+        attrs["pos"] = np.asarray(attrs["pos"]) * scale
+    for _, _, attrs in graph.edges(data=True):
+        attrs["length"] = attrs["length"] * scale
+    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale)
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """write(temporary) then rename it to `path`: a failure (a full disk) leaves the file as it was and
+    raises an OutputError naming it."""
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         write(temporary)
         os.replace(temporary, path)
+    except OSError as error:
+        reason = "the disk is full" if error.errno in (errno.ENOSPC, errno.EDQUOT) else error.strerror or "error"
+        raise OutputError(f"{path}: cannot write ({reason}); the files written before it are kept") from None
+    except SkelError as error:  # a writer's own message, about the temporary file
+        raise OutputError(f"{str(error).replace(str(temporary), str(path))}; the files written before it "
+                          f"are kept") from None
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def prepare_output(out_dir, force: bool = False) -> Path:
+    """The output folder, created; one that already holds a run's results is refused, or with `force`
+    emptied of them first (other files stay), so no file of an earlier run is left beside the new ones."""
+    out_dir = Path(out_dir)
+    earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
+    earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
+    if earlier and not force:
+        raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
+                          f"choose another folder or pass --force to replace them")
+    try:
+        for path in earlier:
+            path.unlink()
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputError(f"{out_dir}: cannot prepare the output folder ({error.strerror})") from None
+    return out_dir
 
 
 def _write_json(path: Path, document: dict) -> None:

@@ -38,6 +38,7 @@ SPACING = 0.08  # centreline node spacing, in the shapes' units (each shape is a
 
 @dataclass(frozen=True)
 class Shape:
+    """A synthetic shape: surface samples and the centreline graph (with tube radii) they were drawn around."""
     name: str
     points: np.ndarray  # (n,3) float64 surface samples
     nodes: np.ndarray  # (m,3) float64 centreline nodes

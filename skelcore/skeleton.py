@@ -36,6 +36,7 @@ from .sampling import ball_cover_by_piece
 
 @dataclass(frozen=True)
 class SkeletonParams:
+    """Parameters of the curve skeleton extraction."""
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' bounding-box diagonal
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
     merge_junctions: bool = True
@@ -47,6 +48,7 @@ class SkeletonParams:
     recentre: bool = True  # degree-2 nodes move across the curve onto the centre of their original points' cross-section
 
     def validated(self) -> "SkeletonParams":
+        """These parameters, or a ParameterError naming the first out of range."""
         for name in ("sample_radius", "junction_distance", "spur_length"):
             value = getattr(self, name)
             if not _real(value) or not math.isfinite(value) or value <= 0:
@@ -60,9 +62,11 @@ class SkeletonParams:
         return self
 
     def replace(self, **changes) -> "SkeletonParams":
+        """A copy with `changes` applied, validated."""
         return dataclasses.replace(self, **changes).validated()
 
     def to_dict(self) -> dict:
+        """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)
 
 
@@ -72,20 +76,24 @@ def _real(value) -> bool:
 
 @dataclass
 class Skeleton:
+    """A curve skeleton: the graph, the node of every input point, the sample radius."""
     graph: nx.Graph  # nodes 0..m-1 with 'pos' (3,) and 'point_count'; edges with 'length'
     correspondence: np.ndarray  # (n,) node of every input point
     radius: float  # the sample radius in the user's units
 
     def nodes_array(self) -> np.ndarray:
+        """(m,3) node positions, in node order."""
         if self.graph.number_of_nodes() == 0:
             return np.zeros((0, 3))
         return np.array([self.graph.nodes[i]["pos"] for i in range(self.graph.number_of_nodes())], dtype=float)
 
     def edges_array(self) -> np.ndarray:
+        """(e,2) edges as sorted node pairs, in sorted order."""
         edges = np.array(sorted(tuple(sorted(e)) for e in self.graph.edges()), dtype=np.int64)
         return edges.reshape(-1, 2)
 
     def degrees(self) -> np.ndarray:
+        """(m,) the degree of every node."""
         return np.array([self.graph.degree(i) for i in range(self.graph.number_of_nodes())], dtype=np.int64)
 
     def topology(self) -> dict:

@@ -20,6 +20,7 @@ except ImportError:  # the plain-wheel fallback
 
 
 def backend() -> str:
+    """The name of the sparse Cholesky in use."""
     return "scikit-sparse (CHOLMOD)" if analyze is not None else "cholespy (CHOLMOD)"
 
 
@@ -31,13 +32,14 @@ class CholeskySolver:
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
 
     def solve(self, system: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+        """Solve system @ x = rhs (rhs (n,) or (n,k)); a SolverError when the factorisation fails."""
         system = system.tocsr()
         try:
             if analyze is not None:
                 return self._solve_cholmod(system, rhs)
             return _solve_cholespy(system, rhs)
-        except (CholmodError, RuntimeError, ValueError) as error:
-            raise SolverError(f"Cholesky factorisation failed ({' '.join(str(error).split())[:120]})") from None
+        except (CholmodError, RuntimeError, ValueError, MemoryError) as error:
+            raise SolverError(f"Cholesky factorisation failed ({_reason(error)})") from None
 
     def _solve_cholmod(self, system: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
         # A symmetric CSR matrix read as CSC is itself: no copy, no transpose.
@@ -49,6 +51,18 @@ class CholeskySolver:
             self._pattern = pattern
         factor = self._analysis.cholesky(matrix)
         return np.asarray(factor(np.asarray(rhs, dtype=np.float64)))
+
+
+def _reason(error: Exception) -> str:
+    """The solver's complaint in our words (its own text names C source files and C++ exceptions)."""
+    text = str(error).lower()
+    if isinstance(error, MemoryError) or "bad_alloc" in text or "out of memory" in text:
+        return "out of memory"
+    if "positive definite" in text:
+        return "the system is not positive definite: the one-rings have degenerated"
+    if "nan" in text or "inf" in text:
+        return "the system holds values that are not finite"
+    return "the solver reported an error"
 
 
 def _solve_cholespy(system: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:

@@ -67,3 +67,20 @@ def test_serves_on_localhost_and_prints_the_url(tmp_path):
     finally:
         process.terminate()
         process.wait(timeout=60)
+
+
+def test_an_input_over_the_inspector_budget_names_the_voxel_size(capsys, tmp_path, monkeypatch):
+    import numpy as np
+
+    from skelcore import memory
+    from skelcore.export import write_points_ply
+    from skelcore.shapes import make_shape
+
+    path = write_points_ply(tmp_path / "dense.ply", make_shape("torus", 5000).points)
+    available = 1000 * memory.PIPELINE_BYTES_PER_POINT / memory.INSPECTOR_SHARE / 2**20
+    monkeypatch.setenv(memory.AVAILABLE_VARIABLE, str(available))
+    assert main([str(path), "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "dense.ply" in err and "--voxel-size" in err
+    voxel = float(err.rsplit("--voxel-size ", 1)[1].split(")")[0])
+    assert np.isfinite(voxel) and voxel > 0

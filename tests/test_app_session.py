@@ -205,3 +205,19 @@ def test_large_clouds_are_drawn_from_a_fixed_subset(cloud):
         assert np.allclose(view._contracted.points, (cloud.points[rows] * 0.5).astype(np.float32))
     finally:
         server.stop()
+
+
+def test_a_pause_between_stages_resumes_the_same_step(cloud):
+    """Session.step stops between two stages of a step when asked, and the next call finishes that step:
+    the run is the same as one stepped straight through."""
+    straight, paused = Session(cloud), Session(cloud)
+    for _ in range(3):
+        straight.step()
+    stops = 0
+    while len(paused.history) < 4:
+        if paused.step(paused=lambda: True) is None:
+            stops += 1
+            assert not paused.finished
+    assert stops >= 3  # at least one stop within every step
+    for a, b in zip(straight.history, paused.history):
+        assert a.iteration == b.iteration and np.array_equal(a.points, b.points)

@@ -165,7 +165,7 @@ def test_absurd_size_is_capped_with_voxel_advice(tmp_path):
     path = write_xyz(tmp_path / "big.xyz", points)
     with pytest.raises(InputError) as error:
         io.load(path, max_points=1000)
-    assert_one_line(error, "big.xyz", "exceed the cap of 1,000", "--voxel-size")
+    assert_one_line(error, "big.xyz", "exceed the cap of 1,000", "voxel size of")
     cloud = io.load(path, max_points=1000, voxel_size=0.15)
     assert len(cloud.points) <= 1000
     assert any("voxel downsampling" in note for note in cloud.notes)

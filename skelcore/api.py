@@ -1,0 +1,256 @@
+"""The Python API: load a cloud, skeletonize it in one call, step a contraction by hand, open the inspector.
+
+    import skelcore
+    result = skelcore.skeletonize("assets/y_branch.ply")
+    result.save("out/")          # the files of `skelcore run`
+
+`skeletonize` runs the same pipeline as `skelcore run` (which calls it): load, contract to the end, the
+paper's metrics of every iteration, the curve skeleton of the last one.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Generator
+
+import numpy as np
+
+from . import io, pipeline
+from .clean import CleaningParams
+from .contraction import IterationState
+from .contraction import contract as _contract
+from .errors import ParameterError
+from .labels import as_labels, check_label_weights, check_weights
+from .metrics import IterationMetrics
+from .params import ContractionParams
+from .skeleton import Skeleton
+from .verdict import run_verdict
+
+_PARAM_NAMES = tuple(field.name for field in dataclasses.fields(ContractionParams))
+
+
+def load(path, *, labels=None, sample: int | None = None, voxel_size: float | None = None,
+         max_points: int = io.MAX_POINTS, seed: int = 0) -> io.Cloud:
+    """Read a point cloud or mesh file (.ply .pcd .xyz .pts .txt .off .obj .stl .glb) into a validated Cloud.
+
+    `cloud.points` is an (n,3) float64 array (duplicates removed, noted in `cloud.notes`); `cloud.labels`
+    holds per-point integer labels when the file is a PLY with a label property (label, class,
+    scalar_label, ...) or when `labels` names a label file, a PLY property or is an array.
+    sample: for a mesh, this many points drawn evenly over its surface; voxel_size: one point per voxel.
+    Bad input raises skelcore.errors.InputError with a one-line message.
+    """
+    return io.load(path, labels=labels, sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)
+
+
+@dataclass
+class Result:
+    """A finished skeletonization: the cloud, every iteration state, the skeleton, the metrics, the verdict."""
+    cloud: io.Cloud  # the points contracted, after duplicate removal and cleaning (cloud.points, .labels, .notes)
+    states: list[IterationState]  # iteration 0 (the input) to the last; states[-1].termination says why it ended
+    skeleton: Skeleton  # the curve skeleton of the last state
+    metrics: list[IterationMetrics]  # the paper's metrics of each state (D_theta, delta_kappa, boundedness)
+    options: pipeline.RunOptions  # every parameter of the run
+    weights: np.ndarray | None = None  # the per-point contraction weights (None: all 1)
+    elapsed: float | None = None  # seconds the run took (None: not timed)
+    input_path: str | None = None  # the file it came from, if any
+
+    @property
+    def graph(self):
+        """The skeleton as a networkx.Graph: nodes 0..m-1 with 'pos' (3,) and 'point_count', edges with 'length'."""
+        return self.skeleton.graph
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """(m,3) skeleton node positions, in the input's coordinates."""
+        return self.skeleton.nodes_array()
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(e,2) skeleton edges as pairs of node indices."""
+        return self.skeleton.edges_array()
+
+    @property
+    def correspondence(self) -> np.ndarray:
+        """(n,) the skeleton node of every input point."""
+        return self.skeleton.correspondence
+
+    @property
+    def contracted(self) -> np.ndarray:
+        """The contracted points of the last state (GLSkeleton: fewer than the input; see states[-1].owner)."""
+        return self.states[-1].points
+
+    @functools.cached_property
+    def verdict(self) -> dict:
+        """The run's stability verdict on its last iteration, skeleton checks included (as `skelcore run` writes
+        it): {'label': 'stable' | 'not yet converged' | 'unstable', 'iteration', 'criteria', 'reasons', ...}."""
+        evidence = pipeline.skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
+        return run_verdict(self.metrics, evidence)
+
+    @property
+    def topology(self) -> dict:
+        """The skeleton's components, cycles, junctions and ends."""
+        return self.skeleton.topology()
+
+    def save(self, out_dir) -> Path:
+        """Write the files of `skelcore run` into `out_dir` (created if needed): skeleton.json, skeleton.ply,
+        contracted.ply, metrics.json, params.json. Returns the folder."""
+        pipeline.write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
+                               input_path=self.input_path, elapsed=self.elapsed, weights=self.weights)
+        return Path(out_dir)
+
+    def report(self, path) -> Path:
+        """Write the HTML page of `skelcore report` for this run (the paper's figures, verdict, clouds, skeleton)."""
+        from .export import write_points_ply
+        from .report import write_report
+
+        with tempfile.TemporaryDirectory(prefix="skelcore-report-") as tmp:
+            folder = Path(tmp) / (Path(self.cloud.name).stem or "cloud")
+            source = self.input_path
+            if source is None:  # an array: the report reads the original cloud back from a file
+                source = write_points_ply(Path(tmp) / "input.ply", self.cloud.points)
+            pipeline.write_results(folder, self.cloud, self.states, self.skeleton, self.metrics, self.options,
+                                   input_path=source, elapsed=self.elapsed, weights=self.weights)
+            return write_report([folder], path)
+
+    def summary(self) -> str:
+        """One line: iterations, termination, skeleton size and topology, verdict."""
+        topology, final = self.topology, self.states[-1]
+        return (f"{Path(self.cloud.name).name}: {final.iteration} iterations ({final.termination}), skeleton "
+                f"{self.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, {topology['junctions']} "
+                f"junctions, {topology['ends']} ends; verdict {self.verdict['label']}"
+                + ("" if self.elapsed is None else f"; {self.elapsed:.1f} s"))
+
+    def __repr__(self) -> str:
+        return f"<skelcore.Result {self.summary()}>"
+
+
+def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=None, label_weights=None,
+                cleaning: CleaningParams | bool = True,
+                sample_radius: float = pipeline.RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
+                voxel_size: float | None = None, max_points: int = io.MAX_POINTS,
+                progress: Callable[[str], None] | None = None, **params) -> Result:
+    """Contract a cloud into its curve skeleton and judge the contraction; the pipeline of `skelcore run`.
+
+    points_or_path: an (n,3) array, a Cloud (from `load`) or a file path.
+    method: "lbc" (Cao et al. 2010) or "glskeleton" (Wen et al. 2024).
+    weights: (n,) positive per-point contraction weights (a multiplier of W_L per point: point i's
+      Laplacian row becomes W_L w_i L_i), aligned with the cloud's points.
+    labels: per-point integer labels: an (n,) array, a label file or a PLY vertex property name; a PLY
+      input's label property is read without asking. label_weights: {label: weight}; unnamed labels keep 1.
+      Give `weights` or `label_weights`, not both.
+    cleaning: statistical outliers and stray pieces are removed and the points projected onto their local
+      planes before contraction (True, the default, as `skelcore run`), or not (False), or as a
+      CleaningParams says. `result.cloud` holds the points contracted
+      (its `notes` say what was removed); the skeleton's correspondence, the states and `result.weights`
+      follow those points.
+    sample_radius: the skeleton's ball radius, a fraction of the bounding-box diagonal.
+    **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
+      max_iterations, termination, ...); unset ones take their defaults.
+    progress: called with one line per iteration (e.g. print).
+    """
+    options = pipeline.RunOptions(
+        params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
+        voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
+        labels=str(labels) if isinstance(labels, (str, Path)) else None,
+        label_weights=tuple(sorted(check_label_weights(label_weights).items())))
+    if isinstance(labels, (str, Path)) and isinstance(points_or_path, (str, Path)):
+        labels = None  # read by the load, through options.labels
+    return run(points_or_path, options, progress=progress, labels=labels, weights=weights)
+
+
+def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *, labels=None, weights=None,
+        progress: Callable[[str], None] | None = None) -> Result:
+    """`skeletonize` with its options gathered in a skelcore.pipeline.RunOptions (what `skelcore run` calls).
+    labels: an (n,) array of labels (a label file or property goes in options.labels)."""
+    started = time.perf_counter()
+    input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
+    if input_path is None:
+        points_or_path, labels = as_cloud(points_or_path, labels), None
+        options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
+    computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
+    return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
+                  time.perf_counter() - started, input_path)
+
+
+def cleaning_params(cleaning: CleaningParams | bool) -> CleaningParams:
+    """CleaningParams from True (the defaults), False (no cleaning) or a CleaningParams."""
+    if isinstance(cleaning, CleaningParams):
+        return cleaning.validated()
+    if cleaning is True:
+        return CleaningParams()
+    if cleaning is False:
+        return CleaningParams(remove_outliers=False, remove_stray=False, denoise=False)
+    raise ParameterError(f"parameter cleaning={cleaning!r}: must be True, False or a CleaningParams")
+
+
+def contraction_params(method: str, params: dict) -> ContractionParams:
+    """ContractionParams from keyword arguments, with a clear error for a name that is not a parameter."""
+    unknown = sorted(set(params) - set(_PARAM_NAMES))
+    if unknown:
+        raise ParameterError(f"unknown parameter {', '.join(unknown)} (contraction parameters: "
+                             f"{', '.join(_PARAM_NAMES)})")
+    return ContractionParams(method=method, **params).validated()
+
+
+def as_cloud(points_or_cloud, labels=None) -> io.Cloud:
+    """A Cloud from an (n,3) array (checked as a loaded file is) or a Cloud; `labels` replace its labels.
+    An array with repeated points loses the repeats (and their labels), as a file does."""
+    if isinstance(points_or_cloud, io.Cloud):
+        if labels is None:
+            return points_or_cloud
+        return dataclasses.replace(points_or_cloud, labels=as_labels(labels, len(points_or_cloud.points), "labels"))
+    if isinstance(labels, (str, Path)):
+        raise ParameterError("parameter labels: for an array input, give the labels as an array")
+    return io.validate(points_or_cloud, name="array", labels=labels)
+
+
+def contract(points, method: str | None = None, *, weights=None, params: ContractionParams | None = None,
+             **changes) -> Generator[IterationState, ContractionParams | None, None]:
+    """The contraction as a generator, for stepping by hand: it yields the input state (iteration 0), then
+    one IterationState per solve (`.points`, `.iteration`, `.wl`, `.wh`, `.ring_ratio`, `.termination` on
+    the last). `generator.send(params)` with a ContractionParams retunes the following steps.
+
+        for state in skelcore.contract(points, max_iterations=3):
+            print(state.iteration, state.ring_ratio)
+
+    points: an (n,3) array or a Cloud; weights: (n,) per-point contraction weights; params: a whole
+    ContractionParams (default: the defaults); method and **changes: parameters by name on top of it."""
+    cloud = as_cloud(points)
+    merged = {**(params or ContractionParams()).to_dict(), **changes}
+    if method is not None:
+        merged["method"] = method
+    return _contract(cloud.points, contraction_params(merged.pop("method"), merged), weights)
+
+
+def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1", labels=None,
+            label_weights=None, weights=None, **params):
+    """Open the inspector (a viser web app) on an array, a Cloud, a file path or a finished Result.
+
+    Returns an `app.handle.InspectorHandle`: `.url`, `.stop()`; in Jupyter, a cell that ends with the handle
+    shows the inspector inline (an iframe). A Result opens at its last iteration, with its parameters and
+    weights; an array starts at iteration 0. port: None or 0 takes a free port. **params: contraction
+    parameters, as in `skeletonize`. The server runs in background threads until `.stop()`.
+    """
+    # The only place skelcore reaches the app (imported here, on demand: `import skelcore` stays light).
+    from app.handle import open_inspector
+
+    if isinstance(points_or_result, Result):
+        if labels is not None or label_weights is not None or weights is not None or params:
+            raise ParameterError("inspect: a Result opens with its own parameters and weights")
+        result = points_or_result
+        return open_inspector(result.cloud, result.options.params, host=host, port=port or 0,
+                              label_weights=dict(result.options.label_weights), history=result.states,
+                              weights=None if result.options.label_weights else result.weights)
+    params = contraction_params(params.pop("method", "lbc"), params)
+    if isinstance(points_or_result, (str, Path)):
+        cloud = io.load(points_or_result, labels=labels)
+    else:
+        cloud = as_cloud(points_or_result, labels)
+    if weights is not None:
+        weights = check_weights(weights, len(cloud.points))
+    return open_inspector(cloud, params, host=host, port=port or 0,
+                          label_weights=check_label_weights(label_weights), weights=weights)

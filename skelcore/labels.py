@@ -1,0 +1,167 @@
+"""Per-point labels and contraction weights (semantic LBC).
+
+A per-point weight w_i multiplies point i's contraction weight: its Laplacian row of eq. 2 (Cao et al. 2010)
+becomes W_L w_i L_i, so in the normal equations the Laplacian term is W_L^2 L^T diag(w^2) L. A point with
+w_i > 1 is pulled towards its neighbours' centroid harder than its attraction holds it back, so it
+contracts further per step; w_i < 1 holds it closer to the input. Every weight 1 is plain LBC.
+
+pc-skeletor's SLBC (Meyer et al. 2023) has two classes: it multiplies the rows of W_L L of the trunk points
+whose neighbourhood lies wholly in the trunk by a semantic weight (10 by default); trunk points next to a
+branch and branch points keep 1. Here any number of integer labels each take a weight (`label_weights`,
+unnamed labels keep 1, boundary points take their own label's), or the weights are given per point. Labels come from a PLY vertex property (the first of LABEL_PROPERTIES present, or one named),
+or from a text/.npy file with one integer per point in the file's vertex order.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, ParameterError
+
+# PLY vertex properties read as labels when present, in this order (case-insensitive)
+LABEL_PROPERTIES = ("label", "labels", "class", "classification", "scalar_label", "scalar_labels",
+                    "scalar_class", "semantic", "segment", "part")
+LABEL_FILE_FORMATS = (".txt", ".csv", ".labels", ".npy")
+
+
+def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
+    """`weights` as an (n,) float64 array of positive finite numbers, or a ParameterError."""
+    try:
+        values = np.asarray(weights, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"parameter {name}: not numbers") from None
+    if values.shape != (n,):
+        raise ParameterError(f"parameter {name}: expected one weight per point ({n}), got shape {values.shape}")
+    bad = int((~np.isfinite(values) | (values <= 0)).sum())
+    if bad:
+        raise ParameterError(f"parameter {name}: {bad} of {n} weights are not positive finite numbers")
+    return values
+
+
+def check_label_weights(label_weights) -> dict[int, float]:
+    """{label: weight} with integer labels and positive finite weights, or a ParameterError."""
+    checked = {}
+    for label, weight in dict(label_weights or {}).items():
+        key = as_label(label, "label_weights")
+        try:
+            value = float(weight)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not math.isfinite(value) or value <= 0:
+            raise ParameterError(f"parameter label_weights: weight {weight!r} of label {label!r} must be a positive "
+                                 f"finite number")
+        checked[key] = value
+    return checked
+
+
+def as_label(value, name: str) -> int:
+    """An integer label from an int, an integral float or a string such as '2'."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not math.isfinite(number) or number != int(number):
+        raise ParameterError(f"parameter {name}: label {value!r} is not an integer")
+    return int(number)
+
+
+def parse_label_weight(text: str) -> tuple[int, float]:
+    """'LABEL=W' as (label, weight), for the command line's --label-weight."""
+    label, sep, weight = text.partition("=")
+    try:
+        if not sep:
+            raise ParameterError("no '='")
+        return next(iter(check_label_weights({label.strip(): weight.strip()}).items()))
+    except ParameterError as error:
+        detail = str(error).removeprefix("parameter label_weights: ")
+        raise ParameterError(f"{text!r}: {detail} (LABEL=W: an integer label and a positive weight, e.g. 1=10)") from None
+
+
+def weights_from_labels(labels: np.ndarray, label_weights) -> np.ndarray:
+    """Per-point weights: each point takes its label's weight; labels not in `label_weights` take 1."""
+    table = check_label_weights(label_weights)
+    weights = np.ones(len(labels))
+    for label, weight in table.items():
+        weights[labels == label] = weight
+    return weights
+
+
+def as_labels(values, n: int | None, name: str) -> np.ndarray:
+    """`values` as an (n,) int64 array of labels, or an InputError naming `name`."""
+    try:
+        array = np.asarray(values, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: labels are not numbers") from None
+    if n is not None and len(array) != n:
+        raise InputError(f"{name}: {len(array)} labels for {n} points")
+    if not np.isfinite(array).all() or (array != np.round(array)).any():
+        raise InputError(f"{name}: labels must be integers")
+    return array.astype(np.int64)
+
+
+def ply_label_property(path, wanted: str | None = None) -> str | None:
+    """The name of the label property of a PLY file's vertex element: `wanted` if given (an InputError when
+    absent), else the first of LABEL_PROPERTIES present, else None. Reads the header only."""
+    properties = _vertex_properties(Path(path))
+    if wanted is not None:
+        if wanted not in properties:
+            raise InputError(f"{path}: no vertex property {wanted!r} (has: {', '.join(properties) or 'none'})")
+        return wanted
+    lower = {name.lower(): name for name in properties}
+    return next((lower[name] for name in LABEL_PROPERTIES if name in lower), None)
+
+
+def read_labels(source, cloud_path=None, n: int | None = None) -> np.ndarray:
+    """Labels from `source`: an array, a label file (.txt/.csv/.labels: one integer per line; .npy), or
+    the name of a vertex property of `cloud_path` (a PLY file)."""
+    if not isinstance(source, (str, Path)):
+        return as_labels(source, n, "labels")
+    path = Path(source)
+    if path.suffix.lower() in LABEL_FILE_FORMATS and path.is_file():
+        return _read_label_file(path, n)
+    if cloud_path is not None and Path(cloud_path).suffix.lower() == ".ply":
+        return read_ply_labels(cloud_path, ply_label_property(cloud_path, str(source)), n)
+    raise InputError(f"labels {source}: neither a label file ({' '.join(LABEL_FILE_FORMATS)}) nor a vertex "
+                     f"property of a PLY input")
+
+
+def read_ply_labels(path, prop: str, n: int | None = None) -> np.ndarray:
+    """The vertex property `prop` of a PLY file as integer labels, in vertex order."""
+    import trimesh
+
+    try:
+        loaded = trimesh.load(path, process=False)
+        data = loaded.metadata["_ply_raw"]["vertex"]["data"][prop]
+    except (KeyError, ValueError, TypeError, OSError) as error:
+        raise InputError(f"{path}: cannot read vertex property {prop!r} ({error})") from None
+    return as_labels(data, n, f"{path} property {prop}")
+
+
+def _read_label_file(path: Path, n: int | None) -> np.ndarray:
+    try:
+        if path.suffix.lower() == ".npy":
+            values = np.load(path, allow_pickle=False)
+        else:
+            values = np.loadtxt(path, delimiter="," if path.suffix.lower() == ".csv" else None, ndmin=1)
+    except (OSError, ValueError) as error:
+        raise InputError(f"{path}: cannot read labels ({' '.join(str(error).split())[:120]})") from None
+    return as_labels(values, n, str(path))
+
+
+def _vertex_properties(path: Path) -> list[str]:
+    """Property names of the vertex element, from the PLY header."""
+    try:
+        with open(path, "rb") as handle:
+            header = handle.read(65536).split(b"end_header", 1)[0].decode("ascii", errors="replace")
+    except OSError as error:
+        raise InputError(f"{path}: cannot read file ({error.strerror or error})") from None
+    properties, in_vertex = [], False
+    for line in header.splitlines():
+        fields = line.split()
+        if fields[:1] == ["element"]:
+            in_vertex = fields[1:2] == ["vertex"]
+        elif in_vertex and fields[:1] == ["property"] and len(fields) >= 3 and fields[1] != "list":
+            properties.append(fields[-1])
+    return properties

@@ -1,0 +1,168 @@
+"""Size an input file before it is parsed, so that no file can make the reader exhaust memory.
+
+`points_in(path, suffix)` reads only a header, or streams the file in fixed-size chunks (text
+formats: lines, NUL bytes, the longest line), checks the counts a header promises against the
+file's length, and returns how many points parsing would produce at most. Parsers then run only on
+files whose size is known to fit the memory budget.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+HEADER_BYTES = 1 << 16  # longest PLY/PCD header read
+CHUNK_BYTES = 1 << 22
+MAX_LINE_BYTES = 1 << 14  # no text format needs a longer line
+# Bytes the readers take per point while parsing (text: Python rows of strings; binary: arrays).
+PARSE_BYTES_PER_POINT = {".xyz": 400, ".pts": 400, ".txt": 400, ".off": 400, ".obj": 400,
+                         ".ply": 120, ".pcd": 120, ".stl": 200, ".glb": 200}
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
+              "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
+              "double": 8, "float64": 8}
+
+
+def points_in(path: Path, suffix: str) -> int:
+    """The most points `path` can yield (an InputError naming the file when its header and length
+    disagree, or it is not the text it claims to be)."""
+    size = path.stat().st_size
+    if size == 0:
+        raise InputError(f"{path}: the file is empty, it holds no points")
+    if suffix == ".ply":
+        return _ply(path, size)
+    if suffix == ".pcd":
+        return _pcd(path, size)
+    if suffix == ".stl":
+        return _stl(path, size)
+    if suffix == ".glb":
+        return size // 12  # at most one float32 vertex per 12 bytes
+    lines = text_lines(path)
+    if suffix == ".off":
+        return _off(path, lines)
+    return lines
+
+
+def text_lines(path: Path) -> int:
+    """Lines of a text file, streamed: a NUL byte or an overlong line refuses it (binary data)."""
+    lines, run = 0, 0
+    with open(path, "rb") as handle:
+        while chunk := handle.read(CHUNK_BYTES):
+            if b"\0" in chunk:
+                raise InputError(f"{path}: holds binary data (NUL bytes), not the text its format needs")
+            breaks = np.flatnonzero(np.frombuffer(chunk, np.uint8) == 10)
+            if len(breaks) == 0:
+                run += len(chunk)
+            else:
+                longest = max(run + breaks[0], int(np.diff(breaks).max(initial=0)))
+                run = len(chunk) - 1 - breaks[-1]
+                if longest > MAX_LINE_BYTES:
+                    run = longest
+            if run > MAX_LINE_BYTES:
+                raise InputError(f"{path}: a line is longer than {MAX_LINE_BYTES:,} bytes; not a point file")
+            lines += len(breaks)
+    return lines + (run > 0)
+
+
+def _header(path: Path, end: bytes) -> tuple[list[str], int]:
+    """The header lines up to and including `end` (a line starting with it), and its length in bytes."""
+    with open(path, "rb") as handle:
+        head = handle.read(HEADER_BYTES)
+    match = re.search(rb"^" + end + rb"[^\n]*\n", head, re.MULTILINE)
+    if match is None:
+        raise InputError(f"{path}: no '{end.decode()}' within the first {HEADER_BYTES // 1024} kB; "
+                         f"the header is missing or damaged")
+    return head[:match.end()].decode("latin-1").splitlines(), match.end()
+
+
+def _count(path: Path, value: str, what: str) -> int:
+    try:
+        count = int(value)
+    except ValueError:
+        raise InputError(f"{path}: {what} {value[:20]!r} is not a whole number") from None
+    if count < 0:
+        raise InputError(f"{path}: {what} {count} is negative")
+    return count
+
+
+def _ply(path: Path, size: int) -> int:
+    with open(path, "rb") as handle:
+        if handle.read(4).rstrip(b"\r\n") != b"ply":
+            raise InputError(f"{path}: not a PLY file (it does not start with 'ply')")
+    lines, header = _header(path, b"end_header")
+    binary, vertices, least = False, None, 0  # least: bytes the body needs at minimum
+    element = None
+    for line in lines:
+        fields = line.split()
+        if not fields:
+            continue
+        if fields[0] == "format" and len(fields) > 1:
+            binary = fields[1].startswith("binary")
+        elif fields[0] == "element" and len(fields) == 3:
+            count = _count(path, fields[2], f"element {fields[1]} count")
+            element = [fields[1], count, 0]
+            if fields[1] == "vertex":
+                vertices = count
+            least += count * (0 if binary else 2)  # ascii: at least one digit and a line break
+        elif fields[0] == "property" and element is not None and binary:
+            kind = fields[2] if fields[1] == "list" and len(fields) > 2 else fields[1]
+            least += element[1] * _PLY_SIZES.get(kind, 1)  # a list needs at least its count
+    if vertices is None:
+        raise InputError(f"{path}: PLY file has no vertex element")
+    if least > size - header:
+        raise InputError(f"{path}: the header promises {vertices:,} vertices ({least:,} bytes at least) "
+                         f"but the file holds {size - header:,} bytes after it")
+    return vertices
+
+
+def _pcd(path: Path, size: int) -> int:
+    lines, header = _header(path, b"DATA")
+    fields = {line.split()[0].upper(): line.split()[1:] for line in lines if line.split() and line[0] != "#"}
+    if fields.get("POINTS"):
+        count = _count(path, fields["POINTS"][0], "POINTS")
+    else:
+        count = (_count(path, (fields.get("WIDTH") or ["0"])[0], "WIDTH")
+                 * _count(path, (fields.get("HEIGHT") or ["1"])[0], "HEIGHT"))
+    data = (fields.get("DATA") or ["ascii"])[0].lower()
+    if data == "binary":
+        record = sum(_count(path, s, "SIZE") * _count(path, c, "COUNT")
+                     for s, c in zip(fields.get("SIZE", []), fields.get("COUNT", ["1"] * len(fields.get("SIZE", [])))))
+        if count * record > size - header:
+            raise InputError(f"{path}: the header promises {count:,} points ({count * record:,} bytes) "
+                             f"but the file holds {size - header:,} bytes after it")
+    elif data == "ascii" and count * 2 > size - header:
+        raise InputError(f"{path}: the header promises {count:,} points but the file is too short for them")
+    return count
+
+
+def _stl(path: Path, size: int) -> int:
+    with open(path, "rb") as handle:
+        head = handle.read(84)
+    if len(head) == 84 and 84 + 50 * int.from_bytes(head[80:84], "little") == size:
+        return 3 * int.from_bytes(head[80:84], "little")  # binary STL: three vertices per triangle
+    if not head.lstrip().lower().startswith(b"solid"):
+        raise InputError(f"{path}: neither a binary STL (its triangle count does not match its length) "
+                         f"nor a text STL")
+    return 3 * (text_lines(path) // 7 + 1)  # text STL: seven lines per triangle
+
+
+def _off(path: Path, lines: int) -> int:
+    """The OFF header's counts: non-negative, and no more rows than the file has lines."""
+    words: list[str] = []
+    with open(path, "rb") as handle:
+        for raw in handle:
+            words += raw.split(b"#", 1)[0].decode("utf-8", "replace").split()
+            if len(words) >= 3:
+                break
+    if not words or not words[0].upper().endswith("OFF"):
+        raise InputError(f"{path}: not an OFF file (it does not start with OFF)")
+    if len(words) < 3:
+        raise InputError(f"{path}: the OFF header lacks its vertex and face counts")
+    vertices = _count(path, words[1], "OFF vertex count")
+    faces = _count(path, words[2], "OFF face count")
+    if vertices + faces > lines:
+        raise InputError(f"{path}: the OFF header promises {vertices:,} vertices and {faces:,} faces "
+                         f"but the file has {lines:,} lines")
+    return vertices

@@ -1,0 +1,267 @@
+"""The Python API (skelcore.load/skeletonize/contract, Result), per-point weights and labels, and the README's
+Python examples, executed."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import skelcore
+from skelcore import cli
+from skelcore.errors import InputError, ParameterError
+from skelcore.export import write_points_ply
+from skelcore.labels import weights_from_labels
+from skelcore.pipeline import RunOptions, run_pipeline
+
+from conftest import REPO
+
+ASSETS = sorted((REPO / "assets").glob("*.ply"))
+
+
+def python_section(readme: str) -> list[str]:
+    """The ```python blocks of the README's "## Python API" section, in order."""
+    section = readme.split("\n## Python API", 1)[1].split("\n## ", 1)[0]
+    return re.findall(r"```python\n(.*?)```", section, flags=re.S)
+
+
+def test_readme_python_section_runs(tmp_path, monkeypatch):
+    blocks = python_section((REPO / "README.md").read_text())
+    assert len(blocks) >= 4
+    (tmp_path / "assets").symlink_to(REPO / "assets")
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "__readme__"}
+    try:
+        for block in blocks:
+            exec(compile(block, "README.md (Python API)", "exec"), namespace)
+    finally:
+        handle = namespace.get("handle")
+        if handle is not None:
+            handle.stop()
+    assert (tmp_path / "out" / "y_branch" / "skeleton.json").is_file()
+
+
+@pytest.mark.parametrize("asset", ASSETS, ids=lambda path: path.stem)
+def test_skeletonize_gives_the_skeleton_of_skelcore_run(asset, tmp_path):
+    assert cli.main(["run", str(asset), "--out", str(tmp_path / "cli"), "--quiet"]) == 0
+    result = skelcore.skeletonize(asset)
+    result.save(tmp_path / "api")
+    cli_skeleton = json.loads((tmp_path / "cli" / "skeleton.json").read_text())
+    assert json.loads((tmp_path / "api" / "skeleton.json").read_text()) == cli_skeleton
+    assert np.allclose(result.nodes, cli_skeleton["nodes"]) and result.edges.tolist() == cli_skeleton["edges"]
+    assert result.correspondence.tolist() == cli_skeleton["correspondence"]
+    assert len(result.metrics) == len(result.states)
+    metrics = json.loads((tmp_path / "cli" / "metrics.json").read_text())
+    assert result.verdict == metrics["verdict"]
+
+
+def test_skeletonize_matches_the_batch_pipeline_and_takes_arrays(tmp_path):
+    asset = REPO / "assets" / "y_branch.ply"
+    run_pipeline(asset, tmp_path / "batch", RunOptions())
+    from_array = skelcore.skeletonize(skelcore.load(asset).points)
+    assert from_array.nodes.tolist() == json.loads((tmp_path / "batch" / "skeleton.json").read_text())["nodes"]
+    assert from_array.graph.number_of_nodes() == len(from_array.nodes)
+
+
+def test_contract_steps_by_hand_and_retunes():
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    generator = skelcore.contract(points, max_iterations=5)
+    first = next(generator)
+    assert first.iteration == 0 and np.array_equal(first.points, points)
+    second = generator.send(skelcore.ContractionParams(max_iterations=5, sl=2.0))
+    assert second.iteration == 1 and second.params.sl == 2.0
+    with pytest.raises(ParameterError, match="unknown parameter wl"):
+        skelcore.contract(points, wl=3)
+
+
+def test_bad_arguments_give_one_line_errors():
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    with pytest.raises(ParameterError, match="one weight per point"):
+        skelcore.skeletonize(points, weights=np.ones(3))
+    with pytest.raises(ParameterError, match="not positive"):
+        skelcore.skeletonize(points, weights=np.zeros(len(points)))
+    with pytest.raises(ParameterError, match="not both"):
+        skelcore.skeletonize(points, weights=np.ones(len(points)), labels=np.zeros(len(points)), label_weights={0: 2})
+    with pytest.raises(InputError, match="no labels"):
+        skelcore.skeletonize(points, label_weights={1: 2.0})
+    with pytest.raises(ParameterError, match="method"):
+        skelcore.skeletonize(points, method="nope")
+
+
+def test_import_is_light_and_every_public_name_is_documented():
+    code = ("import sys, skelcore; heavy = [m for m in ('numpy', 'scipy', 'viser', 'open3d', 'app') if m in sys.modules];"
+            "print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert out.stdout.strip() == ""
+    for name in skelcore.__all__:
+        value = getattr(skelcore, name)
+        if callable(value):
+            assert (value.__doc__ or "").strip(), name
+    for name in ("graph", "nodes", "edges", "correspondence", "contracted", "verdict", "topology", "save",
+                 "report", "summary"):
+        assert (getattr(skelcore.Result, name).__doc__ or "").strip(), name
+
+
+def test_every_public_function_class_and_method_of_skelcore_has_a_docstring():
+    import importlib
+    import inspect
+    import pkgutil
+
+    missing = []
+    for info in pkgutil.iter_modules(skelcore.__path__):
+        module = importlib.import_module(f"skelcore.{info.name}")
+        for name, value in vars(module).items():
+            if name.startswith("_") or getattr(value, "__module__", None) != module.__name__:
+                continue
+            if not (inspect.isfunction(value) or inspect.isclass(value)):
+                continue
+            if not (inspect.getdoc(value) or "").strip() or inspect.getdoc(value).startswith(f"{name}("):
+                missing.append(f"{info.name}.{name}")
+            for member, attribute in (vars(value).items() if inspect.isclass(value) else ()):
+                function = attribute.fget if isinstance(attribute, property) else attribute
+                if not member.startswith("_") and inspect.isfunction(function) and not (function.__doc__ or "").strip():
+                    missing.append(f"{info.name}.{name}.{member}")
+    assert missing == []
+
+
+# ---------------------------------------------------------------- weights
+def _half_labels(points: np.ndarray) -> np.ndarray:
+    return (points[:, 2] < np.median(points[:, 2])).astype(np.int64)
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_heavier_labelled_points_contract_further_in_the_first_step(method):
+    points = skelcore.load(REPO / "assets" / "y_branch.ply").points
+    labelled = _half_labels(points) == 1
+    moved = {}
+    for weight in (1.0, 10.0, 0.3):
+        weights = np.where(labelled, weight, 1.0)
+        generator = skelcore.contract(points, method=method, weights=weights)
+        next(generator)
+        state = next(generator)
+        moved[weight] = np.linalg.norm(state.points[state.owner] - points, axis=1)[labelled].mean()
+    assert moved[10.0] > 1.5 * moved[1.0] > 1.5 * moved[0.3]
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_unit_weights_change_nothing(method):
+    points = skelcore.load(REPO / "assets" / "y_branch.ply").points
+    plain = skelcore.skeletonize(points, method=method, max_iterations=4)
+    ones = skelcore.skeletonize(points, method=method, max_iterations=4, weights=np.ones(len(points)))
+    assert np.array_equal(plain.contracted, ones.contracted)
+    assert plain.nodes.tolist() == ones.nodes.tolist()
+
+
+def test_glskeleton_merged_points_carry_the_mean_weight_of_their_points():
+    from skelcore.contraction import IterationState  # noqa: F401 (the state's owner map is what is checked)
+
+    points = skelcore.load(REPO / "assets" / "y_branch.ply").points
+    labels = _half_labels(points)
+    result = skelcore.skeletonize(points, method="glskeleton", labels=labels, label_weights={1: 5.0})
+    weights = weights_from_labels(result.cloud.labels, {1: 5.0})  # the labels of the points kept by cleaning
+    assert np.array_equal(result.weights, weights)
+    state = result.states[-1]
+    assert state.n_points < len(points)  # points were merged
+    stands_for = np.bincount(state.owner, minlength=state.n_points)
+    mean = np.bincount(state.owner, weights=weights, minlength=state.n_points) / stands_for
+    assert set(np.round(mean[stands_for == 1], 9)) <= {1.0, 5.0}
+    assert ((mean >= 1.0) & (mean <= 5.0)).all()
+
+
+# ---------------------------------------------------------------- labels
+def test_labels_survive_a_ply_round_trip(tmp_path):
+    points = np.random.default_rng(1).normal(size=(200, 3))
+    labels = np.random.default_rng(2).integers(0, 5, 200)
+    write_points_ply(tmp_path / "labelled.ply", points, labels=labels)
+    cloud = skelcore.load(tmp_path / "labelled.ply")
+    assert np.array_equal(cloud.points, points) and np.array_equal(cloud.labels, labels)
+    # duplicates are removed with their labels, the first occurrence kept
+    write_points_ply(tmp_path / "repeated.ply", np.vstack([points, points[:10]]),
+                     labels=np.concatenate([labels, labels[:10] + 7]))
+    assert np.array_equal(skelcore.load(tmp_path / "repeated.ply").labels, labels)
+
+
+@pytest.mark.parametrize("prop, kind", [("class", "uchar"), ("scalar_label", "float"), ("Classification", "int")])
+def test_labels_are_read_from_common_ply_properties(tmp_path, prop, kind):
+    points = np.random.default_rng(3).normal(size=(50, 3))
+    labels = np.arange(50) % 3
+    header = (f"ply\nformat ascii 1.0\nelement vertex 50\nproperty float x\nproperty float y\nproperty float z\n"
+              f"property float nx\nproperty {kind} {prop}\nend_header\n")
+    rows = [f"{x:.6f} {y:.6f} {z:.6f} 2 {label}" for (x, y, z), label in zip(points, labels)]
+    (tmp_path / "c.ply").write_text(header + "\n".join(rows) + "\n")
+    assert np.array_equal(skelcore.load(tmp_path / "c.ply").labels, labels)
+    assert np.array_equal(skelcore.load(tmp_path / "c.ply", labels="nx").labels, np.full(50, 2))
+
+
+def test_label_files_and_bad_labels(tmp_path):
+    points = np.random.default_rng(4).normal(size=(40, 3))
+    write_points_ply(tmp_path / "p.ply", points)
+    np.savetxt(tmp_path / "l.txt", np.arange(40) % 2, fmt="%d")
+    np.save(tmp_path / "l.npy", np.arange(40) % 3)
+    assert np.array_equal(skelcore.load(tmp_path / "p.ply", labels=tmp_path / "l.txt").labels, np.arange(40) % 2)
+    assert np.array_equal(skelcore.load(tmp_path / "p.ply", labels=str(tmp_path / "l.npy")).labels, np.arange(40) % 3)
+    np.savetxt(tmp_path / "short.txt", np.arange(39), fmt="%d")
+    with pytest.raises(InputError, match="39 labels for 40 points"):
+        skelcore.load(tmp_path / "p.ply", labels=tmp_path / "short.txt")
+    with pytest.raises(InputError, match="no vertex property 'class'"):
+        skelcore.load(tmp_path / "p.ply", labels="class")
+    np.savetxt(tmp_path / "half.txt", np.arange(40) / 2)
+    with pytest.raises(InputError, match="integers"):
+        skelcore.load(tmp_path / "p.ply", labels=tmp_path / "half.txt")
+
+
+def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
+    cloud = skelcore.load(REPO / "assets" / "y_branch.ply")
+    labels = _half_labels(cloud.points)
+    write_points_ply(tmp_path / "y.ply", cloud.points, labels=labels)
+    np.savetxt(tmp_path / "labels.txt", labels, fmt="%d")
+    args = ["--label-weight", "1=4", "--label-weight", "0=0.5", "--quiet"]
+    assert cli.main(["run", str(tmp_path / "y.ply"), "--out", str(tmp_path / "prop"), *args]) == 0
+    assert cli.main(["run", str(REPO / "assets" / "y_branch.ply"), "--labels", str(tmp_path / "labels.txt"),
+                     "--out", str(tmp_path / "file"), *args]) == 0
+    recorded = json.loads((tmp_path / "prop" / "params.json").read_text())["weights"]
+    assert recorded["label_weights"] == {"0": 0.5, "1": 4.0}
+    contracted = skelcore.load(tmp_path / "prop" / "contracted.ply")  # keeps the labels of the points contracted
+    assert contracted.labels is not None and set(contracted.labels) == {0, 1}
+    kept = json.loads((tmp_path / "prop" / "metrics.json").read_text())["cleaning"]["kept"]
+    assert recorded["weighted_points"] == kept and recorded["max"] == 4.0  # every weight is 4 or 0.5
+    assert json.loads((tmp_path / "file" / "params.json").read_text())["weights"]["labels"] == str(tmp_path / "labels.txt")
+    assert cli.main(["batch", str(tmp_path / "y.ply"), "--out", str(tmp_path / "batch"), "--no-report", "--quiet",
+                     *args[:-1]]) == 0
+    weighted = skelcore.skeletonize(cloud.points, labels=labels, label_weights={1: 4, 0: 0.5})
+    for folder in ("prop", "file", "batch/y"):
+        saved = json.loads((tmp_path / folder / "skeleton.json").read_text())
+        assert saved["nodes"] == weighted.nodes.tolist()
+    assert cli.main(["run", str(tmp_path / "y.ply"), "--out", str(tmp_path / "bad"), "--label-weight", "1=4",
+                     "--labels", "nope"]) == 2
+    assert "nope" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli.main(["run", str(tmp_path / "y.ply"), "--out", str(tmp_path / "bad"), "--label-weight", "1:4"])
+
+
+def test_explicit_weights_are_listed_in_params_json(tmp_path):
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    weights = np.linspace(0.5, 2.0, len(points))
+    result = skelcore.skeletonize(points, weights=weights, max_iterations=2, cleaning=False)
+    result.save(tmp_path)
+    recorded = json.loads((tmp_path / "params.json").read_text())["weights"]
+    assert np.allclose(recorded["values"], weights) and recorded["labels"] is None
+    # cleaning drops points: the weights of the points kept go with them
+    noisy = np.vstack([points, points.max(axis=0) + 5.0])
+    cleaned = skelcore.skeletonize(noisy, weights=np.append(weights, 9.0), max_iterations=2,
+                                   cleaning=skelcore.CleaningParams(denoise=False))
+    row_of = {tuple(point): row for row, point in enumerate(noisy.tolist())}
+    kept = np.array([row_of[tuple(point)] for point in cleaned.cloud.points.tolist()])
+    assert len(points) not in kept and np.array_equal(cleaned.weights, np.append(weights, 9.0)[kept])
+    assert any("cleaning removed" in note for note in cleaned.cloud.notes)
+
+
+def test_result_report_is_one_page(tmp_path):
+    result = skelcore.skeletonize(skelcore.load(REPO / "assets" / "capsule.ply").points)
+    page = result.report(tmp_path / "r.html").read_text()
+    assert "Contraction stability report" in page and "original cloud not shown" not in page

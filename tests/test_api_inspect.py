@@ -1,0 +1,70 @@
+"""skelcore.inspect from a script: a page headless Chromium loads, a finished Result opened at its end, a labelled
+cloud's Labels panel (weights applied on restart, colours by label), and a handle that stops the server."""
+from __future__ import annotations
+
+import urllib.request
+
+import numpy as np
+import pytest
+
+import skelcore
+from skelcore.shapes import make_shape
+
+from browser_support import browser_missing, button, launch, open_folder, open_inspector, save_page, wait_until
+
+browser_needed = pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))
+
+
+@pytest.fixture(scope="module")
+def labelled():
+    points = make_shape("y_branch", 1200).points
+    return points, (points[:, 2] < np.median(points[:, 2])).astype(np.int64)
+
+
+def test_inspect_a_result_opens_at_its_end_and_stops(labelled):
+    points, labels = labelled
+    result = skelcore.skeletonize(points, labels=labels, label_weights={1: 4.0})
+    with skelcore.inspect(result) as handle:
+        session = handle.session
+        assert [s.iteration for s in session.history] == [s.iteration for s in result.states]
+        assert np.array_equal(session.run.weights, result.weights)
+        assert handle.inspector.wait_idle(120) and handle.inspector.shown == len(result.states) - 1
+        assert urllib.request.urlopen(handle.url, timeout=30).status == 200
+        assert handle.url in handle._repr_html_()
+        session.restart()  # a restart recomputes with the same label weights
+        assert np.array_equal(session.run.weights, result.weights)
+    assert handle.stopped
+    with pytest.raises(OSError):
+        urllib.request.urlopen(handle.url, timeout=5)
+
+
+@pytest.mark.browser
+@browser_needed
+def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
+    from playwright.sync_api import sync_playwright
+
+    points, labels = labelled
+    handle = skelcore.inspect(points, labels=labels, label_weights={1: 2.0}, max_iterations=3)
+    try:
+        with sync_playwright() as playwright:
+            browser = launch(playwright)
+            page = open_inspector(browser, handle.url)
+            page.get_by_text("Labels", exact=True).first.wait_for()
+            weight = page.get_by_label("Label 1 (", exact=False)
+            assert float(weight.input_value()) == 2.0
+            weight.fill("6")
+            weight.press("Enter")
+            wait_until(lambda: handle.session.label_weights == {1: 6.0}, "the label weight taken")
+            button(page, "Restart with these parameters").click()
+            wait_until(lambda: handle.session.run.weights is not None and handle.session.run.weights.max() == 6.0,
+                       "the restart with the new weight")
+            page.get_by_label("Colour contracted by").click()
+            page.get_by_role("option", name="label").click()
+            wait_until(lambda: handle.inspector.view._colours_key is not None, "colours by label")
+            page.get_by_text("(w=6)").first.wait_for()  # the legend
+            colours = np.asarray(handle.inspector.view._contracted.colors)
+            assert len(np.unique(colours.reshape(-1, 3), axis=0)) == 2
+            save_page(page, "inspect_labels.png")
+            browser.close()
+    finally:
+        handle.stop()

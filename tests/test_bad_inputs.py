@@ -1,0 +1,175 @@
+"""No traceback, ever: a corpus of bad inputs made here, each run through `skelcore run`, gives one line in
+our words that names the file, and a non-zero exit code. Inputs that are odd but legal (extreme
+coordinates) run, and their results are in the file's coordinates."""
+from __future__ import annotations
+
+import json
+import os
+import struct
+
+import numpy as np
+import pytest
+
+from skelcore.cli import main
+from skelcore.shapes import make_shape
+
+# What must never reach a user: Python's and C++'s own words, internal reprs and source paths.
+INTERNAL = ("Traceback", "Errno", "bad_alloc", "codec", "('", "recursion", ".c:", ".cpp", "Exception",
+            "KeyError", "ValueError", "IndexError", "TypeError", "object has no attribute", "axis 0",
+            "char 1")
+
+
+def _sphere(n=200, seed=0) -> np.ndarray:
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _rows(points) -> str:
+    return "\n".join(" ".join(repr(float(c)) for c in p) for p in points) + "\n"
+
+
+def _ply_binary(count: int, body: bytes, props=("x", "y", "z")) -> bytes:
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {count}\n"
+              + "".join(f"property float {p}\n" for p in props) + "end_header\n")
+    return header.encode() + body
+
+
+def corpus() -> dict[str, bytes | None]:
+    """File name -> content (None: made specially in the test)."""
+    points = _sphere()
+    files: dict[str, bytes | None] = {}
+    for suffix in ("ply", "pcd", "xyz", "pts", "txt", "off", "obj", "stl", "glb"):
+        files[f"empty.{suffix}"] = b""
+        files[f"random.{suffix}"] = np.random.default_rng(1).integers(0, 256, 4096, dtype=np.uint8).tobytes()
+        files[f"zeros.{suffix}"] = bytes(8192)
+        files[f"prose.{suffix}"] = b"this is not a point cloud at all\n" * 20
+    files.update({
+        # PLY
+        "ply_truncated.ply": _ply_binary(1000, b"\x00" * 10),
+        "ply_negative.ply": b"ply\nformat ascii 1.0\nelement vertex -5\nproperty float x\nend_header\n",
+        "ply_count_word.ply": b"ply\nformat ascii 1.0\nelement vertex many\nproperty float x\nend_header\n",
+        "ply_no_end.ply": b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n" + b"0 0 0\n" * 3,
+        "ply_no_vertex.ply": b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int v\nend_header\n",
+        "ply_no_x.ply": _ply_binary(200, np.zeros((200, 3), "<f4").tobytes(), props=("a", "b", "c")),
+        "ply_ascii_short.ply": b"ply\nformat ascii 1.0\nelement vertex 300\nproperty float x\nproperty float y\n"
+                               b"property float z\nend_header\n" + _rows(points[:10]).encode(),
+        "ply_huge_count.ply": _ply_binary(10**12, b"\x00" * 64),
+        # OFF
+        "off_negative.off": b"OFF\n-3 -1 0\n" + _rows(points[:3]).encode(),
+        "off_two_index_face.off": b"OFF\n200 1 0\n" + _rows(points).encode() + b"2 0 1\n",
+        "off_promised_faces.off": b"OFF\n200 1000000000 0\n" + _rows(points).encode(),
+        "off_word_counts.off": b"OFF\nthree one zero\n",
+        "off_header_only.off": b"OFF\n",
+        "off_short_vertex.off": b"OFF\n3 0 0\n1 2\n3 4\n5 6\n",
+        "off_bad_index.off": b"OFF\n200 1 0\n" + _rows(points).encode() + b"3 0 1 999\n",
+        "off_degenerate_faces.off": b"OFF\n200 2 0\n" + _rows(points).encode() + b"3 0 0 0\n3 1 1 1\n",
+        # text clouds
+        "nan.xyz": _rows(np.vstack([points, [[np.nan, 0, 0]]])).encode(),
+        "inf.xyz": _rows(np.vstack([points, [[np.inf, 0, 0]]])).encode(),
+        "two_columns.xyz": b"1 2\n3 4\n" * 50,
+        "words.xyz": b"a b c\n" * 50,
+        "five_points.xyz": _rows(points[:5]).encode(),
+        "identical.xyz": _rows(np.ones((100, 3))).encode(),
+        "collinear.xyz": _rows(np.outer(np.linspace(0, 1, 100), [1, 2, 3])).encode(),
+        "long_line.xyz": b"1 " * 100_000 + b"\n",
+        "latin1.xyz": _rows(points).encode() + "caf\u00e9 1 2\n".encode("latin-1"),
+        "only_comments.xyz": b"# nothing\n// here\n",
+        "mixed_garbage.txt": _rows(points[:50]).encode() + b"\x00\x01\x02\n",
+        # PCD
+        "pcd_short.pcd": b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                         b"WIDTH 1000\nHEIGHT 1\nPOINTS 1000\nDATA binary\n" + b"\x00" * 100,
+        "pcd_no_data.pcd": b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nPOINTS 10\n",
+        # STL, OBJ, GLB
+        "stl_count_mismatch.stl": b"\x00" * 80 + struct.pack("<I", 1000) + b"\x00" * 500,
+        "stl_text_truncated.stl": b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\n",
+        "obj_faces_only.obj": b"f 1 2 3\nf 2 3 4\n",
+        "obj_bad_face.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n",
+        "glb_bad_json.glb": b"glTF" + struct.pack("<II", 2, 40) + struct.pack("<I", 12) + b"JSON" + b"{notjson}   ",
+        # not files
+        "a_folder.ply": None,
+        "missing.xyz": None,
+        "loop.ply": None,
+        "unknown.abc": b"1 2 3\n",
+        "no_extension": b"1 2 3\n",
+    })
+    return files
+
+
+CORPUS = corpus()
+
+
+def test_corpus_is_large_enough():
+    assert len(CORPUS) >= 50
+
+
+@pytest.mark.parametrize("name", sorted(CORPUS))
+def test_bad_input_gives_one_line_naming_the_file(name, tmp_path, capsys):
+    path = tmp_path / name
+    content = CORPUS[name]
+    if name == "a_folder.ply":
+        path.mkdir()
+    elif name == "loop.ply":
+        os.symlink(tmp_path / "loop2.ply", path)
+        os.symlink(path, tmp_path / "loop2.ply")
+    elif content is not None:
+        path.write_bytes(content)
+    code = main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code != 0, f"{name} was accepted"
+    assert err.count("\n") == 1, err
+    assert name in err, err
+    for word in INTERNAL:
+        assert word not in err, err
+    if name == "loop.ply":
+        assert "loop" in err and "not found" not in err
+
+
+def test_malformed_off_messages_say_what_is_wrong(tmp_path, capsys):
+    expectations = {"off_negative.off": "negative", "off_two_index_face.off": "at least 3",
+                    "off_promised_faces.off": "promises"}
+    for name, words in expectations.items():
+        (tmp_path / name).write_bytes(CORPUS[name])
+        assert main(["run", str(tmp_path / name), "--out", str(tmp_path / "out")]) != 0
+        assert words in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("magnitude", [1e300, 1e307, 1e-300])
+def test_extreme_coordinates_run_and_come_back_in_file_units(magnitude, tmp_path, capsys):
+    points = make_shape("torus", 800).points * magnitude
+    path = tmp_path / "extreme.xyz"
+    path.write_text(_rows(points))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--max-iterations", "3"]) == 0, \
+        capsys.readouterr().err
+    nodes = np.asarray(json.loads((tmp_path / "out" / "skeleton.json").read_text())["nodes"])
+    assert np.isfinite(nodes).all()
+    span = np.ptp(points, axis=0).max()
+    assert 0.2 * span < np.ptp(nodes, axis=0).max() < 1.5 * span  # in the file's coordinates
+
+
+def test_two_small_clusters_far_apart_give_a_message(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    points = np.vstack([rng.normal(size=(300, 3)) * 0.01, rng.normal(size=(300, 3)) * 0.01 + 1e6])
+    path = tmp_path / "clusters.xyz"
+    path.write_text(_rows(points))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "clusters.xyz" in err and "Traceback" not in err
+
+
+def test_solver_failures_are_in_our_words(monkeypatch):
+    import scipy.sparse as sp
+
+    from skelcore import solver
+    from skelcore.errors import SolverError
+
+    for complaint in ("../Cholesky/t_cholmod_rowfac.c:430: not positive definite (code 1)", "std::bad_alloc",
+                      "cholmod_l_analyze.c: something else"):
+        def fail(system, rhs, complaint=complaint):
+            raise RuntimeError(complaint)
+
+        monkeypatch.setattr(solver, "analyze", None)
+        monkeypatch.setattr(solver, "_solve_cholespy", fail)
+        with pytest.raises(SolverError) as error:
+            solver.CholeskySolver().solve(sp.identity(3, format="csr"), np.ones((3, 3)))
+        message = str(error.value)
+        assert "\n" not in message and not any(word in message for word in INTERNAL + (".c",)), message
