@@ -47,6 +47,7 @@ RUNS_FILE = "runs.jsonl"
 
 @dataclass(frozen=True)
 class StudyInput:
+    """One cloud of the study: a shape in one variant at one seed, with what its skeleton should be."""
     shape: str
     source: str  # "synthetic" or the benchmark shape's source
     variant: str
@@ -56,6 +57,7 @@ class StudyInput:
 
     @property
     def key(self) -> str:
+        """shape|variant|seed: the run's identity in runs.jsonl, with the setting."""
         return f"{self.shape}|{self.variant}|{self.seed}"
 
 
@@ -233,6 +235,7 @@ def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS),
 
 
 def load_runs(path) -> list[dict]:
+    """The run records of a study's runs.jsonl (none when it does not exist)."""
     path = Path(path)
     if not path.exists():
         return []

@@ -57,11 +57,13 @@ def split_of(shape: str, names: list[str]) -> str:
 
 
 def run_features(record: dict, convention: str, skeleton: bool = True) -> dict:
+    """The verdict's figures of a run's last iteration under `convention`, with its skeleton evidence."""
     last = record["conventions"][convention][-1]
     return features(last, record["evidence"] if skeleton else None)
 
 
 def label_runs(records: list[dict], convention: str, thresholds: StabilityThresholds, skeleton: bool = True):
+    """The verdict's label of each run's last iteration under `thresholds`."""
     return [judge(run_features(r, convention, skeleton), r["iterations"], thresholds)["label"] for r in records]
 
 
@@ -169,6 +171,7 @@ def statistic_table(record: dict, convention: str) -> dict:
 
 
 def skeleton_agreement(record: dict, thresholds: StabilityThresholds) -> float:
+    """1 when the run's skeleton passes every skeleton check (nodes, pieces, loops), else 0."""
     e = record["evidence"]
     pieces = e["components"] == count_pieces(e["cloud_pieces"], thresholds) == count_pieces(e["input_pieces"], thresholds)
     return float(pieces and e["cycles"] == count_loops(e["cloud_loops"], thresholds) and e["nodes"] >= 3)

@@ -58,6 +58,7 @@ def d_theta_trajectories_figure(records: list[dict]):
 
 
 def goals_table(entry: dict) -> str:
+    """HTML table: the verdict against the truth per half, shipped and calibrated thresholds."""
     rows = []
     for which in ("shipped", "calibrated"):
         for half in ("calibration", "held-out"):
@@ -71,6 +72,7 @@ def goals_table(entry: dict) -> str:
 
 
 def contributions_table(entry: dict) -> str:
+    """HTML table: the held-out goals with each criterion group switched off."""
     base = entry["calibrated"]["held-out"]
     rows = [["all criteria", _pct(base["precision"]), _pct(base["recall"]), base["bad_settings_stable"],
              base["collapsed_or_disconnected_stable"]]]

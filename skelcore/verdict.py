@@ -59,6 +59,7 @@ class StabilityThresholds:
     loop_death: float = 4.0  # study: ... and its hole is wider than this many radii
 
     def validated(self) -> "StabilityThresholds":
+        """These thresholds, or a ParameterError naming the first out of range."""
         for name, value in asdict(self).items():
             if not np.isfinite(value) or value < 0:
                 raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
