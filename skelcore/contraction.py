@@ -114,9 +114,10 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
             new_sizes = rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
             # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold; while the rings still
-            # shrink, a cloud that is not yet curve-like (a sheet) goes on contracting
+            # shrink, a cloud not yet curve-like (a sheet) goes on contracting, as long as each such step
+            # leaves it more curve-like (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            if iteration > 1 and drop < params.termination and not (drop >= 0 and not curve_like(candidate, params)):
+            if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params)):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             reason, detail = failure
@@ -136,13 +137,14 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
             return
 
 
-def curve_like(unit_points: np.ndarray, params: ContractionParams) -> bool:
-    """Whether at least params.curve_share of the cloud (in normalised units) is curve-like at the skeleton's
-    default sample radius."""
+def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams) -> bool:
+    """Whether a step past the ring-ratio stall is taken: the candidate (normalised units) is less than
+    params.curve_share curve-like at the skeleton's default sample radius, and more so than the current."""
     if params.curve_share <= 0:
-        return True
-    diagonal = float(np.linalg.norm(robust_extent(unit_points)))
-    return curve_share(unit_points, SkeletonParams.sample_radius * diagonal) >= params.curve_share
+        return False
+    radius = SkeletonParams.sample_radius * float(np.linalg.norm(robust_extent(current)))
+    after = curve_share(candidate, radius)
+    return after < params.curve_share and after > curve_share(current, radius)
 
 
 def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,

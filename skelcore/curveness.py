@@ -14,34 +14,34 @@ from scipy.spatial import cKDTree
 
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
 PROBES = 2000  # points whose neighbourhoods are measured (a fixed random subset; all when fewer)
-NEIGHBOURS = 32  # nearest probes within the radius that make a neighbourhood
+MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread too thin to be a curve there
 
 
 def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(probe ids, spread ratio across/along of each probe's neighbourhood; NaN where it has fewer than
-    4 probes within `radius`)."""
+    """(probe ids, spread ratio across/along of each probe's neighbourhood, the probes within `radius`;
+    NaN where it has fewer than MIN_NEIGHBOURS)."""
     rng = np.random.default_rng(seed)
     probes = np.sort(rng.choice(len(points), PROBES, replace=False)) if len(points) > PROBES \
         else np.arange(len(points))
     sample = points[probes]
-    k = min(NEIGHBOURS, len(sample))
-    distance, index = cKDTree(sample).query(sample, k=k, distance_upper_bound=radius)
-    distance, index = distance.reshape(len(sample), k), index.reshape(len(sample), k)
-    valid = np.isfinite(distance)
-    local = np.where(valid[..., None], sample[np.minimum(index, len(sample) - 1)], 0.0)
-    counts = valid.sum(axis=1)
-    mean = local.sum(axis=1) / np.maximum(counts, 1)[:, None]
-    centred = np.where(valid[..., None], local - mean[:, None, :], 0.0)
-    covariance = np.einsum("nki,nkj->nij", centred, centred) / np.maximum(counts, 1)[:, None, None]
+    tree = cKDTree(sample)
+    pairs = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
+    rows = np.concatenate([pairs.row, np.arange(len(sample))])  # each probe with every probe within radius
+    cols = np.concatenate([pairs.col, np.arange(len(sample))])
+    counts = np.bincount(rows, minlength=len(sample)).astype(float)
+    mean = np.stack([np.bincount(rows, sample[cols, axis], len(sample)) for axis in range(3)], 1) / counts[:, None]
+    offset = sample[cols] - mean[rows]
+    covariance = np.stack([np.bincount(rows, offset[:, i] * offset[:, j], len(sample))
+                           for i in range(3) for j in range(3)], 1).reshape(-1, 3, 3) / counts[:, None, None]
     eigen = np.linalg.eigvalsh(covariance)  # ascending
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(np.maximum(eigen[:, 1], 0) / eigen[:, 2])
-    ratio[(counts < 4) | ~(eigen[:, 2] > 0)] = np.nan
+    ratio[(counts < MIN_NEIGHBOURS) | ~(eigen[:, 2] > 0)] = np.nan
     return probes, ratio
 
 
 def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
-    """The share of measured points whose neighbourhood is curve-like (see the module)."""
+    """The share of measured points whose neighbourhood is curve-like (see the module); a point too isolated
+    to be judged counts as not curve-like."""
     _, ratio = curve_likeness(points, radius, seed)
-    measured = ratio[np.isfinite(ratio)]
-    return float((measured <= CURVE_RATIO).mean()) if len(measured) else 0.0
+    return float((ratio <= CURVE_RATIO).mean()) if len(ratio) else 0.0

@@ -27,7 +27,7 @@ class ContractionParams:
     wh_max: float = 1e4  # cap on W_H
     max_iterations: int = 20
     termination: float = 0.01  # stop when the ring-size ratio falls by less than this ...
-    curve_share: float = 0.8  # ... and this share of the cloud is curve-like (0: cloudcontr's rule alone)
+    curve_share: float = 0.5  # ... and this share of the cloud is curve-like (0: cloudcontr's rule alone)
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
