@@ -42,14 +42,17 @@ class Reduction:
 
     @property
     def n_input(self) -> int:
+        """The number of input points."""
         return len(self.voxel_of)
 
     def note(self) -> str:
+        """One progress line: what was reduced and how to turn it off."""
         return (f"multi-resolution: {self.n_input:,} points above the budget of the contraction; contracted "
                 f"{len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}), every input point carried "
                 f"along (turn off with --full-resolution)")
 
     def describe(self) -> dict:
+        """metrics.json's `multiresolution`: input and contracted points, voxel size."""
         return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size}
 
     def mean(self, values: np.ndarray) -> np.ndarray:

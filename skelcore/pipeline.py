@@ -131,11 +131,13 @@ class StageClock:
         self.stages: dict[str, float] = {}
 
     def mark(self, stage: str) -> None:
+        """Close `stage`: the seconds since the previous mark (or the start)."""
         now = time.perf_counter()
         self.stages[stage] = now - self.last
         self.last = now
 
     def elapsed(self) -> float:
+        """Seconds since the clock started."""
         return time.perf_counter() - self.start
 
 
