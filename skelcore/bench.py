@@ -3,8 +3,9 @@ growing size, against a pc-skeletor-style LBC, with peak memory and the fitted g
 
 Each run is a fresh process (`skelcore run` as a user starts it: interpreter, imports, PLY load, cleaning,
 multi-resolution above its budget, contraction, skeleton, metrics, writing), timed by wall clock from its
-launch to its exit, its peak resident memory read by the process itself. Runs are interleaved size by size, so the ratios printed come from one bench run on
-the same machine state; on a shared machine only those ratios mean much.
+launch to its exit, its CPU time and peak resident memory read by the process itself. Runs are interleaved
+size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
+only those ratios mean much.
 
 The pc-skeletor baseline is its LBC solve (pc_skeletor.laplacian_based_contraction: the normal equations
 built with scipy and solved with scipy.sparse.linalg.spsolve, COLAMD, once per coordinate) for as many
@@ -67,7 +68,8 @@ def _print_run(row: dict, out) -> None:
 
 def _print_summary(rows: list[dict], sizes, methods, out) -> None:
     out("\nside by side (seconds of the whole run; ratios from this one bench run)")
-    out(f"{'n':>10} " + " ".join(f"{m:>11}" for m in methods) + "  pc-skeletor  lbc/gls (time)  speed-up vs pc-skeletor")
+    out(f"{'n':>10} " + " ".join(f"{m:>11}" for m in methods)
+        + "  pc-skeletor  lbc/gls (time)  speed-up vs pc-skeletor")
     for n in sizes:
         runs = {row["method"]: row for row in rows if row["n"] == n and row["method"] in methods}
         base = next((row for row in rows if row["n"] == n and row["method"] == "baseline"), None)
@@ -76,14 +78,15 @@ def _print_summary(rows: list[dict], sizes, methods, out) -> None:
         if "lbc" in runs and "glskeleton" in runs:
             line += f"  {runs['lbc']['total'] / runs['glskeleton']['total']:>15.2f}x"
         if base:
-            line += "  " + ", ".join(f"{m} {base['total'] / runs[m]['total']:.1f}x (CPU {base['cpu'] / runs[m]['cpu']:.1f}x)"
-                                     for m in methods if m in runs)
+            line += "  " + ", ".join(f"{m} {base['total'] / runs[m]['total']:.1f}x "
+                                     f"(CPU {base['cpu'] / runs[m]['cpu']:.1f}x)" for m in methods if m in runs)
         out(line)
     for method in methods:
         timed = sorted((row["n"], row["total"]) for row in rows if row["method"] == method)
         large = [pair for pair in timed if pair[0] >= 100_000]
         cpu = sorted((row["n"], row["cpu"]) for row in rows if row["method"] == method)
-        for label, pairs, cpu_pairs in (("all sizes", timed, cpu), ("from 100k", large, [p for p in cpu if p[0] >= 100_000])):
+        large_cpu = [pair for pair in cpu if pair[0] >= 100_000]
+        for label, pairs, cpu_pairs in (("all sizes", timed, cpu), ("from 100k", large, large_cpu)):
             if len(pairs) >= 2:
                 out(f"{method}: whole run grows as n^{_exponent(pairs):.2f} (CPU n^{_exponent(cpu_pairs):.2f}; "
                     f"{label}, least squares on log-log)")

@@ -38,7 +38,8 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
     if not names or names[0] != "vertex" or names[1:] not in ([], ["face"]):
         return None
     _, n_vertices, vertex_properties = elements[0]
-    if any(isinstance(kind, tuple) for _, kind in vertex_properties) or not {"x", "y", "z"} <= {p for p, _ in vertex_properties}:
+    names = {name for name, _ in vertex_properties}
+    if any(isinstance(kind, tuple) for _, kind in vertex_properties) or not {"x", "y", "z"} <= names:
         return None
     if fmt == "ascii":
         return _ascii_ply(path, body_start, n_vertices, vertex_properties, elements[1:])
