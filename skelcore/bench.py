@@ -1,112 +1,187 @@
-"""`skelcore bench`: time the contraction per stage on a torus; every figure is a ratio taken in one run.
+"""`skelcore bench`: the whole `skelcore run` per stage, LBC and GLSkeleton side by side, on noisy tori of
+growing size, against a pc-skeletor-style LBC, with peak memory and the fitted growth exponent.
 
-Stages per iteration: one-ring (LBC: once per run, shown apart; GLSkeleton: the in-loop reduction and
-re-triangulation), Laplacian build (cotangent weights and the normal-equation matrix), factorise+solve, rest
-(ring sizes, checks, coordinates). Per-iteration figures are means over the iterations after the first,
-whose solve also pays CHOLMOD's one symbolic analysis. The 'ratio' is a whole iteration over one bare
-factorise+solve of a matrix of the last iteration; the baseline solves that matrix as pc-skeletor does
-(scipy spsolve with SuperLU/COLAMD, once per coordinate: three factorisations).
+Each run is a fresh process (`skelcore run` as a user starts it: interpreter, imports, PLY load, cleaning,
+multi-resolution above its budget, contraction, skeleton, metrics, writing), timed by wall clock from its
+launch to its exit, its CPU time and peak resident memory read by the process itself. Runs are interleaved
+size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
+only those ratios mean much.
+
+The pc-skeletor baseline is its LBC solve (pc_skeletor.laplacian_based_contraction: the normal equations
+built with scipy and solved with scipy.sparse.linalg.spsolve, COLAMD, once per coordinate) for as many
+iterations as our LBC run made, on our own one-rings and Laplacian, which stand in for its robust_laplacian.
+Its loading, point-cloud handling and skeleton extraction are not counted, so the ratio against it is a lower
+bound on the speed-up over pc-skeletor itself. SuperLU's fill makes it impractical past --baseline-max points.
 """
 from __future__ import annotations
 
-import math
+import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
-from .contraction import run_contraction
-from .laplacian import LaplacianSystem
-from .normalise import Normalisation
-from .params import ContractionParams
-from .shapes import make_shape
-from .solver import CholeskySolver, backend
+SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
+BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
+NOISE = 0.002  # Gaussian noise of the bench tori, a fraction of the bounding-box diagonal
+STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "write")
 
 
-def run_bench(sizes: list[int], *, iterations: int = 4, method: str = "lbc", baseline: bool = False,
-              metrics: bool = False, out=print) -> list[dict]:
-    """Time the contraction per stage on tori of the given sizes; print a table and return its rows."""
-    methods = ["lbc", "glskeleton"] if method == "both" else [method]
-    out(f"skelcore bench: torus, {iterations} iterations per run, solver {backend()}")
+def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,
+              full_resolution: bool = False, noise: float = NOISE, out=print) -> list[dict]:
+    """Time every (size, method) and the baseline; print the table, the ratios and the growth exponents."""
+    from .solver import backend
+
+    out(f"skelcore bench: torus (noise {noise:g}), whole `skelcore run` per process, solver {backend()}"
+        + (", full resolution" if full_resolution else ""))
     rows = []
-    for n in sizes:
-        points = make_shape("torus", n, seed=0).points
-        for name in methods:
-            row = _bench_one(points, name, iterations, baseline, metrics)
-            rows.append(row)
-            _print_row(row, out)
-    for name in methods:
-        timed = [row for row in rows if row["method"] == name]
-        if len(timed) >= 2:
-            first, last = timed[0], timed[-1]
-            exponent = math.log(last["iteration"] / first["iteration"]) / math.log(last["n"] / first["n"])
-            out(f"{name}: time per iteration grows as n^{exponent:.2f} from {first['n']} to {last['n']} points")
-    if len(methods) == 2:
+    with tempfile.TemporaryDirectory(prefix="skelcore-bench-") as tmp:
         for n in sizes:
-            lbc, gls = [next(r for r in rows if r["n"] == n and r["method"] == m) for m in methods]
-            out(f"n={n}: glskeleton total {gls['total']:.2f} s vs lbc {lbc['total']:.2f} s: "
-                f"speed-up {lbc['total'] / gls['total']:.2f}x")
+            cloud = _write_torus(Path(tmp), n, noise)
+            for method in methods:
+                rows.append(_child(n, ["run", str(cloud), method, str(Path(tmp) / f"{method}-{n}"),
+                                       str(full_resolution)]))
+                _print_run(rows[-1], out)
+            lbc = next((row for row in rows if row["n"] == n and row["method"] == "lbc"), None)
+            if n <= baseline_max and lbc is not None:
+                rows.append(_child(n, ["baseline", str(cloud), str(lbc["iterations"])]))
+                out(f"  pc-skeletor LBC solve, {lbc['iterations']} iterations: {rows[-1]['total']:.2f} s "
+                    f"(CPU {rows[-1]['cpu']:.2f} s), peak {rows[-1]['peak_mb']:.0f} MB")
+    _print_summary(rows, sizes, methods, out)
     return rows
 
 
-def _bench_one(points: np.ndarray, method: str, iterations: int, baseline: bool, metrics: bool) -> dict:
-    # Tiny thresholds make every run do the same number of solves.
-    params = ContractionParams(method=method, max_iterations=iterations, termination=1e-9, gl_covariance=1e-9)
+def _print_run(row: dict, out) -> None:
+    stages = " | ".join(f"{stage} {row['stages'][stage]:.2f}" for stage in STAGES if stage in row["stages"])
+    inner = " | ".join(f"{key} {value:.2f}" for key, value in row["contraction"].items())
+    reduced = f", contracted {row['contracted_points']:,}" if row["contracted_points"] != row["n_input"] else ""
+    out(f"{row['method']:>10} n={row['n']:,} ({row['n_input']:,} after cleaning{reduced}): whole {row['total']:.2f} s "
+        f"(CPU {row['cpu']:.2f} s), peak {row['peak_mb']:.0f} MB, "
+        f"{row['iterations']} iterations; {row['topology']}")
+    out(f"{'':>12}stages: {stages}")
+    out(f"{'':>12}inside contract: {inner}; share of set-up, metrics and skeleton {row['overhead_share']:.0%}")
+
+
+def _print_summary(rows: list[dict], sizes, methods, out) -> None:
+    out("\nside by side (seconds of the whole run; ratios from this one bench run)")
+    out(f"{'n':>10} " + " ".join(f"{m:>11}" for m in methods)
+        + "  pc-skeletor  lbc/gls (time)  speed-up vs pc-skeletor")
+    for n in sizes:
+        runs = {row["method"]: row for row in rows if row["n"] == n and row["method"] in methods}
+        base = next((row for row in rows if row["n"] == n and row["method"] == "baseline"), None)
+        line = f"{n:>10,} " + " ".join(f"{runs[m]['total']:>11.2f}" if m in runs else f"{'':>11}" for m in methods)
+        line += f"  {base['total']:>11.2f}" if base else f"  {'-':>11}"
+        if "lbc" in runs and "glskeleton" in runs:
+            line += f"  {runs['lbc']['total'] / runs['glskeleton']['total']:>15.2f}x"
+        if base:
+            line += "  " + ", ".join(f"{m} {base['total'] / runs[m]['total']:.1f}x "
+                                     f"(CPU {base['cpu'] / runs[m]['cpu']:.1f}x)" for m in methods if m in runs)
+        out(line)
+    for method in methods:
+        timed = sorted((row["n"], row["total"]) for row in rows if row["method"] == method)
+        large = [pair for pair in timed if pair[0] >= 100_000]
+        cpu = sorted((row["n"], row["cpu"]) for row in rows if row["method"] == method)
+        large_cpu = [pair for pair in cpu if pair[0] >= 100_000]
+        for label, pairs, cpu_pairs in (("all sizes", timed, cpu), ("from 100k", large, large_cpu)):
+            if len(pairs) >= 2:
+                out(f"{method}: whole run grows as n^{_exponent(pairs):.2f} (CPU n^{_exponent(cpu_pairs):.2f}; "
+                    f"{label}, least squares on log-log)")
+
+
+def _exponent(pairs) -> float:
+    return float(np.polyfit(np.log([p[0] for p in pairs]), np.log([p[1] for p in pairs]), 1)[0])
+
+
+def _write_torus(folder: Path, n: int, noise: float) -> Path:
+    from .export import write_points_ply
+    from .shapes import make_shape
+
+    path = folder / f"torus-{n}.ply"
+    write_points_ply(path, make_shape("torus", n, seed=0, noise=noise).points)
+    return path
+
+
+def _child(n: int, args: list[str]) -> dict:
+    """Run one measurement in a fresh Python process; its last output line is the JSON result. `n`: the size
+    asked for (cleaning may remove a few points)."""
+    command = [sys.executable, "-m", "skelcore.bench", *args]
     started = time.perf_counter()
-    states = run_contraction(points, params)
-    total = time.perf_counter() - started
-    steady = states[2:] or states[1:]
-    stage = {key: float(np.mean([s.timings.get(key, 0.0) for s in steady]))
-             for key in ("rings", "laplacian", "solve", "rest")}
-    if method == "lbc":
-        stage["rings"] = 0.0
-    row = {"n": len(points), "method": method, "total": total, "iterations": len(states) - 1,
-           "rings_once": states[0].timings["rings"], "first_solve": states[1].timings["solve"], **stage,
-           "iteration": sum(stage.values()), "system_sizes": [s.n_points for s in states]}
-
-    if method != "lbc":
-        return row  # its matrices shrink every iteration: no single matrix to compare with
-    # A matrix of the last iteration solved bare: numeric factorisation and solve only (analysis done).
-    last = states[-1]
-    current = Normalisation.fit(points).forward(last.points)
-    matrix = LaplacianSystem(last.rings).normal_matrix(current, last.wl, last.wh)
-    rhs = last.wh[:, None] ** 2 * current
-    solver = CholeskySolver()
-    solver.solve(matrix, rhs)
-    bare_start = time.perf_counter()
-    solver.solve(matrix, rhs)
-    row["bare_solve"] = time.perf_counter() - bare_start
-    row["ratio"] = row["iteration"] / row["bare_solve"]
-    if baseline:
-        superlu_start = time.perf_counter()
-        csc = matrix.tocsc()
-        for column in range(3):
-            spla.spsolve(csc, rhs[:, column])
-        row["baseline"] = time.perf_counter() - superlu_start
-    if metrics:
-        from .io import Cloud
-        from .pipeline import IterationMetricsCache
-
-        cache = IterationMetricsCache(Cloud(points=points))
-        cache.get(states, 0)
-        metrics_start = time.perf_counter()
-        cache.get(states, 1)
-        row["metrics"] = time.perf_counter() - metrics_start
-    return row
+    done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
+    if done.returncode != 0:
+        raise RuntimeError(f"bench child failed: {' '.join(args)}: {done.stderr.strip().splitlines()[-1:]}")
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result["total"] = time.perf_counter() - started  # interpreter start and imports included
+    result["n_input"], result["n"] = result["n"], n
+    return result
 
 
-def _print_row(row: dict, out) -> None:
-    out(f"\n{row['method']}  n={row['n']}  ({row['iterations']} iterations, total {row['total']:.2f} s; once per run: "
-        f"one-rings and sparsity patterns {row['rings_once']:.3f} s, first solve with symbolic analysis {row['first_solve']:.3f} s)")
-    out(f"  per iteration: one-ring {row['rings']:.4f} s | laplacian {row['laplacian']:.4f} s | "
-        f"factorise+solve {row['solve']:.4f} s | rest {row['rest']:.4f} s | whole {row['iteration']:.4f} s")
-    if len(set(row["system_sizes"])) > 1:
-        out(f"  system size per iteration: {row['system_sizes']}")
-    if "bare_solve" in row:
-        out(f"  bare factorise+solve of the same matrix {row['bare_solve']:.4f} s -> ratio whole/bare {row['ratio']:.2f}")
-    if "baseline" in row:
-        out(f"  pc-skeletor-style solve (3x SuperLU) {row['baseline']:.4f} s -> our whole iteration is "
-            f"{row['baseline'] / row['iteration']:.1f}x faster")
-    if "metrics" in row:
-        out(f"  metrics for one iteration {row['metrics']:.4f} s = {100 * row['metrics'] / row['iteration']:.0f}% "
-            f"of one contraction iteration")
+def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) -> dict:
+    """In the child: the whole pipeline as `skelcore run` does it, process start included."""
+    from .params import ContractionParams
+    from .pipeline import RunOptions, run_pipeline
+
+    options = RunOptions(params=ContractionParams(method=method),
+                         point_budget=None if full_resolution == "True" else RunOptions().point_budget)
+    result = run_pipeline(cloud, out_dir, options)
+    contraction: dict[str, float] = {}
+    for state in result.states:
+        for key, value in state.timings.items():
+            contraction[key] = contraction.get(key, 0.0) + value
+    overhead = (result.stages.get("metrics", 0) + result.stages.get("skeleton", 0) + contraction.get("rings", 0)
+                + contraction.get("laplacian", 0))
+    topology = result.skeleton.topology()
+    multires = result.metrics.get("multiresolution") or {}
+    return {"n": len(result.cloud.points), "method": method, "iterations": result.states[-1].iteration,
+            "stages": result.stages, "contraction": contraction, "overhead_share": overhead / _since_start(),
+            "contracted_points": multires.get("contracted_points", len(result.cloud.points)),
+            "topology": f"{topology['cycles']} cycles, {topology['junctions']} junctions, {topology['ends']} ends"}
+
+
+def _measure_baseline(cloud: str, iterations: str) -> dict:
+    """In the child: pc-skeletor's LBC solve (module docstring) for the given number of iterations."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from . import io
+    from .params import ContractionParams
+    from .step import schedule, start_run
+
+    points = io.load(cloud).points
+    params = ContractionParams()
+    run = start_run(points, params)
+    current, sizes = run.unit, run.sizes0
+    for iteration in range(1, int(iterations) + 1):
+        wl, wh = schedule(params, run.auto_wl0, iteration, run.sizes0, sizes)
+        laplacian = run.builder.laplacian(current)
+        system = sp.vstack([wl * laplacian, sp.diags(wh)]).tocsc()
+        normal = (system.T @ system).tocsc()
+        rhs = system.T @ np.vstack([np.zeros_like(current), wh[:, None] * current])
+        current = np.column_stack([spla.spsolve(normal, rhs[:, axis], permc_spec="COLAMD") for axis in range(3)])
+        sizes = run.rings.sizes(current)
+    return {"n": len(points), "method": "baseline", "iterations": int(iterations)}
+
+
+def _since_start() -> float:
+    return time.perf_counter() - _STARTED
+
+
+def _usage() -> tuple[float, float]:
+    """Peak resident memory (MB) and CPU seconds (user + system, all threads) of this process."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_maxrss / 1024.0, usage.ru_utime + usage.ru_stime  # Linux reports KiB
+
+
+_STARTED = time.perf_counter()
+
+if __name__ == "__main__":
+    kind, *arguments = sys.argv[1:]
+    measure = {"run": _measure_run, "baseline": _measure_baseline}[kind]
+    row = measure(*arguments)
+    row["peak_mb"], row["cpu"] = _usage()
+    print(json.dumps(row))

@@ -70,6 +70,13 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--label-weight", metavar="LABEL=W", action="append", default=[], type=_label_weight,
                        help="contraction weight of the points labelled LABEL (a multiplier of W_L on their Laplacian "
                             "rows, as pc-skeletor's semantic LBC); repeat for several labels; unnamed labels keep 1")
+    from .multires import POINT_BUDGET
+
+    group.add_argument("--point-budget", type=int, default=POINT_BUDGET,
+                       help="larger clouds are contracted as voxel centroids of about this many points, every input "
+                            "point carried along (multi-resolution; default: %(default)s)")
+    group.add_argument("--full-resolution", action="store_true",
+                       help="contract every input point, whatever the cloud's size (no multi-resolution)")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
@@ -88,7 +95,8 @@ def run_options(args: argparse.Namespace):
                               denoise=not args.no_denoise)
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
                       sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
-                      labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())))
+                      labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())),
+                      point_budget=None if args.full_resolution else args.point_budget)
 
 
 def _label_weight(text: str) -> tuple[int, float]:
@@ -114,13 +122,17 @@ def build_parser() -> argparse.ArgumentParser:
     add_parameter_flags(run)
     run.set_defaults(handler=_run)
 
-    bench = commands.add_parser("bench", help="time the contraction per stage on a torus")
-    bench.add_argument("--points", type=int, nargs="+", default=[30_000], help="cloud sizes (default: %(default)s)")
-    bench.add_argument("--iterations", type=int, default=4, help="contraction iterations timed per size (default: %(default)s)")
-    bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="lbc")
-    bench.add_argument("--baseline", action="store_true",
-                       help="also time a pc-skeletor-style iteration (three SuperLU factorisations) for the speed-up")
-    bench.add_argument("--metrics", action="store_true", help="also time the paper's metrics for one iteration")
+    from .bench import BASELINE_MAX, NOISE, SIZES
+
+    bench = commands.add_parser("bench", help="time whole runs per stage on noisy tori, LBC and GLSkeleton, "
+                                               "against pc-skeletor's LBC solve, with peak memory and growth")
+    bench.add_argument("--points", type=int, nargs="+", default=list(SIZES), help="cloud sizes (default: %(default)s)")
+    bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="both")
+    bench.add_argument("--baseline-max", type=int, default=BASELINE_MAX,
+                       help="time pc-skeletor's LBC solve up to this many points (0: never; default: %(default)s)")
+    bench.add_argument("--full-resolution", action="store_true", help="contract every point (no multi-resolution)")
+    bench.add_argument("--noise", type=float, default=NOISE,
+                       help="Gaussian noise of the tori, a fraction of the bounding-box diagonal (default: %(default)s)")
     bench.set_defaults(handler=_bench)
 
     # -- bench-quality (skelcore.quality_bench) --
@@ -221,8 +233,9 @@ def _run(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from .bench import run_bench
 
-    run_bench(args.points, iterations=args.iterations, method=args.method, baseline=args.baseline,
-              metrics=args.metrics)
+    methods = ("lbc", "glskeleton") if args.method == "both" else (args.method,)
+    run_bench(args.points, methods=methods, full_resolution=args.full_resolution, noise=args.noise,
+              baseline_max=args.baseline_max)
     return 0
 
 

@@ -1,6 +1,6 @@
 """GLSkeleton (Wen et al., RA-L 2024): Laplacian-based contraction with in-loop point reduction.
 
-Each step is an LBC solve (Cao et al. 2010, eq. 2; same weights and schedule as skelcore.contraction). After
+Each step is an LBC solve (Cao et al. 2010, eq. 2; same weights and schedule as LBC, skelcore.step). After
 it, points whose local contraction has converged absorb their nearest ring neighbour, so the next system is
 smaller. The rules follow the authors' MATLAB (weiqimeng1/GLSkeleton, Source/
 laplacian_contraction_with_reduction.m, "LCWR" below, and the files it calls); in the run's frame:
@@ -50,19 +50,17 @@ The constants assume the normalised frame (bounding box 1.6), as the MATLAB does
 """
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import time
 from typing import Generator
 
 import numpy as np
 
-from .contraction import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages
 from .laplacian import LaplacianSystem
-from .neighbours import OneRings, delaunay_fans, one_rings
-from .normalise import Normalisation, robust_extent
-from .params import ContractionParams, default_k
+from .neighbours import OneRings, delaunay_fans
+from .params import ContractionParams
 from .solver import CholeskySolver
+from .step import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages, start_run, stopped
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -77,24 +75,13 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract. `weights`: (n,)
     per-point contraction weights of the input points, checked; a merged point carries their mean over the
     input points it stands for."""
-    points = np.asarray(points, dtype=np.float64)
-    n = len(points)
-    normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
-    unit = normalisation.forward(points)
-    started = time.perf_counter()
-    rings = one_rings(unit, params.k or default_k(n))
-    builder = LaplacianSystem(rings)
-    rings_time = time.perf_counter() - started
-    sizes0 = rings.sizes(unit)
-    auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
-    extent0 = robust_extent(unit)
-    ids = np.arange(n)
+    run = start_run(points, params)
+    state, rings, builder, auto_wl0, extent0 = run.state, run.rings, run.builder, run.auto_wl0, run.extent0
+    unit, sizes0, normalisation = run.unit, run.sizes0, run.normalisation
+    n = len(unit)
+    ids = owner = state.point_ids
     priority = np.random.default_rng(PRIORITY_SEED).permutation(n)  # merge order, by input id
-
-    state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
-                           wl=params.wl0 or auto_wl0, wh=np.full(n, params.wh0), ring_ratio=1.0,
-                           params=params, timings={"rings": rings_time})
-    current, sizes, start_sizes, ratio, owner = unit, sizes0, sizes0, 1.0, ids
+    current, sizes, start_sizes, ratio = unit, sizes0, sizes0, 1.0
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
     for iteration in itertools.count(1):
@@ -114,18 +101,15 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if stages:
             yield None
         if failure is not None:
-            reason, detail = failure
-            message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))
-            yield dataclasses.replace(state, termination=reason, message=message)
+            yield stopped(state, *failure, notes)
             return
         new_sizes, nearest = _nearest_in_ring(rings, candidate)
         new_ratio = float(new_sizes.sum() / sizes0.sum())
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
         if iteration > 1 and drop < params.termination:
-            message = "; ".join([TERMINATION_MESSAGES["ring_ratio"],
-                                 f"the step shrank the rings by {drop:.4f} < {params.termination:g}", *notes])
-            yield dataclasses.replace(state, termination="ring_ratio", message=message)
+            yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
+                          notes)
             return
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import memory, sizing
+from . import memory, readers, sizing
 from .errors import InputError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 
@@ -283,6 +283,9 @@ def _read_off(path: Path):
 
 
 def _read_text(path: Path):
+    fast = readers.read_xyz(path)
+    if fast is not None:
+        return fast, None
     rows = []
     with open(path, "r", encoding="utf-8", errors="strict") as handle:
         for line in handle:
@@ -303,6 +306,9 @@ def _read_text(path: Path):
 
 
 def _read_ply(path: Path):
+    fast = readers.read_ply(path)
+    if fast is not None:
+        return fast
     import trimesh
 
     loaded = trimesh.load(path, process=False)

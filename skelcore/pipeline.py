@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import __version__, io
+from . import __version__, io, multires
 from .clean import CleaningParams, clean, cleaned
 from .curveness import curve_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
@@ -48,6 +48,7 @@ class RunOptions:
     cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
     labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
     label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
+    point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
 
     def weights(self, cloud: io.Cloud) -> np.ndarray | None:
         """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""
@@ -74,6 +75,7 @@ class RunResult:
     skeleton: Skeleton
     metrics: dict
     elapsed: float
+    stages: dict = field(default_factory=dict)  # seconds per pipeline stage (load, clean, contract, ...)
 
     def summary_line(self) -> str:
         """One line: iterations, termination, skeleton size and topology, verdict, time, folder."""
@@ -127,12 +129,31 @@ class IterationMetricsCache:
 def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
                  progress: Callable[[str], None] | None = None) -> RunResult:
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
-    started = time.perf_counter()
-    run = compute(input_path, options, progress)
-    elapsed = time.perf_counter() - started
+    clock = StageClock()
+    run = compute(input_path, options, progress, clock=clock)
     summary = write_results(out_dir, run.cloud, run.states, run.skeleton, run.metrics, options,
-                            input_path=input_path, elapsed=elapsed, weights=run.weights)
-    return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, elapsed)
+                            input_path=input_path, elapsed=clock.elapsed(), weights=run.weights,
+                            reduction=run.reduction)
+    clock.mark("write")
+    return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, clock.elapsed(), clock.stages)
+
+
+class StageClock:
+    """Seconds per pipeline stage, in order."""
+
+    def __init__(self) -> None:
+        self.start = self.last = time.perf_counter()
+        self.stages: dict[str, float] = {}
+
+    def mark(self, stage: str) -> None:
+        """Close `stage`: the seconds since the previous mark (or the start)."""
+        now = time.perf_counter()
+        self.stages[stage] = now - self.last
+        self.last = now
+
+    def elapsed(self) -> float:
+        """Seconds since the clock started."""
+        return time.perf_counter() - self.start
 
 
 @dataclass
@@ -143,14 +164,18 @@ class Computed:
     metrics: list[IterationMetrics]
     skeleton: Skeleton
     weights: np.ndarray | None  # the per-point contraction weights used (None: all 1)
+    reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
 
 
 def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
-            labels=None, weights=None) -> Computed:
+            labels=None, weights=None, clock: StageClock | None = None) -> Computed:
     """The whole run on a file path or a validated Cloud: load (with the options' sampling and labels;
     `labels` overrides options.labels and may be an array), clean (unless the cloud was), contract to the
     end, the paper's metrics of every state, the skeleton of the last. `weights`: explicit per-point
-    contraction weights of the cloud before cleaning, else those of options.label_weights."""
+    contraction weights of the cloud before cleaning, else those of options.label_weights. A cloud above
+    options.point_budget is contracted at reduced resolution, every input point carried (skelcore.multires).
+    `clock` records the seconds of each stage."""
+    clock = clock or StageClock()
     options.params.validated()
     options.skeleton_params()  # bad parameters fail before any work
     if weights is not None and options.label_weights:
@@ -160,21 +185,41 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     else:
         cloud = io.load(source, sample=options.sample, voxel_size=options.voxel_size, max_points=options.max_points,
                         seed=options.seed, labels=options.labels if labels is None else labels)
+    clock.mark("load")
     weights = None if weights is None else check_weights(weights, len(cloud.points))
     try:
         if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
             report = clean(cloud.points, options.cleaning)
             cloud = cleaned(cloud, options.cleaning, report=report)
             weights = None if weights is None else weights[report.kept]
+        clock.mark("clean")
         for note in cloud.notes:
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
-        states = run_states(cloud, options.params, progress, weights)
-        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention).all(states)
-        skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+        reduction = multires.reduce_cloud(cloud.points, options.point_budget)
+        if reduction is None:
+            states = run_states(cloud, options.params, progress, weights)
+            clock.mark("contract")
+            skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+            clock.mark("skeleton")
+        else:
+            _say(progress, f"{cloud.name}: {reduction.note()}")
+            clock.mark("reduce")
+            reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
+                                 None if weights is None else reduction.mean(weights))
+            clock.mark("contract")
+            skeleton = reduction.skeleton_for_input(skeleton_of_state(reduced[-1], reduction.points,
+                                                                      options.skeleton_params()))
+            clock.mark("skeleton")
+            carrier = reduction.carrier(reduced[0].rings)
+            states = [reduction.lift(state, carrier) for state in reduced]
+            clock.mark("carry")
+        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed,
+                                        options.normal_convention).all(states)
+        clock.mark("metrics")
     except SkelError as error:
         raise named(error, cloud.name) from None
-    return Computed(cloud, states, metrics, skeleton, weights)
+    return Computed(cloud, states, metrics, skeleton, weights, reduction)
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
@@ -192,7 +237,7 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
 
 
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],
-                     skeleton: dict | None = None) -> dict:
+                     reduction: multires.Reduction | None = None, skeleton: dict | None = None) -> dict:
     """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict (with the
     skeleton checks given the skeleton's evidence, see skeleton_evidence)."""
     iterations = []
@@ -208,6 +253,7 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
     return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,
             "iterations": iterations,
             "termination": final.termination, "termination_message": TERMINATION_MESSAGES.get(final.termination, ""),
+            "multiresolution": None if reduction is None else reduction.describe(),
             "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
 
 
@@ -224,7 +270,7 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
-        "normal_convention": options.normal_convention,
+        "normal_convention": options.normal_convention, "point_budget": options.point_budget,
         "retuned": [state.message for state in states if "retuned" in state.message],
         "weights": weights_document(weights, options),
         "skelcore_version": __version__, "solver": backend(),
@@ -245,7 +291,8 @@ def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | 
 
 def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
                   metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
-                  elapsed: float | None = None, weights: np.ndarray | None = None) -> dict:
+                  elapsed: float | None = None, weights: np.ndarray | None = None,
+                  reduction: multires.Reduction | None = None) -> dict:
     """Write the five result files, each atomically (a temporary file renamed into place)."""
     from .export import skeleton_document, write_points_ply, write_skeleton_ply
 
@@ -254,8 +301,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
-    final = states[-1]
-    summary = metrics_document(cloud, states, metrics, skeleton_evidence(skeleton, final, cloud.points))
+    evidence = skeleton_evidence(skeleton, states[-1], cloud.points)
+    summary = metrics_document(cloud, states, metrics, reduction, evidence)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
     labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too

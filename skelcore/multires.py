@@ -1,0 +1,147 @@
+"""Multi-resolution contraction for large clouds: contract a voxel-reduced cloud, then carry every input point.
+
+Above POINT_BUDGET input points, the contraction runs on the centroids of a voxel grid whose voxel size is
+chosen so that about POINT_BUDGET voxels are occupied (the centroid also averages the scanner's noise). Every
+input point is then carried along with the reduced cloud: its position at an iteration is a fixed convex
+combination of the positions of the nearest few among its voxel's centroid and that centroid's one-ring
+neighbours (inverse squared distance weights, set once in the input), so it follows its own sheet of the
+surface (never a neighbouring one: the ring is the local surface), ends on the skeleton with it, and keeps
+its own row. The paper's metrics are therefore still those of every input point, and the skeleton's
+correspondence names the node of every input point (that of its voxel's centroid).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # the CLI reads POINT_BUDGET: no scipy or networkx for that
+    import scipy.sparse as sp
+
+    from .neighbours import OneRings
+    from .skeleton import Skeleton
+    from .step import IterationState
+
+POINT_BUDGET = 50_000  # clouds with more points are contracted at this resolution (0 or None: never)
+VOXEL_ROUNDS = 6  # secant steps on the voxel size to land in BUDGET_BAND
+BUDGET_BAND = (0.8, 1.0)  # accepted share of the budget for the reduced cloud
+WEIGHT_FLOOR = 0.05  # in voxel sizes: the distance below which every weight is the same
+CARRIERS = 4  # an input point moves with this many of its nearest candidates (its centroid and that one's ring)
+CHUNK = 131_072  # input points per block while the weights are set
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """A voxel reduction of an input cloud and the carrying of its points."""
+    points: np.ndarray  # (m,3) voxel centroids, the cloud that is contracted
+    voxel_of: np.ndarray  # (n,) row of `points` (voxel) of every input point
+    voxel_size: float
+    input_points: np.ndarray = dataclasses.field(repr=False)  # (n,3)
+
+    @property
+    def n_input(self) -> int:
+        """The number of input points."""
+        return len(self.voxel_of)
+
+    def note(self) -> str:
+        """One progress line: what was reduced and how to turn it off."""
+        return (f"multi-resolution: {self.n_input:,} points above the budget of the contraction; contracted "
+                f"{len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}), every input point carried "
+                f"along (turn off with --full-resolution)")
+
+    def describe(self) -> dict:
+        """metrics.json's `multiresolution`: input and contracted points, voxel size."""
+        return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size}
+
+    def mean(self, values: np.ndarray) -> np.ndarray:
+        """(m,) the mean of per-input-point values over each voxel (e.g. contraction weights)."""
+        counts = np.bincount(self.voxel_of, minlength=len(self.points))
+        return np.bincount(self.voxel_of, weights=values, minlength=len(self.points)) / counts
+
+    def carrier(self, rings: OneRings) -> sp.csr_matrix:
+        """(n, m) convex weights: each input point over the CARRIERS nearest of its voxel's centroid and that
+        centroid's ring."""
+        import scipy.sparse as sp
+
+        counts = np.diff(rings.indptr)
+        width = 1 + int(counts.max(initial=0))
+        # candidates[c]: the centroid c, then its ring, padded with c (a repeated candidate adds no weight)
+        candidates = np.repeat(np.arange(len(self.points))[:, None], width, axis=1)
+        column = np.arange(len(rings.indices)) - np.repeat(rings.indptr[:-1], counts)
+        candidates[rings.centres(), 1 + column] = rings.indices
+        valid = np.ones(candidates.shape, dtype=bool)
+        valid[:, 1:] = np.arange(1, width) <= counts[:, None]
+        keep = min(CARRIERS, width)
+        columns = np.empty((self.n_input, keep), dtype=np.int64)
+        weights = np.empty((self.n_input, keep))
+        for start in range(0, self.n_input, CHUNK):  # bounded temporaries: (CHUNK, width, 3)
+            rows = slice(start, start + CHUNK)
+            mine, usable = candidates[self.voxel_of[rows]], valid[self.voxel_of[rows]]
+            distance2 = ((self.points[mine] - self.input_points[rows, None, :]) ** 2).sum(axis=-1)
+            distance2 = np.where(usable, distance2, np.inf)
+            nearest = np.argpartition(distance2, keep - 1, axis=1)[:, :keep]
+            near2 = np.take_along_axis(distance2, nearest, axis=1)
+            columns[rows] = np.take_along_axis(mine, nearest, axis=1)
+            weights[rows] = np.where(np.isfinite(near2),
+                                     1.0 / np.maximum(near2, (WEIGHT_FLOOR * self.voxel_size) ** 2), 0.0)
+        weights /= weights.sum(axis=1, keepdims=True)
+        indptr = np.arange(0, weights.size + 1, keep)
+        return sp.csr_matrix((weights.ravel(), columns.ravel(), indptr), shape=(self.n_input, len(self.points)))
+
+    def skeleton_for_input(self, skeleton: Skeleton) -> Skeleton:
+        """The skeleton of the reduced cloud with the correspondence of every input point (its voxel's)."""
+        correspondence = skeleton.correspondence[self.voxel_of]
+        counts = np.bincount(correspondence, minlength=skeleton.graph.number_of_nodes())
+        graph = skeleton.graph.copy()
+        for node in graph.nodes:
+            graph.nodes[node]["point_count"] = int(counts[node])
+        return dataclasses.replace(skeleton, graph=graph, correspondence=correspondence)
+
+    def lift(self, state: IterationState, carrier: sp.csr_matrix) -> IterationState:
+        """The state of every input point: carried positions, all present, each representing itself."""
+        ids = np.arange(self.n_input)
+        positions = np.asarray(carrier @ state.points[state.owner])
+        return dataclasses.replace(state, points=positions, point_ids=ids, owner=ids)
+
+
+def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
+    """The voxel reduction of a cloud above `budget` points (None when it is within it, or budget is off)."""
+    n = len(points)
+    if not budget or n <= budget:
+        return None
+    lower, upper = (int(share * budget) for share in BUDGET_BAND)
+    low = points.min(axis=0)
+    extent = float(np.ptp(points, axis=0).max())
+    size = extent / np.sqrt(budget)  # a surface's voxel count goes as size^-2
+    best, previous, slope = None, None, -2.0
+    for _ in range(VOXEL_ROUNDS):
+        voxel_of, count = _voxels(points, low, size)
+        if count <= upper and (best is None or count > best[2]):
+            best = (size, voxel_of, count)
+        if lower <= count <= upper:
+            break
+        if previous is not None and previous[0] != size and previous[1] != count:
+            # secant in log-log: a surface's count goes as size^-2, a volume's (thick noise) up to size^-3
+            slope = float(np.clip(np.log(count / previous[1]) / np.log(size / previous[0]), -3.5, -1.0))
+        previous = (size, count)
+        size *= (0.5 * (lower + upper) / count) ** (1.0 / slope)
+    if best is None:  # every round above the budget: a coarser grid is sure to fit
+        size *= 2.0
+        best = (size, *_voxels(points, low, size))
+    size, voxel_of, count = best
+    centroids = np.zeros((count, 3))
+    for axis in range(3):
+        centroids[:, axis] = np.bincount(voxel_of, weights=points[:, axis], minlength=count)
+    centroids /= np.bincount(voxel_of, minlength=count)[:, None]
+    return Reduction(points=centroids, voxel_of=voxel_of, voxel_size=float(size), input_points=points)
+
+
+def _voxels(points: np.ndarray, low: np.ndarray, size: float) -> tuple[np.ndarray, int]:
+    """Voxel row of every point (numbered in key order) and the number of occupied voxels."""
+    cells = ((points - low) / size).astype(np.int64)
+    span = cells.max(axis=0) + 1
+    keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+    _, voxel_of = np.unique(keys, return_inverse=True)
+    return voxel_of.ravel(), int(voxel_of.max()) + 1

@@ -1,0 +1,70 @@
+"""Multi-resolution (skelcore.multires): a reduced cloud is contracted and every input point carried along."""
+import json
+
+import numpy as np
+import pytest
+
+from skelcore import multires
+from skelcore.evaluate import evaluate, make_graph
+from skelcore.export import write_points_ply
+from skelcore.pipeline import RunOptions, run_pipeline
+from skelcore.shapes import EXPECTED_TOPOLOGY, centreline, make_shape
+
+TOPOLOGY = ("components", "cycles", "ends", "junctions")
+
+
+def test_within_the_budget_nothing_is_reduced():
+    points = make_shape("torus", 2000, seed=0).points
+    assert multires.reduce_cloud(points, 2000) is None and multires.reduce_cloud(points, None) is None
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.01])
+def test_reduction_lands_in_the_budget_band(noise):
+    points = make_shape("torus", 40_000, seed=0, noise=noise).points
+    reduction = multires.reduce_cloud(points, 5000)
+    lower, upper = (share * 5000 for share in multires.BUDGET_BAND)
+    assert lower <= len(reduction.points) <= upper
+    assert reduction.voxel_of.shape == (40_000,) and set(np.unique(reduction.voxel_of)) == set(range(len(reduction.points)))
+    # a centroid lies within its voxel's reach of every point it stands for
+    reach = np.linalg.norm(points - reduction.points[reduction.voxel_of], axis=1)
+    assert reach.max() <= np.sqrt(3) * reduction.voxel_size + 1e-9
+
+
+@pytest.mark.parametrize("name", ["torus", "y_branch"])
+def test_pipeline_above_the_budget(tmp_path, name):
+    """The reduced run keeps the topology, and every input point keeps its row: carried positions, metrics
+    over the input ids, a skeleton node each; metrics.json says what was done."""
+    shape = make_shape(name, 6000, seed=0)
+    path = tmp_path / f"{name}.ply"
+    write_points_ply(path, shape.points)
+    result = run_pipeline(path, tmp_path / "out", RunOptions(point_budget=2000))
+    n = len(result.cloud.points)
+    info = result.metrics["multiresolution"]
+    assert info["input_points"] == n and info["contracted_points"] <= 2000
+    assert all(state.points.shape == (n, 3) and np.array_equal(state.point_ids, np.arange(n)) for state in result.states)
+    assert result.skeleton.correspondence.shape == (n,)
+    counts = [result.skeleton.graph.nodes[i]["point_count"] for i in result.skeleton.graph.nodes]
+    assert sum(counts) == n
+    truth = make_graph(*centreline(name)[:2], name)
+    scored = evaluate(make_graph(result.skeleton.nodes_array(), result.skeleton.edges_array()), truth)
+    assert {key: scored["topology"]["skeleton"][key] for key in TOPOLOGY} == \
+        {key: EXPECTED_TOPOLOGY[name][key] for key in TOPOLOGY}
+    assert scored["chamfer"] <= 0.02
+    written = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert written["multiresolution"]["contracted_points"] == info["contracted_points"]
+    assert json.loads((tmp_path / "out" / "params.json").read_text())["point_budget"] == 2000
+
+
+def test_carried_points_are_convex_combinations_of_their_ring():
+    points = make_shape("capsule", 8000, seed=0).points
+    reduction = multires.reduce_cloud(points, 2000)
+    from skelcore.contraction import run_contraction
+
+    states = run_contraction(reduction.points)
+    carrier = reduction.carrier(states[0].rings)
+    np.testing.assert_allclose(np.asarray(carrier.sum(axis=1)).ravel(), 1.0)
+    assert carrier.data.min() >= 0
+    lifted = reduction.lift(states[-1], carrier)
+    # each carried point lies within the bounding box of the contracted cloud
+    low, high = states[-1].points.min(axis=0), states[-1].points.max(axis=0)
+    assert ((lifted.points >= low - 1e-9) & (lifted.points <= high + 1e-9)).all()

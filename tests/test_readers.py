@@ -1,0 +1,69 @@
+"""The direct PLY/XYZ readers (skelcore.readers) agree with trimesh and fall back on anything unusual."""
+import numpy as np
+import pytest
+import trimesh
+
+from skelcore import io, readers
+
+
+@pytest.fixture
+def cloud():
+    rng = np.random.default_rng(0)
+    return rng.random((500, 3)), rng.integers(0, 500, (300, 3))
+
+
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+@pytest.mark.parametrize("with_faces", [False, True])
+def test_ply_matches_trimesh(tmp_path, cloud, encoding, with_faces):
+    points, faces = cloud
+    geometry = trimesh.Trimesh(points, faces, process=False) if with_faces else trimesh.PointCloud(points)
+    path = tmp_path / "c.ply"
+    path.write_bytes(trimesh.exchange.ply.export_ply(geometry, encoding=encoding))
+    fast = readers.read_ply(path)
+    if encoding == "ascii" and with_faces:
+        assert fast is None  # ASCII faces: left to trimesh
+    else:
+        np.testing.assert_allclose(fast[0], points, atol=1e-6)  # trimesh writes float32
+        assert (fast[1] is None) if not with_faces else np.array_equal(fast[1], faces)
+    loaded = io.load(path)
+    assert loaded.points.shape == points.shape and (loaded.faces is not None) == with_faces
+
+
+def test_big_endian_and_extra_properties(tmp_path, cloud):
+    points = cloud[0]
+    header = ("ply\nformat binary_big_endian 1.0\ncomment made here\nelement vertex 500\nproperty double x\n"
+              "property double y\nproperty double z\nproperty uchar red\nend_header\n")
+    table = np.zeros(500, dtype=[("x", ">f8"), ("y", ">f8"), ("z", ">f8"), ("red", "u1")])
+    table["x"], table["y"], table["z"] = points.T
+    path = tmp_path / "c.ply"
+    path.write_bytes(header.encode() + table.tobytes())
+    np.testing.assert_allclose(readers.read_ply(path)[0], points)
+
+
+@pytest.mark.parametrize("header", [
+    "ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nproperty float y\nend_header\n",
+    "ply\nformat binary_little_endian 1.0\nelement camera 1\nproperty float x\nelement vertex 10\nend_header\n",
+    "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty float x\nproperty float y\n"
+    "property float z\nend_header\n",  # truncated body
+    "not a ply at all\n",
+])
+def test_unusual_ply_falls_back(tmp_path, header):
+    path = tmp_path / "c.ply"
+    path.write_bytes(header.encode() + bytes(12))
+    assert readers.read_ply(path) is None
+
+
+def test_xyz_equal_lines_and_commas(tmp_path, cloud):
+    points = cloud[0]
+    np.savetxt(tmp_path / "a.xyz", np.column_stack([points, points[:, :1]]))
+    np.testing.assert_allclose(readers.read_xyz(tmp_path / "a.xyz"), points)
+    np.savetxt(tmp_path / "b.txt", points, delimiter=",")
+    np.testing.assert_allclose(readers.read_xyz(tmp_path / "b.txt"), points)
+
+
+@pytest.mark.parametrize("text", ["1 2 3\n4 5\n6 7 8\n", "1 2 3\n4 5 6 7\n8 9\n", "# comment\n1 2 3\n",
+                                  "1 2 x\n", "3\n1 2 3\n4 5 6\n7 8 9\n"])
+def test_uneven_or_commented_text_falls_back(tmp_path, text):
+    path = tmp_path / "c.xyz"
+    path.write_text(text)
+    assert readers.read_xyz(path) is None
