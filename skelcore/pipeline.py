@@ -301,8 +301,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
-    evidence = skeleton_evidence(skeleton, states[-1], cloud.points)
-    summary = metrics_document(cloud, states, metrics, reduction, evidence)
+    final = states[-1]
+    summary = metrics_document(cloud, states, metrics, reduction, skeleton_evidence(skeleton, final, cloud.points))
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
     labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
