@@ -1,0 +1,283 @@
+"""Shapes of known genus beyond tubes, for the quality benchmark: CSG solids and the reference meshes and scans.
+
+A solid's curve skeleton has one independent cycle per handle and one component per piece, so the truth
+of each solid is read from its own closed mesh: cycles = total genus = (2 C - chi) / 2 with chi = V - E + F
+(Euler-Poincare for C closed orientable surfaces). The solids are built with manifold3d, whose boolean
+operations return closed 2-manifolds, so that count is exact. Every shape is sampled to the same number of
+points evenly over its surface (seeded), with the mesh's face normals at the samples.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from .errors import InputError
+
+DEFAULT_POINTS = 10_000
+SEGMENTS = 64  # facets around every circle of a solid: fine enough that sampling sees no facets
+
+
+@dataclass(frozen=True)
+class BenchmarkShape:
+    name: str
+    points: np.ndarray  # (n,3) float64 surface samples
+    cycles: int  # independent loops of a correct curve skeleton (the genus)
+    components: int  # connected pieces of a correct curve skeleton
+    source: str  # how the shape was made, or the reference file it comes from
+    normals: np.ndarray | None = None  # (n,3) outward unit normals at the samples, when a mesh gives them
+    ends: int | None = None  # degree-1 nodes of a correct skeleton, where a rig or the construction fixes it
+    note: str = ""  # why the truth is what it is
+
+
+# --- CSG solids ---------------------------------------------------------------------------------
+
+def _manifold():
+    import manifold3d
+
+    return manifold3d
+
+
+def _torus(major: float, minor: float):
+    m3d = _manifold()
+    ring = m3d.CrossSection.circle(minor, SEGMENTS).translate((major, 0.0))
+    return m3d.Manifold.revolve(ring, SEGMENTS)  # around z, in the xy plane
+
+
+def _stadium_link(half_straight: float, major: float, minor: float):
+    """A chain link: two half rings joined by straight bars along x, in the xy plane."""
+    m3d = _manifold()
+    right, left = _torus(major, minor).split_by_plane((1.0, 0.0, 0.0), 0.0)
+    bar = m3d.Manifold.cylinder(2 * half_straight, minor, minor, SEGMENTS, True).rotate((0.0, 90.0, 0.0))
+    return m3d.Manifold.batch_boolean([
+        right.translate((half_straight, 0.0, 0.0)), left.translate((-half_straight, 0.0, 0.0)),
+        bar.translate((0.0, major, 0.0)), bar.translate((0.0, -major, 0.0)),
+    ], m3d.OpType.Add)
+
+
+def _upright(solid):
+    """Turn a solid lying in the xy plane into the xz plane (a link threaded through its neighbour)."""
+    return solid.rotate((90.0, 0.0, 0.0))
+
+
+def drilled_block(holes: int):
+    """A plate 0.6 thick with `holes` round holes drilled through it: in a row, or a 2x2 grid for 4."""
+    m3d = _manifold()
+    pitch, radius = 1.0, 0.28
+    if holes == 4:
+        size, centres = (2.2, 2.2), [(x, y) for x in (-0.5, 0.5) for y in (-0.5, 0.5)]
+    else:
+        size, centres = (holes * pitch + 0.4, 1.2), [((i - (holes - 1) / 2) * pitch, 0.0) for i in range(holes)]
+    block = m3d.Manifold.cube((size[0], size[1], 0.6), True)
+    drill = m3d.Manifold.cylinder(1.0, radius, radius, SEGMENTS, True)
+    return block - m3d.Manifold.batch_boolean([drill.translate((x, y, 0.0)) for x, y in centres], m3d.OpType.Add)
+
+
+def mug():
+    """A cup with an open cavity (walls 0.1 thick) and a ring handle on its side: genus 1."""
+    m3d = _manifold()
+    body = m3d.Manifold.cylinder(1.1, 0.5, 0.5, SEGMENTS)
+    cavity = m3d.Manifold.cylinder(1.1, 0.4, 0.4, SEGMENTS).translate((0.0, 0.0, 0.12))
+    handle = _upright(_torus(0.3, 0.08)).translate((0.5, 0.0, 0.55))
+    # The handle's ends are cut inside the wall (not on its surface: coincident faces would leave slivers).
+    return (body - cavity) + (handle - m3d.Manifold.cylinder(1.1, 0.45, 0.45, SEGMENTS))
+
+
+def pretzel():
+    """Three rings in a row, each overlapping the next along a lens (no extra hole between them): genus 3."""
+    m3d = _manifold()
+    ring = _torus(1.0, 0.3)
+    return m3d.Manifold.batch_boolean([ring.translate((x, 0.0, 0.0)) for x in (-1.7, 0.0, 1.7)], m3d.OpType.Add)
+
+
+def linked_rings(count: int):
+    """`count` rings of radius 1 in a chain, alternately in the xy and xz planes, 1.3 apart: each threads
+    its neighbours with a gap of 0.3 and never touches them, so components = cycles = count."""
+    m3d = _manifold()
+    ring = _torus(1.0, 0.2)
+    rings = [(ring if i % 2 == 0 else _upright(ring)).translate((1.3 * i, 0.0, 0.0)) for i in range(count)]
+    return m3d.Manifold.batch_boolean(rings, m3d.OpType.Add) if count > 1 else rings[0]
+
+
+def gear(teeth: int = 12, holes: int = 4):
+    """A toothed disc 0.3 thick with a centre bore and `holes` lightening holes: genus holes + 1."""
+    m3d = _manifold()
+    disc = m3d.Manifold.cylinder(0.3, 1.0, 1.0, SEGMENTS, True)
+    tooth = m3d.Manifold.cube((0.3, 0.18, 0.3), True).translate((1.1, 0.0, 0.0))
+    disc = m3d.Manifold.batch_boolean([disc] + [tooth.rotate((0.0, 0.0, 360.0 * i / teeth)) for i in range(teeth)],
+                                      m3d.OpType.Add)
+    drill = m3d.Manifold.cylinder(1.0, 0.18, 0.18, SEGMENTS, True)
+    bores = [drill.scale((1.2, 1.2, 1.0))]
+    bores += [drill.translate((0.6 * np.cos(a), 0.6 * np.sin(a), 0.0))
+              for a in 2 * np.pi * (np.arange(holes) + 0.5) / holes]
+    return disc - m3d.Manifold.batch_boolean(bores, m3d.OpType.Add)
+
+
+def chain(links: int = 4):
+    """`links` oval links, alternately in the xy and xz planes; each end loop threads its neighbour's."""
+    m3d = _manifold()
+    half_straight, major, minor = 0.45, 0.45, 0.12
+    pitch = 2 * half_straight + major  # a neighbour's end circle passes through this link's end-circle centre
+    link = _stadium_link(half_straight, major, minor)
+    parts = [(link if i % 2 == 0 else _upright(link)).translate((pitch * i, 0.0, 0.0)) for i in range(links)]
+    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+
+
+# name -> (builder, ends of a correct skeleton or None when the construction does not fix them, description)
+SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
+    "block_1_hole": (lambda: drilled_block(1), 0, "plate with 1 drilled hole"),
+    "block_2_holes": (lambda: drilled_block(2), 0, "plate with 2 drilled holes in a row"),
+    "block_3_holes": (lambda: drilled_block(3), 0, "plate with 3 drilled holes in a row"),
+    "block_4_holes": (lambda: drilled_block(4), 0, "plate with 4 drilled holes in a 2x2 grid"),
+    "mug": (mug, None, "cup with an open cavity and a ring handle"),
+    "pretzel": (pretzel, 0, "three overlapping rings in a row (genus 3)"),
+    "linked_rings_2": (lambda: linked_rings(2), 0, "two linked rings (Hopf link)"),
+    "linked_rings_3": (lambda: linked_rings(3), 0, "three rings linked in a chain"),
+    "gear": (gear, None, "12-tooth gear with a bore and 4 lightening holes"),
+    "chain": (chain, 0, "four oval chain links"),
+}
+
+
+def solid_mesh(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS)."""
+    if name not in SOLIDS:
+        raise InputError(f"solid {name!r}: unknown (choose from {', '.join(SOLIDS)})")
+    mesh = SOLIDS[name][0]().to_mesh()
+    return np.asarray(mesh.vert_properties[:, :3], dtype=np.float64), np.asarray(mesh.tri_verts, dtype=np.int64)
+
+
+def mesh_topology(vertices: np.ndarray, faces: np.ndarray) -> dict:
+    """Components, Euler characteristic, boundary loops and total genus of a triangle mesh.
+
+    genus = (2 C - b - chi) / 2 (Euler-Poincare for orientable surfaces with b boundary loops); vertices at
+    the same position are merged first, so a mesh stored as triangle soup counts like the surface it is.
+    """
+    import networkx as nx
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=True)
+    edges = mesh.edges_unique
+    uses = np.bincount(mesh.edges_unique_inverse, minlength=len(edges))
+    chi = len(mesh.vertices) - len(edges) + len(mesh.faces)
+    components = len(mesh.split(only_watertight=False))
+    border = nx.Graph(edges[uses == 1].tolist())
+    boundary_loops = nx.number_connected_components(border)
+    return {"components": components, "euler": int(chi), "boundary_loops": boundary_loops,
+            "genus": (2 * components - boundary_loops - chi) // 2, "closed": bool(len(border) == 0 and (uses == 2).all())}
+
+
+def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """n points spread evenly over a mesh surface (Poisson-disk rejection, topped up uniformly by area if
+    the rejection leaves fewer), and the outward face normal at each."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    points, face_index = trimesh.sample.sample_surface_even(mesh, n, seed=seed)
+    if len(points) < n:
+        extra, extra_faces = trimesh.sample.sample_surface(mesh, n - len(points), seed=seed + 1)
+        points, face_index = np.vstack([points, extra]), np.concatenate([face_index, extra_faces])
+    # Outward normals: a mesh wound inside out (negative signed volume) has its face normals flipped.
+    outward = -1.0 if mesh.volume < 0 else 1.0
+    return np.asarray(points[:n], dtype=np.float64), outward * np.asarray(mesh.face_normals[face_index[:n]])
+
+
+def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
+    vertices, faces = solid_mesh(name)
+    topology = mesh_topology(vertices, faces)
+    samples, normals = sample_mesh(vertices, faces, points, seed)
+    _, ends, description = SOLIDS[name]
+    return BenchmarkShape(name, samples, topology["genus"], topology["components"], f"manifold3d: {description}",
+                          normals, ends, f"genus {topology['genus']} by the Euler characteristic of its closed mesh")
+
+
+# --- reference meshes and scans -------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Reference:
+    file: str
+    cycles: int
+    components: int
+    note: str
+    rig: str | None = None  # an animator's rig beside it: its leaves give the expected ends
+
+
+# Checked with mesh_topology on each file (tests/test_quality_bench.py repeats the check for the meshes).
+REFERENCES: dict[str, _Reference] = {
+    "simplejoint": _Reference("cloudcontr_simplejoint_v4770.off", 0, 1, "closed Y tube: chi 2, genus 0"),
+    "test_animation": _Reference("cloudcontr_test_animation.off", 0, 1, "closed humanoid: chi 2, genus 0",
+                                 "cloudcontr_test_animation.skeleton"),
+    "hand": _Reference("libigl_hand_surface.ply", 0, 1, "closed hand: chi 2, genus 0", "libigl_hand.tgf"),
+    "elephant": _Reference("libigl_elephant.obj", 0, 1, "closed elephant: chi 2, genus 0", "libigl_elephant.tgf"),
+    "horse": _Reference("glskeleton_horse_v1987.ply", 0, 1,
+                        "main part closed with chi 2 (genus 0); a stray 2-triangle sliver is the file's 2nd part"),
+    "duck": _Reference("glskeleton_duck_model.ply", 0, 1,
+                       "scan without faces: a solid toy duck, one piece without handles"),
+    "bunny": _Reference("glskeleton_bun_zipper_res2.ply", 0, 1,
+                        "main part chi -3 with 5 boundary loops (open bottom, small scan holes): genus 0; "
+                        "2-triangle slivers aside"),
+    "tree": _Reference("cloudcontr_tree_small_pointcloud.off", 0, 1,
+                       "scan without faces: one branching tree, branches do not grow back together"),
+}
+
+
+def reference_shape(name: str, reference_dir, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
+    """A reference mesh sampled evenly over its surface, or a scan thinned by farthest-point sampling
+    (an even spread that keeps the scan's own points; no normals: perturb estimates them)."""
+    from . import io
+
+    reference = REFERENCES[name]
+    path = Path(reference_dir) / reference.file
+    cloud = io.load(path)
+    normals = None
+    if cloud.faces is not None:
+        samples, normals = sample_mesh(cloud.points, cloud.faces, points, seed)
+    elif len(cloud.points) > points:
+        samples = _farthest_points(cloud.points, points, seed)
+    else:
+        samples = cloud.points
+    ends = None
+    if reference.rig is not None:
+        from .evaluate import graph_topology, load_graph
+
+        rig = load_graph(Path(reference_dir) / reference.rig)
+        ends = graph_topology(len(rig.nodes), rig.edges)["ends"]
+    elif name == "simplejoint":
+        ends = 3
+    return BenchmarkShape(name, samples, reference.cycles, reference.components, f"reference: {reference.file}",
+                          normals, ends, reference.note)
+
+
+def _farthest_points(points: np.ndarray, count: int, seed: int) -> np.ndarray:
+    import open3d as o3d
+
+    start = int(np.random.default_rng(seed).integers(len(points)))
+    order = np.r_[start:len(points), 0:start]  # open3d starts from the first point
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points[order]))
+    return np.asarray(cloud.farthest_point_down_sample(count).points, dtype=np.float64)
+
+
+def default_reference_dir() -> Path:
+    """../shared/reference beside the project root (present on the project's machines, absent in a clone)."""
+    return Path(__file__).resolve().parents[1].parent / "shared" / "reference"
+
+
+def shape_names(reference_dir=None) -> list[str]:
+    folder = Path(reference_dir) if reference_dir is not None else default_reference_dir()
+    return list(SOLIDS) + (list(REFERENCES) if folder.is_dir() else [])
+
+
+def benchmark_shapes(reference_dir=None, points: int = DEFAULT_POINTS, seed: int = 0,
+                     names: list[str] | None = None) -> list[BenchmarkShape]:
+    """The benchmark's shapes, each sampled to `points` points: every solid, then every reference shape
+    when `reference_dir` (default ../shared/reference beside the project) exists. `names` picks some."""
+    folder = Path(reference_dir) if reference_dir is not None else default_reference_dir()
+    available = shape_names(folder)
+    names = available if names is None else list(names)
+    unknown = [name for name in names if name not in available]
+    if unknown:
+        raise InputError(f"shape {unknown[0]!r}: unknown or its reference folder is missing "
+                         f"(choose from {', '.join(available)})")
+    return [solid_shape(name, points, seed) if name in SOLIDS else reference_shape(name, folder, points, seed)
+            for name in names]
