@@ -1,4 +1,4 @@
-"""The `skelcore` command line: run, batch, shapes, evaluate, report, bench.
+"""The `skelcore` command line: run, batch, shapes, evaluate, report, bench, bench-quality.
 
 Bad input ends with a one-line message naming the file and the problem and a non-zero exit code;
 no traceback reaches the user.
@@ -135,6 +135,28 @@ def build_parser() -> argparse.ArgumentParser:
                        help="Gaussian noise of the tori, a fraction of the bounding-box diagonal (default: %(default)s)")
     bench.set_defaults(handler=_bench)
 
+    # -- bench-quality (skelcore.quality_bench) --
+    from .params import METHODS
+    from .perturb import VARIANTS
+
+    quality = commands.add_parser("bench-quality",
+                                  help="skeleton topology on shapes of known genus, clean and scan-like: one table")
+    quality.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS), help="(default: both)")
+    quality.add_argument("--shapes", nargs="+", default=None, metavar="NAME",
+                         help="shapes to run (default: every solid, and the reference shapes when "
+                              "../shared/reference exists or --reference is given)")
+    quality.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS), metavar="VARIANT",
+                         help=f"of: {' '.join(VARIANTS)} (default: all)")
+    quality.add_argument("--points", type=int, default=10_000, help="points per shape (default: %(default)s)")
+    quality.add_argument("--seed", type=int, default=0, help="sampling and perturbation seed (default: %(default)s)")
+    quality.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
+    quality.add_argument("--reference", default=None, metavar="DIR",
+                         help="folder of the reference meshes and scans (default: ../shared/reference)")
+    quality.add_argument("--json", default=None, metavar="OUT", help="also write every run and the summary here")
+    quality.add_argument("--out", default=None, metavar="DIR", help="keep each run's result folder here")
+    quality.add_argument("--quiet", action="store_true", help="no progress lines")
+    quality.set_defaults(handler=_bench_quality)
+
     # -- shapes (skelcore.shapes) --
     from .shapes import SHAPES
 
@@ -199,6 +221,24 @@ def _bench(args: argparse.Namespace) -> int:
     methods = ("lbc", "glskeleton") if args.method == "both" else (args.method,)
     run_bench(args.points, methods=methods, full_resolution=args.full_resolution, noise=args.noise,
               baseline_max=args.baseline_max)
+    return 0
+
+
+def _bench_quality(args: argparse.Namespace) -> int:
+    import time
+
+    from .quality_bench import format_table, run_quality_bench, summarise, write_json
+
+    started = time.perf_counter()
+    progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants, points=args.points,
+                                seed=args.seed, workers=args.workers, reference_dir=args.reference,
+                                keep_dir=args.out, progress=progress)
+    summary = summarise(results)
+    print(format_table(results, summary, time.perf_counter() - started))
+    if args.json:
+        settings = {key: getattr(args, key) for key in ("methods", "shapes", "variants", "points", "seed", "workers")}
+        print(write_json(args.json, results, summary, settings))
     return 0
 
 

@@ -1,0 +1,208 @@
+"""`skelcore bench-quality`: the curve skeleton's topology on shapes of known genus, clean and scan-like.
+
+Every shape of `skelcore.solids` (each sampled to the same number of points) in every variant of
+`skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method.
+A run is exact when its skeleton's cycle rank and component count equal the shape's. A perturbed run has
+collapsed when its skeleton keeps fewer than half the nodes of the same shape's clean run. A run that fails
+is recorded with its error and the benchmark goes on.
+"""
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from .errors import ParameterError
+from .params import METHODS
+from .perturb import VARIANTS, perturb
+from .solids import DEFAULT_POINTS, benchmark_shapes
+
+COLLAPSE_SHARE = 0.5  # a perturbed run keeps at least this share of its clean run's skeleton nodes
+CLEAN = "clean"
+
+
+@dataclass
+class CaseResult:
+    shape: str
+    variant: str
+    method: str
+    expected: dict  # cycles, components, ends (None where unknown)
+    n_points: int
+    topology: dict | None = None  # cycles, components, junctions, ends of the skeleton
+    nodes: int | None = None
+    iterations: int | None = None
+    termination: str | None = None
+    seconds: float = 0.0
+    error: str | None = None
+
+    @property
+    def exact(self) -> bool:
+        return self.topology is not None and all(self.topology[key] == self.expected[key]
+                                                 for key in ("cycles", "components"))
+
+
+def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_dir=None) -> dict:
+    """One run of the pipeline on `points`; the skeleton's topology, node count and time, or the error."""
+    from .export import write_points_ply
+    from .params import ContractionParams
+    from .pipeline import RunOptions, run_pipeline
+
+    started = time.perf_counter()
+    try:
+        options = RunOptions(params=ContractionParams(method=method), seed=seed)
+        with tempfile.TemporaryDirectory(prefix="skelcore-quality-") as scratch:
+            source = Path(scratch) / f"{name}.ply"
+            write_points_ply(source, points)
+            out = Path(keep_dir) / f"{name}_{method}" if keep_dir is not None else Path(scratch) / "run"
+            result = run_pipeline(source, out, options)
+        final = result.states[-1]
+        return {"topology": result.skeleton.topology(), "nodes": result.skeleton.graph.number_of_nodes(),
+                "iterations": final.iteration, "termination": final.termination,
+                "seconds": time.perf_counter() - started}
+    except Exception as error:  # the benchmark records any failure and goes on
+        where = traceback.extract_tb(error.__traceback__)[-1]
+        message = " ".join(str(error).split())[:200] or type(error).__name__
+        return {"error": f"{type(error).__name__}: {message} ({Path(where.filename).name}:{where.lineno})",
+                "seconds": time.perf_counter() - started}
+
+
+def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, variants=VARIANTS,
+                      points: int = DEFAULT_POINTS, seed: int = 0, workers: int = 1, reference_dir=None,
+                      keep_dir=None, progress: Callable[[str], None] | None = None) -> list[CaseResult]:
+    """Run every shape x variant x method; results in that order."""
+    unknown = [v for v in variants if v not in VARIANTS] + [m for m in methods if m not in METHODS]
+    if unknown:
+        raise ParameterError(f"bench-quality: unknown variant or method {unknown[0]!r} "
+                             f"(variants: {', '.join(VARIANTS)}; methods: {', '.join(METHODS)})")
+    if int(points) != points or points < 100:
+        raise ParameterError(f"bench-quality: points={points!r} must be an integer >= 100")
+    if int(workers) != workers or workers < 1:
+        raise ParameterError(f"bench-quality: workers={workers!r} must be an integer >= 1")
+    cases: list[tuple[CaseResult, np.ndarray]] = []
+    for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
+        expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
+        for variant in variants:
+            cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals)
+            for method in methods:
+                cases.append((CaseResult(shape.name, variant, method, expected, len(cloud)), cloud))
+    keep = Path(keep_dir) if keep_dir is not None else None
+
+    def finish(case: CaseResult, outcome: dict) -> None:
+        for key, value in outcome.items():
+            setattr(case, key, value)
+        if progress is not None:
+            got = "error" if case.error else _triple(case.topology)
+            progress(f"{case.shape} {case.variant} {case.method}: {got} ({case.seconds:.1f} s)")
+
+    def arguments(case: CaseResult) -> dict:
+        return {"name": f"{case.shape}_{case.variant}", "seed": seed, "keep_dir": keep}
+
+    if workers == 1:
+        for case, cloud in cases:
+            finish(case, run_case(cloud, case.method, **arguments(case)))
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            pending = {pool.submit(run_case, cloud, case.method, **arguments(case)): case for case, cloud in cases}
+            for future in as_completed(pending):
+                try:
+                    outcome = future.result()
+                except Exception as error:  # a worker process that died takes only its cases with it
+                    outcome = {"error": f"{type(error).__name__}: worker failed ({error})"}
+                finish(pending[future], outcome)
+    return [case for case, _ in cases]
+
+
+# --- the table ----------------------------------------------------------------------------------------
+
+def summarise(results: list[CaseResult]) -> dict:
+    """Per method: share exact on clean and on perturbed clouds, collapses, loops lost on clean, time."""
+    clean_nodes = {(r.shape, r.method): r.nodes for r in results if r.variant == CLEAN and r.nodes is not None}
+    summary = {}
+    for method in dict.fromkeys(r.method for r in results):
+        mine = [r for r in results if r.method == method]
+        clean = [r for r in mine if r.variant == CLEAN]
+        perturbed = [r for r in mine if r.variant != CLEAN]
+        checked = [r for r in perturbed if (r.shape, method) in clean_nodes]
+        collapsed = [r for r in checked
+                     if r.nodes is None or r.nodes < COLLAPSE_SHARE * clean_nodes[(r.shape, method)]]
+        summary[method] = {
+            "clean_exact": sum(r.exact for r in clean), "clean_runs": len(clean),
+            "perturbed_exact": sum(r.exact for r in perturbed), "perturbed_runs": len(perturbed),
+            "by_variant": {v: [sum(r.exact for r in mine if r.variant == v), sum(r.variant == v for r in mine)]
+                           for v in dict.fromkeys(r.variant for r in mine)},
+            "no_collapse": len(checked) - len(collapsed), "collapse_checked": len(checked),
+            "collapsed": [f"{r.shape}/{r.variant}" for r in collapsed],
+            "clean_loops_lost": [r.shape for r in clean
+                                 if r.topology is not None and r.topology["cycles"] < r.expected["cycles"]],
+            "errors": sum(r.error is not None for r in mine),
+            "seconds": sum(r.seconds for r in mine),
+        }
+    return summary
+
+
+def format_table(results: list[CaseResult], summary: dict, total_seconds: float) -> str:
+    """One table: a row per shape and variant, per method its cycles/components/ends, nodes, exact, time."""
+    methods = list(summary)
+    head = f"{'shape':<15} {'variant':<11} {'points':>6} {'expected':>10}"
+    rule = f"{'':<15} {'':<11} {'':>6} {'cyc/cc/end':>10}"
+    for method in methods:
+        head += f" | {method:<29}"
+        rule += f" | {'cyc/cc/end':>10} {'nodes':>5} {'exact':>5} {'s':>5}"
+    lines = [head, rule, "-" * len(rule)]
+    # cyc: independent cycles (E - V + C), cc: connected components, end: degree-1 nodes (? where unknown)
+    by_key = {(r.shape, r.variant, r.method): r for r in results}
+    rows = dict.fromkeys((r.shape, r.variant) for r in results)
+    for shape, variant in rows:
+        first = next(r for r in results if (r.shape, r.variant) == (shape, variant))
+        line = f"{shape:<15} {variant:<11} {first.n_points:>6} {_triple(first.expected):>10}"
+        for method in methods:
+            r = by_key.get((shape, variant, method))
+            if r is None:
+                line += f" | {'':<29}"
+            elif r.error is not None:
+                line += f" | {'ERROR':>10} {'-':>5} {'no':>5} {r.seconds:>5.1f}"
+            else:
+                line += (f" | {_triple(r.topology):>10} {r.nodes:>5} {'yes' if r.exact else 'no':>5} "
+                         f"{r.seconds:>5.1f}")
+        lines.append(line)
+    lines.append("")
+    for method, s in summary.items():
+        lines.append(f"{method}: exact (cycles and components) on clean clouds {_share(s['clean_exact'], s['clean_runs'])}, "
+                     f"on perturbed {_share(s['perturbed_exact'], s['perturbed_runs'])}; no collapse "
+                     f"(>= {COLLAPSE_SHARE:.0%} of the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
+                     f"{s['errors']} errors; {s['seconds']:.0f} s")
+        lines.append(f"  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))
+        if s["clean_loops_lost"]:
+            lines.append(f"  loops lost on clean clouds: {', '.join(s['clean_loops_lost'])}")
+        if s["collapsed"]:
+            lines.append(f"  collapsed: {', '.join(s['collapsed'])}")
+    errors = [r for r in results if r.error is not None]
+    for r in errors:
+        lines.append(f"error: {r.shape} {r.variant} {r.method}: {r.error}")
+    lines.append(f"total {total_seconds:.0f} s for {len(results)} runs")
+    return "\n".join(lines)
+
+
+def write_json(path, results: list[CaseResult], summary: dict, settings: dict) -> Path:
+    path = Path(path)
+    rows = [{**asdict(r), "exact": r.exact} for r in results]
+    path.write_text(json.dumps({"settings": settings, "summary": summary, "runs": rows}, indent=1))
+    return path
+
+
+def _triple(topology: dict | None) -> str:
+    if topology is None:
+        return "-"
+    ends = topology.get("ends")
+    return f"{topology['cycles']}/{topology['components']}/{'?' if ends is None else ends}"
+
+
+def _share(part: int, whole: int) -> str:
+    return f"{part}/{whole} ({100 * part / whole:.0f}%)" if whole else "n/a"
