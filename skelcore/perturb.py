@@ -23,6 +23,8 @@ NORMAL_K = 15  # neighbours of a PCA normal when the caller has no normals
 # the input (a gap of a few samples still reads as one surface).
 LINK_SPACINGS = 3.0
 ISLAND_SHARE = 0.02  # largest share of the visible points a view may lose as islands
+# A neighbourhood this linear is a curve at the sampling's scale (a surface patch stays below about 0.7).
+LINEAR = 0.8
 
 
 def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray | None = None) -> np.ndarray:
@@ -70,9 +72,14 @@ def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple
     most ISLAND_SHARE of the visible points, else the one that loses the fewest. The list starts along the
     thinnest principal axis (the view that shows the most surface) tilted by about 30 and 15 degrees
     towards the other two: a ring lying exactly edge-on to the view would be cut into two arcs.
+
+    Without normals, PCA normals are estimated, and points whose neighbourhood is a line (a twig thinner
+    than the sampling, linearity above LINEAR) count as seen from every side: they have no back face.
     """
+    always = np.zeros(len(points), dtype=bool)
     if normals is None:
         normals = estimate_normals(points)
+        always = linearity(points) > LINEAR
     normals = np.asarray(normals, dtype=np.float64)
     if normals.shape != points.shape:
         raise ParameterError(f"perturb: normals of shape {normals.shape} do not match points {points.shape}")
@@ -82,7 +89,7 @@ def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple
     best, best_lost = None, np.inf
     for weights in _VIEWS:
         direction = axes @ (np.asarray(weights) / np.linalg.norm(weights))
-        seen = np.flatnonzero(normals @ direction > 0)
+        seen = np.flatnonzero((normals @ direction > 0) | always)
         if len(seen) == 0:
             continue
         kept = seen[_largest_patches(points[seen], piece_of[seen], radius)]
@@ -116,6 +123,14 @@ def estimate_normals(points: np.ndarray, k: int = NORMAL_K) -> np.ndarray:
 
     normals, _, idx = pca_features(points, k=k)
     return orient_outward(points, normals, idx)
+
+
+def linearity(points: np.ndarray, k: int = NORMAL_K) -> np.ndarray:
+    """(l1 - l2) / l1 of each point's k-neighbourhood covariance (eigenvalues l1 >= l2 >= l3): 1 on a line."""
+    _, idx = cKDTree(points).query(points, k=min(k, len(points)))
+    neighbourhoods = points[idx] - points[idx].mean(axis=1, keepdims=True)
+    eigenvalues = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", neighbourhoods, neighbourhoods))
+    return (eigenvalues[:, 2] - eigenvalues[:, 1]) / np.maximum(eigenvalues[:, 2], 1e-300)
 
 
 def _labels(points: np.ndarray, radius: float) -> np.ndarray:

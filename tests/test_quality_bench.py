@@ -162,3 +162,82 @@ def test_bad_perturbation_requests_are_refused(rings):
         perturbations.perturb(np.zeros((5, 3)), "clean")
     with pytest.raises(ParameterError, match="do not match"):
         perturbations.perturb(rings.points, "partial", normals=rings.normals[:10])
+
+
+# --- the benchmark --------------------------------------------------------------------------------
+
+def _result(shape, variant, method, cycles, nodes, expected_cycles=1, error=None):
+    from skelcore.quality_bench import CaseResult
+
+    topology = None if error else {"cycles": cycles, "components": 1, "junctions": 0, "ends": 0}
+    return CaseResult(shape, variant, method, {"cycles": expected_cycles, "components": 1, "ends": 0}, 100,
+                      topology, None if error else nodes, seconds=1.0, error=error)
+
+
+def test_summary_counts_exact_runs_collapses_and_lost_loops():
+    from skelcore.quality_bench import format_table, summarise
+
+    results = [_result("a", "clean", "lbc", 1, 40), _result("a", "noise_1", "lbc", 1, 19),
+               _result("a", "partial", "lbc", 0, 20), _result("b", "clean", "lbc", 0, 30),
+               _result("b", "noise_1", "lbc", 1, 30), _result("b", "partial", "lbc", 0, 0, error="ValueError: x")]
+    summary = summarise(results)["lbc"]
+    assert (summary["clean_exact"], summary["clean_runs"]) == (1, 2)
+    assert (summary["perturbed_exact"], summary["perturbed_runs"]) == (2, 4)
+    assert summary["collapsed"] == ["a/noise_1", "b/partial"]  # 19 < 40 / 2; an error keeps no nodes
+    assert (summary["no_collapse"], summary["collapse_checked"]) == (2, 4)
+    assert summary["clean_loops_lost"] == ["b"]
+    assert summary["by_variant"] == {"clean": [1, 2], "noise_1": [2, 2], "partial": [0, 2]}
+    table = format_table(results, summarise(results), 6.0)
+    assert "on clean clouds 1/2 (50%), on perturbed 2/4 (50%)" in table
+    assert "error: b partial lbc: ValueError: x" in table and "ERROR" in table
+
+
+def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypatch, capsys, tmp_path):
+    from skelcore import pipeline
+    from skelcore.cli import main
+
+    real = pipeline.run_pipeline
+
+    def failing_for_glskeleton(source, out, options, progress=None):
+        if options.params.method == "glskeleton":
+            raise RuntimeError("a broken step")
+        return real(source, out, options, progress)
+
+    monkeypatch.setattr(pipeline, "run_pipeline", failing_for_glskeleton)
+    code = main(["bench-quality", "--shapes", "block_1_hole", "--variants", "clean", "noise_0.5",
+                 "--points", str(N), "--reference", "/nonexistent", "--json", str(tmp_path / "q.json"), "--quiet"])
+    assert code == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("block_1_hole")]
+    assert len(rows) == 2 and all("ERROR" in row for row in rows)
+    # A drilled block (a thick ring) is one loop LBC keeps on the clean cloud.
+    clean = rows[0].split("|")[1].split()
+    assert clean[0].startswith("1/1/") and clean[2] == "yes", out
+    assert "lbc: exact (cycles and components) on clean clouds 1/1 (100%), on perturbed" in out
+    assert "glskeleton: exact" in out and "2 errors" in out
+    assert "error: block_1_hole clean glskeleton: RuntimeError: a broken step" in out
+    import json
+
+    document = json.loads((tmp_path / "q.json").read_text())
+    assert len(document["runs"]) == 4 and document["summary"]["lbc"]["clean_exact"] == 1
+
+
+def test_bench_quality_refuses_unknown_shapes_in_one_line(capsys):
+    from skelcore.cli import main
+
+    assert main(["bench-quality", "--shapes", "teapot", "--reference", "/nonexistent", "--quiet"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("skelcore bench-quality: error: shape 'teapot': unknown") and "\n" not in error
+
+
+def test_a_twig_thinner_than_the_sampling_is_seen_from_every_side():
+    rng = np.random.default_rng(0)
+    grid = np.stack(np.meshgrid(np.linspace(-1, 1, 40), np.linspace(-1, 1, 40)), axis=-1).reshape(-1, 2)[:1500]
+    sheet = np.column_stack([grid + rng.normal(0.0, 0.005, grid.shape), 0.3 * grid[:, 0] ** 2])  # bent, evenly sampled
+    twig = np.column_stack([np.zeros(200), np.zeros(200), np.linspace(0.05, 1.5, 200)])
+    twig += rng.normal(0.0, 1e-3, twig.shape)
+    assert perturbations.linearity(twig).min() > perturbations.LINEAR
+    assert (perturbations.linearity(sheet) > perturbations.LINEAR).mean() < 0.01
+    cloud = np.vstack([sheet, twig])
+    seen, _ = perturbations.partial_scan(cloud)
+    assert set(range(1500, 1700)) <= set(seen.tolist())
