@@ -201,6 +201,7 @@ class _Reference:
     components: int
     note: str
     rig: str | None = None  # an animator's rig beside it: its leaves give the expected ends
+    mesh: bool = True  # False: a scan without faces, its truth stated with a reason
 
 
 # Checked with mesh_topology on each file (tests/test_quality_bench.py repeats the check for the meshes).
@@ -213,12 +214,12 @@ REFERENCES: dict[str, _Reference] = {
     "horse": _Reference("glskeleton_horse_v1987.ply", 0, 1,
                         "main part closed with chi 2 (genus 0); a stray 2-triangle sliver is the file's 2nd part"),
     "duck": _Reference("glskeleton_duck_model.ply", 0, 1,
-                       "scan without faces: a solid toy duck, one piece without handles"),
+                       "scan without faces: a solid toy duck, one piece without handles", mesh=False),
     "bunny": _Reference("glskeleton_bun_zipper_res2.ply", 0, 1,
                         "main part chi -3 with 5 boundary loops (open bottom, small scan holes): genus 0; "
                         "2-triangle slivers aside"),
     "tree": _Reference("cloudcontr_tree_small_pointcloud.off", 0, 1,
-                       "scan without faces: one branching tree, branches do not grow back together"),
+                       "scan without faces: one branching tree, branches do not grow back together", mesh=False),
 }
 
 
