@@ -30,6 +30,8 @@ CLEAN = "clean"
 
 @dataclass
 class CaseResult:
+    """One run of the benchmark: a shape in one variant through one method, and what its skeleton came out as."""
+
     shape: str
     variant: str
     method: str
@@ -44,6 +46,7 @@ class CaseResult:
 
     @property
     def exact(self) -> bool:
+        """The skeleton's cycle rank and component count equal the shape's."""
         return self.topology is not None and all(self.topology[key] == self.expected[key]
                                                  for key in ("cycles", "components"))
 
@@ -191,6 +194,7 @@ def format_table(results: list[CaseResult], summary: dict, total_seconds: float)
 
 
 def write_json(path, results: list[CaseResult], summary: dict, settings: dict) -> Path:
+    """Every run (with its exactness), the summary and the settings as one JSON document at `path`."""
     path = Path(path)
     rows = [{**asdict(r), "exact": r.exact} for r in results]
     path.write_text(json.dumps({"settings": settings, "summary": summary, "runs": rows}, indent=1))

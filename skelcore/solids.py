@@ -22,6 +22,8 @@ SEGMENTS = 64  # facets around every circle of a solid: fine enough that samplin
 
 @dataclass(frozen=True)
 class BenchmarkShape:
+    """One benchmark shape: its surface samples and what a correct curve skeleton of it has."""
+
     name: str
     points: np.ndarray  # (n,3) float64 surface samples
     cycles: int  # independent loops of a correct curve skeleton (the genus)
@@ -190,6 +192,7 @@ def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) 
 
 
 def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
+    """Solid `name` (one of SOLIDS) sampled evenly, its truth read from its closed mesh's Euler characteristic."""
     vertices, faces = solid_mesh(name)
     topology = mesh_topology(vertices, faces)
     samples, normals = sample_mesh(vertices, faces, points, seed)
@@ -271,6 +274,7 @@ def default_reference_dir() -> Path:
 
 
 def shape_names(reference_dir=None) -> list[str]:
+    """Every solid, then every reference shape when the reference folder (default ../shared/reference) exists."""
     folder = Path(reference_dir) if reference_dir is not None else default_reference_dir()
     return list(SOLIDS) + (list(REFERENCES) if folder.is_dir() else [])
 
