@@ -62,11 +62,12 @@ def thin_half(points: np.ndarray, kept: float, rng: np.random.Generator) -> np.n
 
 
 def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the points one orthographic view sees, and the unit direction towards the viewer: those whose outward normal has a positive component
-    towards the viewer (back faces dropped, as a scanner sees one side), and of those, per piece of the
-    input, only the largest connected patch (a scan keeps its main surface; islands a view cuts off, such as
-    a far ear or the rim of a thin part, go as a scan's clean-up would remove them). So each piece of the
-    input stays one piece, and its loops stay loops as long as the view does not cut the piece apart.
+    """Indices of the points one orthographic view sees, and the unit direction towards the viewer: those
+    whose outward normal has a positive component towards the viewer (back faces dropped, as a scanner sees
+    one side), and of those, per piece of the input, only the largest connected patch (a scan keeps its main
+    surface; islands a view cuts off, such as a far ear or the rim of a thin part, go as a scan's clean-up
+    would remove them). So each piece of the input stays one piece, and its loops stay loops as long as the
+    view does not cut the piece apart.
 
     The view: the first of a fixed list of directions in the cloud's principal frame whose islands hold at
     most ISLAND_SHARE of the visible points, else the one that loses the fewest. The list starts along the

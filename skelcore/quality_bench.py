@@ -177,9 +177,10 @@ def format_table(results: list[CaseResult], summary: dict, total_seconds: float)
         lines.append(line)
     lines.append("")
     for method, s in summary.items():
-        lines.append(f"{method}: exact (cycles and components) on clean clouds {_share(s['clean_exact'], s['clean_runs'])}, "
-                     f"on perturbed {_share(s['perturbed_exact'], s['perturbed_runs'])}; no collapse "
-                     f"(>= {COLLAPSE_SHARE:.0%} of the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
+        lines.append(f"{method}: exact (cycles and components) on clean clouds "
+                     f"{_share(s['clean_exact'], s['clean_runs'])}, on perturbed "
+                     f"{_share(s['perturbed_exact'], s['perturbed_runs'])}; no collapse (>= {COLLAPSE_SHARE:.0%} of "
+                     f"the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
                      f"{s['errors']} errors; {s['seconds']:.0f} s")
         lines.append(f"  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))
         if s["clean_loops_lost"]:

@@ -173,7 +173,8 @@ def mesh_topology(vertices: np.ndarray, faces: np.ndarray) -> dict:
     border = nx.Graph(edges[uses == 1].tolist())
     boundary_loops = nx.number_connected_components(border)
     return {"components": components, "euler": int(chi), "boundary_loops": boundary_loops,
-            "genus": (2 * components - boundary_loops - chi) // 2, "closed": bool(len(border) == 0 and (uses == 2).all())}
+            "genus": (2 * components - boundary_loops - chi) // 2,
+            "closed": bool(len(border) == 0 and (uses == 2).all())}
 
 
 def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
