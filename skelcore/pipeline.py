@@ -28,6 +28,9 @@ from .skeleton import Skeleton, SkeletonParams, extract_skeleton
 from .solver import backend
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
+# A curve skeleton says something once the one-rings have shrunk to this share of their size at iteration 0
+# (the ring-size ratio a_t); before that the graph joins points across holes the contraction has not opened.
+SKELETON_RING_RATIO = 0.6
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
 EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
@@ -82,6 +85,11 @@ class RunResult:
                 f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
                 f"{topology['junctions']} junctions, {topology['ends']} ends; verdict {self.metrics['verdict']['label']}; "
                 f"{self.elapsed:.1f} s -> {self.out_dir}")
+
+
+def skeleton_is_provisional(state: IterationState) -> bool:
+    """True while the cloud has not contracted enough for its curve skeleton to mean anything."""
+    return state.iteration == 0 or state.ring_ratio > SKELETON_RING_RATIO
 
 
 def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams) -> Skeleton:
