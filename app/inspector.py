@@ -430,7 +430,8 @@ class Inspector:
 
     def _update_legend(self, note: str = "", provisional: bool | None = None) -> None:
         if provisional is None:
-            provisional = pipeline.skeleton_is_provisional(self.session.history[self.shown])
+            history = self.session.history  # a new run may be shorter than the index shown last
+            provisional = pipeline.skeleton_is_provisional(history[min(self.shown, len(history) - 1)])
         quantity = self.colour_by if self.colour_by in COLOUR_RANGES else None
         self.ui.legend.content = legend_html(quantity, note, provisional=provisional and self.ui.view.provisional.value,
                                              pinned=self.pinned is not None,
