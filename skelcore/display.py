@@ -26,6 +26,7 @@ class PointValues:
 
     @property
     def complete(self) -> bool:
+        """Whether every point's value is its own."""
         return self.carried == 0
 
 
@@ -49,6 +50,7 @@ def values_for_all_points(metrics: IterationMetrics, points: np.ndarray, quantit
 
 @dataclass(frozen=True)
 class Camera:
+    """A perspective camera's pose."""
     position: np.ndarray  # (3,)
     look_at: np.ndarray  # (3,)
     rotation: np.ndarray  # (3,3) camera-to-world, columns: right, down, forward (OpenCV convention)
