@@ -59,6 +59,7 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
             step = page.get_by_role("button", name="Step", exact=True)
             step.wait_for()
             if not skeleton:
+                page.get_by_role("tab", name="View", exact=True).first.click()
                 page.get_by_label("Show skeleton").uncheck()
             page.get_by_text("computed").first.wait_for()
             inspector.wait_idle(WAIT)

@@ -1,4 +1,6 @@
-"""What the Export panel sends: a PNG of the view, and a zip bundle of the shown iteration's results."""
+"""What the Files tab sends: a PNG of the view, an animation of the run (GIF and MP4), and a zip bundle of
+the shown iteration's results. Pictures come from a browser's renderer (the caller renders); here they
+are composed: background, burned-in labels, frames into files."""
 from __future__ import annotations
 
 import io
@@ -8,29 +10,88 @@ from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
-from skelcore import report
+from skelcore import display, report
 
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
+ANIMATION_FPS = 2  # frames (iterations) per second: slow enough to follow one contraction step
 
 
-def png_bytes(rgba: np.ndarray) -> bytes:
-    """An (h,w,4) uint8 render (transparent background) as an opaque PNG."""
+FRAME_FILL = 0.8  # the object's projected bounding box spans this share of the image's binding side
+
+
+def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
+    """get_render's camera arguments framing `points` along a client camera's viewing direction."""
+    import viser.transforms as tf
+
+    framing = display.framing_camera(points, camera.look_at - camera.position, camera.fov, width / height,
+                                     FRAME_FILL, up=camera.up_direction)
+    return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": camera.fov}
+
+
+def caption(cloud_name: str, state, verdict: str | None = None) -> list[str]:
+    """The lines burned into a picture: file, method, iteration (and the verdict)."""
+    lines = [f"{Path(cloud_name).name} · {state.params.method} · iteration {state.iteration}"]
+    return lines + ([f"verdict: {verdict}"] if verdict else [])
+
+
+def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False) -> np.ndarray:
+    """An (h,w,4) uint8 render -> (h,w,3) on the background (or (h,w,4) kept transparent), with `labels`
+    burned in, one line each, at the top left."""
     image = np.asarray(rgba)
-    if image.shape[-1] == 4:
+    if image.shape[-1] == 3:
+        image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=-1)
+    if not transparent:
         alpha = image[..., 3:4].astype(np.float32) / 255.0
-        image = image[..., :3] * alpha + np.asarray(BACKGROUND, np.float32) * (1.0 - alpha)
-    return iio.imwrite("<bytes>", np.clip(image, 0, 255).astype(np.uint8), extension=".png")
+        flat = image[..., :3] * alpha + np.asarray(BACKGROUND, np.float32) * (1.0 - alpha)
+        image = np.clip(flat, 0, 255).astype(np.uint8)
+    if labels:
+        picture = Image.fromarray(image)
+        draw = ImageDraw.Draw(picture)
+        size = max(14, picture.height // 32)
+        font = ImageFont.load_default(size=size)
+        y = size // 2
+        for line in labels:
+            box = draw.textbbox((size // 2, y), line, font=font)
+            fill = (255, 255, 255, 200) if transparent else (255, 255, 255)
+            draw.rectangle((box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3), fill=fill)
+            draw.text((size // 2, y), line, fill=(20, 20, 20, 255) if transparent else (20, 20, 20), font=font)
+            y += int(size * 1.35)
+        image = np.asarray(picture)
+    return image
+
+
+def png_bytes(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False) -> bytes:
+    return iio.imwrite("<bytes>", compose(rgba, labels, transparent), extension=".png")
+
+
+def animation_files(frames: list[np.ndarray], fps: float = ANIMATION_FPS) -> dict[str, bytes]:
+    """A GIF and an MP4 (H.264 through imageio-ffmpeg) of (h,w,3) frames, one per iteration."""
+    frames = [np.asarray(frame)[..., :3] for frame in frames]
+    gif = iio.imwrite("<bytes>", np.stack(frames), extension=".gif", duration=1000 / fps, loop=0)
+    with tempfile.TemporaryDirectory(prefix="skel-inspect-") as tmp:
+        path = Path(tmp) / "run.mp4"
+        # imageio-ffmpeg's bundled ffmpeg; macro_block_size=1 keeps the exact frame size
+        iio.imwrite(path, np.stack(frames), extension=".mp4", fps=fps, codec="libx264", macro_block_size=1, quality=7)
+        mp4 = path.read_bytes()
+    return {"gif": gif, "mp4": mp4}
 
 
 def bundle(session, index: int, screenshot_png: bytes) -> bytes:
-    """A zip with the screenshot, the pipeline's result files for history[index] and the histograms as HTML."""
+    """A zip with the screenshot, the pipeline's result files for history[index], and the histograms and
+    the convergence plot as HTML pages that load plotly.js from its CDN (so the bundle stays small)."""
+    metrics = session.metrics_upto(index)
+    cdn = report.plotly_cdn()
+    iteration = session.history[index].iteration
     with tempfile.TemporaryDirectory(prefix="skel-inspect-") as tmp:
         out = Path(tmp)
         session.write_results(index, out)
         (out / "screenshot.png").write_bytes(screenshot_png)
-        (out / "histograms.html").write_text(report.histograms_html(session.metrics(index), iteration=index),
+        (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration, plotly=cdn),
                                              encoding="utf-8")
+        (out / "convergence.html").write_text(report.figures_html("Convergence", [report.convergence_figure(metrics)],
+                                                                  plotly=cdn), encoding="utf-8")
         buffer = io.BytesIO()
         with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(out.iterdir()):

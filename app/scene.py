@@ -1,60 +1,98 @@
-"""The 3-D scene: original cloud, contracted points of the shown iteration, curve-skeleton graph.
+"""The 3-D scene: original cloud, contracted points of the shown iteration, curve-skeleton graph, the
+pinned run's skeleton as a ghost.
 
-Positions go out as float32, and only what changed is sent: the original once per load, the
-contracted points and their colours as prop updates of one handle, the (small) skeleton per
-iteration. Clouds above `display_cap` points are drawn from a fixed random subset (display only:
-the engine keeps every point).
+Positions go out as float32, and only what changed is sent. viser draws points opaque, so a layer's
+opacity is the share of its points drawn (a fixed random order, so the same points stay) with their
+colour faded toward the background: a dense original thinned this way lets the contracted points and
+the skeleton inside show through. Clouds above `display_cap` points are drawn from at most that many
+(display only: the engine keeps every point). Dense clouds start thinned (`auto_opacity`).
 """
 from __future__ import annotations
 
 import functools
+import math
 import threading
 
 import numpy as np
 import trimesh
 import viser
 
+from skelcore.display import framing_camera
 from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
 
-ORIGINAL_COLOUR = (150, 150, 150)
-CONTRACTED_COLOUR = (220, 40, 40)
-REMOVED_COLOUR = (140, 70, 220)  # input points a GLSkeleton reduction absorbed, at their original place
+BACKGROUND = np.array([255, 255, 255], float)
+LAYER_COLOURS = {"original": (150, 150, 150), "contracted": (220, 40, 40),
+                 "removed": (140, 70, 220)}  # removed: input points a GLSkeleton reduction absorbed
 EDGE_COLOUR = (20, 20, 20)
+PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
+GHOST_COLOUR = (90, 170, 240)  # the pinned run's skeleton
 # nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
 END_COLOUR = (30, 110, 255)
 PATH_COLOUR = (40, 40, 40)
 JUNCTION_COLOUR = (255, 140, 0)
 ISOLATED_COLOUR = (160, 60, 200)
 DISPLAY_CAP = 250_000
+DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
+POINT_LAYERS = ("original", "contracted", "removed")
+INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside
 
-# Per-point colouring over each quantity's full range, so colours stay comparable across iterations.
+# Per-point colouring over each quantity's full range, so colours stay comparable across iterations:
+# a diverging map whose centre, the quantity's target, is dark, so the best points stand out on the
+# white background; blue below the target, red above.
 COLOUR_RANGES = {"D_theta": D_THETA_RANGE, "delta_kappa": DELTA_KAPPA_RANGE}
-_STOPS = {  # samples of matplotlib's viridis (sequential) and ColorBrewer's RdBu reversed (diverging at 0)
-    "D_theta": np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]], float),
-    "delta_kappa": np.array([[33, 102, 172], [146, 197, 222], [247, 247, 247], [244, 165, 130], [178, 24, 43]], float),
-}
+TARGETS = {"D_theta": 0.5, "delta_kappa": 0.0}
+_STOPS = np.array([[5, 90, 200], [90, 165, 225], [40, 40, 40], [245, 140, 60], [205, 10, 30]], float)
+_NAMES = {"D_theta": "D<sub>&theta;</sub>", "delta_kappa": "&delta;&kappa;"}
 
 
 def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
-    """(m,) values -> (m,3) uint8 colours on the quantity's colour ramp (NaN: grey)."""
+    """(m,) values -> (m,3) uint8 colours on the quantity's diverging map (NaN: the original's grey)."""
     low, high = COLOUR_RANGES[quantity]
-    stops = _STOPS[quantity]
-    t = np.clip((np.asarray(values, float) - low) / (high - low), 0.0, 1.0) * (len(stops) - 1)
-    positions = np.arange(len(stops))
-    colours = np.column_stack([np.interp(t, positions, stops[:, c]) for c in range(3)])
-    colours[~np.isfinite(values)] = ORIGINAL_COLOUR
+    target = TARGETS[quantity]
+    values = np.asarray(values, float)
+    # piecewise linear: low -> 0, target -> 0.5, high -> 1 (the target sits mid-map even off-centre)
+    t = np.interp(values, [low, target, high], [0.0, 0.5, 1.0]) * (len(_STOPS) - 1)
+    positions = np.arange(len(_STOPS))
+    colours = np.column_stack([np.interp(t, positions, _STOPS[:, c]) for c in range(3)])
+    colours[~np.isfinite(values)] = LAYER_COLOURS["original"]
     return colours.astype(np.uint8)
 
 
-def legend_html(quantity: str) -> str:
-    """A horizontal colour bar with its range, for gui.add_html."""
-    low, high = COLOUR_RANGES[quantity]
-    gradient = ", ".join(f"rgb({r:.0f},{g:.0f},{b:.0f})" for r, g, b in _STOPS[quantity])
-    label = {"D_theta": "D<sub>&theta;</sub>", "delta_kappa": "&delta;&kappa;"}[quantity]
-    return (f'<div style="font-size:0.8em;padding:0 0.5em">{label} colour scale'
-            f'<div style="height:10px;background:linear-gradient(to right, {gradient})"></div>'
-            f'<div style="display:flex;justify-content:space-between"><span>{low:.2f}</span>'
-            f'<span>{(low + high) / 2:.2f}</span><span>{high:.2f}</span></div></div>')
+def legend_html(quantity: str | None, note: str = "", provisional: bool = False, pinned: bool = False,
+                extra: str = "") -> str:
+    """The key of the 3-D view: layers, skeleton nodes and, when colouring, the colour bar with its target
+    (`extra`: more HTML, e.g. the label colours)."""
+    def dot(colour, text):
+        return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
+
+    lines = [" ".join([dot(LAYER_COLOURS["original"], "original"),
+                       dot(LAYER_COLOURS["contracted"], "contracted") if quantity is None else "",
+                       dot(LAYER_COLOURS["removed"], "removed")]),
+             " ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")])]
+    if provisional:
+        lines.append("<i>skeleton provisional: the cloud has not contracted yet</i>")
+    if pinned:
+        lines.append(dot(GHOST_COLOUR, "pinned run's skeleton"))
+    if quantity is not None:
+        low, high = COLOUR_RANGES[quantity]
+        target = TARGETS[quantity]
+        gradient = ", ".join(f"rgb({r:.0f},{g:.0f},{b:.0f})" for r, g, b in _STOPS)
+        lines.append(f"contracted coloured by {_NAMES[quantity]} (target {target:g}, dark)"
+                     f"<div style='height:10px;background:linear-gradient(to right, {gradient})'></div>"
+                     f"<div style='display:flex;justify-content:space-between'><span>{low:.2f}</span>"
+                     f"<span><b>{target:g}</b></span><span>{high:.2f}</span></div>")
+    if note:
+        lines.append(f"<i>{note}</i>")
+    if extra:
+        lines.append(extra)
+    return f"<div style='font-size:0.8em;line-height:1.5;padding:0 0.4em'>{'<br>'.join(lines)}</div>"
+
+
+def auto_opacity(count: int) -> float:
+    """Opacity (share drawn) that thins a dense original to about DENSE_POINTS points, in steps of 0.05."""
+    if count <= DENSE_POINTS:
+        return 1.0
+    return max(0.05, math.floor(20 * DENSE_POINTS / count) / 20)
 
 
 def _locked(method):
@@ -71,125 +109,161 @@ class SceneView:
         self.scene = scene
         self.display_cap = display_cap
         self.visible = {"original": True, "contracted": True, "skeleton": True, "removed": True}
-        self.sizes = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0}  # multiples of the defaults
+        self.sizes = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0, "removed": 1.0}  # x the defaults
+        self.opacity = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0, "removed": 1.0}
         self.diagonal = 1.0
         self.centre = np.zeros(3)
         self._source = None  # the array the original cloud was drawn from
-        self._original = None
-        self._contracted = None
-        self._removed = None
-        self._removed_key = None
-        self._edges = None
-        self._nodes = None
-        self._contracted_key = None
+        self._points: dict[str, np.ndarray | None] = dict.fromkeys(POINT_LAYERS)  # what each layer shows
+        self._colours: dict[str, np.ndarray | None] = dict.fromkeys(POINT_LAYERS)  # per point, or plain
+        self._handles: dict[str, viser.PointCloudHandle | None] = dict.fromkeys(POINT_LAYERS)
+        self._keys: dict[str, object] = dict.fromkeys(POINT_LAYERS)
         self._colours_key = None
-        self._subsets: dict[int, np.ndarray | None] = {}
+        self._edges = self._nodes = self._label = self._ghost = None
+        self._skeleton = None  # (nodes, edges, degrees, provisional) last drawn
+        self._orders: dict[int, np.ndarray] = {}
         self._lock = threading.RLock()
         sphere = trimesh.creation.icosphere(subdivisions=1)
         self._sphere = (np.asarray(sphere.vertices, np.float32), np.asarray(sphere.faces, np.uint32))
 
     # -- sizes in world units, from the bounding-box diagonal of the loaded cloud
     def _point_size(self, layer: str) -> float:
-        return self.sizes[layer] * self.diagonal * (0.005 if layer == "original" else 0.007)
+        base = {"original": 0.005, "contracted": 0.007, "removed": 0.006}[layer]
+        return self.sizes[layer] * self.diagonal * base
 
     def _node_radius(self) -> float:
         return self.sizes["skeleton"] * self.diagonal * 0.011
 
-    def subset(self, count: int) -> np.ndarray | None:
-        """Rows drawn for a cloud of `count` points (None: all), the same rows every iteration."""
-        if count <= self.display_cap:
+    def rows(self, count: int, layer: str = "contracted") -> np.ndarray | None:
+        """Rows drawn of a `count`-point layer (None: all): a prefix of a fixed random order, so the same
+        points stay drawn across iterations and opacity changes."""
+        drawn = min(self.display_cap, max(1, math.ceil(self.opacity[layer] * count)))
+        if drawn >= count:
             return None
-        if count not in self._subsets:
-            rows = np.random.default_rng(0).choice(count, self.display_cap, replace=False)
-            self._subsets[count] = np.sort(rows)
-        return self._subsets[count]
+        if count not in self._orders:
+            self._orders[count] = np.random.default_rng(0).permutation(count)
+        return np.sort(self._orders[count][:drawn])
 
     def notice(self, count: int) -> str:
-        if count <= self.display_cap:
+        rows = self.rows(count, "contracted")
+        if rows is None:
             return ""
-        return f"showing {self.display_cap:,} of {count:,} points (display only; the engine uses all)"
+        return f"showing {len(rows):,} of {count:,} contracted points (display only; the engine uses all)"
 
     @_locked
     def load(self, original: np.ndarray) -> None:
         """A new run: clear the skeleton; the original cloud is sent again only when it changed."""
+        self._clear_skeleton()
         if original is self._source:
-            self._clear_skeleton()
             return
         self._source = original
         low, high = original.min(axis=0), original.max(axis=0)
         self.diagonal = float(np.linalg.norm(high - low)) or 1.0
         self.centre = (low + high) / 2
-        self._subsets.clear()
-        for handle in (self._original, self._contracted, self._removed, self._edges, self._nodes):
+        self._orders.clear()
+        for layer in POINT_LAYERS:
+            self._remove(layer)
+        self._colours_key = None
+        self._points["original"] = original
+        self._draw("original")
+
+    def _remove(self, layer: str) -> None:
+        if self._handles[layer] is not None:
+            self._handles[layer].remove()
+        self._handles[layer] = self._points[layer] = self._colours[layer] = self._keys[layer] = None
+
+    def _shown_colours(self, layer: str, rows) -> np.ndarray:
+        colours = self._colours[layer]
+        if colours is None:
+            colours = np.asarray(LAYER_COLOURS[layer], float)[None, :]
+        elif rows is not None:
+            colours = colours[rows]
+        fade = 0.35 + 0.65 * self.opacity[layer]  # a thinned layer also recedes
+        shown = np.asarray(colours, float) * fade + BACKGROUND * (1 - fade)
+        shown = shown.astype(np.uint8)
+        return shown[0] if len(shown) == 1 and self._colours[layer] is None else shown
+
+    def _draw(self, layer: str, colours_only: bool = False) -> None:
+        points = self._points[layer]
+        if points is None or len(points) == 0:
+            self._remove(layer)
+            return
+        rows = self.rows(len(points), layer)
+        colours = self._shown_colours(layer, rows)
+        handle = self._handles[layer]
+        if colours_only and handle is not None:
+            handle.colors = np.broadcast_to(colours, (len(handle.points), 3)).astype(np.uint8)
+            return
+        shown = (points if rows is None else points[rows]).astype(np.float32)
+        if handle is None or len(handle.points) != len(shown):
             if handle is not None:
                 handle.remove()
-        self._contracted = self._removed = self._edges = self._nodes = None
-        self._contracted_key = self._colours_key = self._removed_key = None
-        rows = self.subset(len(original))
-        shown = original if rows is None else original[rows]
-        self._original = self.scene.add_point_cloud(
-            "/original", points=shown.astype(np.float32), colors=ORIGINAL_COLOUR, precision="float32",
-            point_size=self._point_size("original"), point_shape="circle", visible=self.visible["original"])
+            self._handles[layer] = self.scene.add_point_cloud(
+                f"/{layer}", points=shown, colors=colours, precision="float32",
+                point_size=self._point_size(layer), point_shape="circle", visible=self.visible[layer])
+        else:
+            handle.points = shown
+            handle.colors = np.broadcast_to(colours, (len(shown), 3)).astype(np.uint8)
 
     @_locked
     def show_points(self, key, points: np.ndarray) -> None:
         """Contracted points of one state (`key` names it: the same key is not sent again)."""
-        if key == self._contracted_key:
+        if key == self._keys["contracted"]:
             return
-        rows = self.subset(len(points))
-        shown = (points if rows is None else points[rows]).astype(np.float32)
-        handle = self._contracted
-        if handle is None or len(handle.points) != len(shown):
-            if handle is not None:
-                handle.remove()
-            self._contracted = self.scene.add_point_cloud(
-                "/contracted", points=shown, colors=CONTRACTED_COLOUR, precision="float32",
-                point_size=self._point_size("contracted"), point_shape="circle",
-                visible=self.visible["contracted"])
-            self._colours_key = None
-        else:
-            handle.points = shown
-        self._contracted_key = key
+        self._points["contracted"], self._colours["contracted"] = points, None
+        self._colours_key = None
+        self._draw("contracted")
+        self._keys["contracted"] = key
 
     @_locked
     def show_removed(self, key, points: np.ndarray) -> None:
         """Input points absorbed by state `key`, drawn at their original places (none: nothing drawn)."""
-        if key == self._removed_key:
+        if key == self._keys["removed"]:
             return
-        if self._removed is not None:
-            self._removed.remove()
-            self._removed = None
-        if len(points):
-            rows = self.subset(len(points))
-            shown = (points if rows is None else points[rows]).astype(np.float32)
-            self._removed = self.scene.add_point_cloud(
-                "/removed", points=shown, colors=REMOVED_COLOUR, precision="float32",
-                point_size=self._point_size("original") * 1.2, point_shape="circle", visible=self.visible["removed"])
-        self._removed_key = key
+        self._points["removed"] = points
+        self._draw("removed")
+        self._keys["removed"] = key
 
     @_locked
-    def set_colours(self, key, colours: np.ndarray | None, quantity: str | None = None) -> None:
-        """Per-point colours of `quantity` for the contracted points (None: plain red), if they still
-        show state `key`."""
-        handle = self._contracted
-        colours_key = None if colours is None else (key, quantity)
-        if handle is None or key != self._contracted_key or colours_key == self._colours_key:
+    def set_colours(self, key, colours: np.ndarray | None, quantity: str | None = None,
+                    original_colours: np.ndarray | None = None) -> None:
+        """Per-point colours of `quantity` for the contracted points (None: plain), and optionally for the
+        original positions, if the contracted points still show state `key`."""
+        colours_key = None if colours is None else (key, quantity, original_colours is not None)
+        if key != self._keys["contracted"] or colours_key == self._colours_key:
             return
-        if colours is not None:
-            rows = self.subset(len(colours))
-            colours = colours if rows is None else colours[rows]
-        handle.colors = np.asarray(CONTRACTED_COLOUR if colours is None else colours, np.uint8)
+        self._colours["contracted"] = colours
+        self._draw("contracted", colours_only=True)
+        if original_colours is not None or self._colours["original"] is not None:
+            self._colours["original"] = original_colours
+            self._draw("original", colours_only=True)
         self._colours_key = colours_key
 
+    @property
+    def coloured(self) -> bool:
+        return self._colours_key is not None
+
+    def drawn_colours(self, layer: str) -> np.ndarray | None:
+        handle = self._handles[layer]
+        return None if handle is None else np.broadcast_to(handle.colors, (len(handle.points), 3))
+
+    def drawn_points(self, layer: str) -> np.ndarray | None:
+        handle = self._handles[layer]
+        return None if handle is None else handle.points
+
     @_locked
-    def show_skeleton(self, nodes: np.ndarray, edges: np.ndarray, degrees: np.ndarray) -> None:
-        """Edges as line segments, nodes as spheres coloured by degree (end, path, junction)."""
+    def show_skeleton(self, nodes: np.ndarray, edges: np.ndarray, degrees: np.ndarray,
+                      provisional: bool = False) -> None:
+        """Edges as line segments, nodes as spheres coloured by degree (end, path, junction); a provisional
+        skeleton is drawn grey and labelled so."""
         self._clear_skeleton()
+        self._skeleton = (nodes, edges, degrees, provisional)
         visible = self.visible["skeleton"]
+        opacity = self.opacity["skeleton"]
         if len(edges):
             segments = nodes[edges].astype(np.float32)  # (e,2,3)
             self._edges = self.scene.add_line_segments(
-                "/skeleton/edges", points=segments, colors=EDGE_COLOUR,
+                "/skeleton/edges", points=segments, colors=PROVISIONAL_EDGE_COLOUR if provisional else EDGE_COLOUR,
                 thickness=0.3 * self._node_radius(), visible=visible)
         if len(nodes):
             colours = np.empty((len(nodes), 3), np.uint8)
@@ -203,23 +277,42 @@ class SceneView:
                 "/skeleton/nodes", vertices=vertices * self._node_radius(), faces=faces,
                 batched_wxyzs=np.tile(np.array([1.0, 0, 0, 0], np.float32), (len(nodes), 1)),
                 batched_positions=nodes.astype(np.float32), batched_scales=scales, batched_colors=colours,
-                material="toon3", cast_shadow=False, receive_shadow=False, visible=visible)
+                material="toon3", cast_shadow=False, receive_shadow=False, visible=visible,
+                opacity=None if opacity >= 1 else opacity)
+            if provisional:
+                top = nodes[np.argmax(nodes[:, 2])]
+                self._label = self.scene.add_label("/skeleton/provisional", "provisional skeleton",
+                                                   position=top.astype(np.float32), visible=visible)
 
     @_locked
     def clear_skeleton(self) -> None:
         self._clear_skeleton()
 
     def _clear_skeleton(self) -> None:
-        for handle in (self._edges, self._nodes):
+        for handle in (self._edges, self._nodes, self._label):
             if handle is not None:
                 handle.remove()
-        self._edges = self._nodes = None
+        self._edges = self._nodes = self._label = self._skeleton = None
+
+    @_locked
+    def show_ghost(self, nodes: np.ndarray | None, edges: np.ndarray | None) -> None:
+        """The pinned run's skeleton, thin and light, or nothing (None)."""
+        if self._ghost is not None:
+            self._ghost.remove()
+            self._ghost = None
+        if nodes is not None and len(edges):
+            self._ghost = self.scene.add_line_segments(
+                "/pinned/skeleton", points=nodes[edges].astype(np.float32), colors=GHOST_COLOUR,
+                thickness=0.2 * self._node_radius())
+
+    @property
+    def skeleton_drawn(self) -> bool:
+        return self._skeleton is not None
 
     @_locked
     def set_visible(self, layer: str, visible: bool) -> None:
         self.visible[layer] = visible
-        handles = {"original": [self._original], "contracted": [self._contracted],
-                   "skeleton": [self._edges, self._nodes], "removed": [self._removed]}[layer]
+        handles = [self._edges, self._nodes, self._label] if layer == "skeleton" else [self._handles[layer]]
         for handle in handles:
             if handle is not None:
                 handle.visible = visible
@@ -227,16 +320,27 @@ class SceneView:
     @_locked
     def set_size(self, layer: str, factor: float) -> None:
         self.sizes[layer] = factor
-        if layer == "original" and self._original is not None:
-            self._original.point_size = self._point_size("original")
-        elif layer == "contracted" and self._contracted is not None:
-            self._contracted.point_size = self._point_size("contracted")
-        elif layer == "skeleton" and self._nodes is not None:
+        if layer in POINT_LAYERS:
+            if self._handles[layer] is not None:
+                self._handles[layer].point_size = self._point_size(layer)
+        elif self._nodes is not None:
             self._nodes.vertices = self._sphere[0] * self._node_radius()
             if self._edges is not None:
                 self._edges.thickness = 0.3 * self._node_radius()
 
-    def frame_camera(self, camera) -> None:
-        """Point a camera (a client's, or the server's initial one) at the whole cloud."""
-        camera.position = self.centre + self.diagonal * np.array([0.7, -0.7, 0.5])
-        camera.look_at = self.centre  # after the position: moving the position drags look_at along
+    @_locked
+    def set_opacity(self, layer: str, opacity: float) -> None:
+        self.opacity[layer] = opacity
+        if layer in POINT_LAYERS:
+            self._draw(layer)
+        elif self._skeleton is not None:
+            self.show_skeleton(*self._skeleton)
+
+    def frame_camera(self, camera, aspect: float = 0.75) -> None:
+        """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
+        between two panels, so taller than wide) at the whole cloud, from above and aside."""
+        if self._source is None:
+            return
+        framing = framing_camera(self._source, INITIAL_DIRECTION, camera.fov, aspect, fill=0.8)
+        camera.position = framing.position
+        camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from skelcore import contraction, pipeline
+from skelcore.clean import clean, cleaned
 from skelcore.api import Result
 from skelcore.contraction import IterationState, record
 from skelcore.errors import ParameterError
@@ -49,14 +50,14 @@ class Session:
     load). history: the states of a finished run on `cloud` (e.g. a skelcore.Result's) to open at."""
 
     def __init__(self, cloud: Cloud, params: ContractionParams = ContractionParams(),
-                 skeleton_params: SkeletonParams = SkeletonParams(), *, label_weights=None, weights=None,
+                 sample_radius: float = pipeline.RunOptions.sample_radius, *, label_weights=None, weights=None,
                  history: list[IterationState] | None = None):
-        self.skeleton_params = skeleton_params.validated()
+        self.sample_radius = sample_radius
         self.log: list[str] = []
         self._lock = threading.Lock()
         self.label_weights = check_label_weights(label_weights)
         self._point_weights = None if weights is None else check_weights(weights, len(cloud.points))
-        self._start(cloud, params, history)
+        self._start(cloud if history else self._cleaned(cloud), params, history)
 
     # -- the run
     @property
@@ -92,10 +93,21 @@ class Session:
         """Start a run on a new cloud with the current parameters (automatic k and W_L0 stay automatic)."""
         point_weights, self._point_weights = self._point_weights, None
         try:
-            self._start(cloud, self.latest.params)
+            self._start(self._cleaned(cloud), self.latest.params)
         except Exception:
             self._point_weights = point_weights
             raise
+
+    def _cleaned(self, cloud: Cloud) -> Cloud:
+        """The cloud as `skelcore run` contracts it: outliers and stray pieces out, denoised (its notes say
+        so); explicit per-point weights follow the points kept."""
+        if cloud.cleaning is not None:
+            return cloud
+        options = pipeline.RunOptions().cleaning
+        report = clean(cloud.points, options)
+        if self._point_weights is not None:
+            self._point_weights = self._point_weights[report.kept]
+        return cleaned(cloud, options, report=report)
 
     def set_label_weights(self, label_weights) -> None:
         """Contraction weights per label, used from the next restart."""
@@ -122,6 +134,7 @@ class Session:
             generator = contraction.contract(cloud.points, params, weights, stages=True)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
         self._generator, self._pending, self._within_step = generator, None, False
+        self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
         self.run = Run(cloud, params, states, weights=weights,
                        label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
                        else {})
@@ -137,16 +150,22 @@ class Session:
                                                if name not in contraction.RESTART_FIELDS})
         changed = [name for name in current.to_dict() if getattr(live, name) != getattr(current, name)]
         waiting = [name for name in contraction.RESTART_FIELDS if getattr(params, name) != getattr(current, name)]
-        parts = []
+        if changed and self.finished:  # no next step: only a restart can use them
+            waiting, changed = waiting + changed, []
         if changed:
             self._pending = live
-            parts.append(f"{_assignments(live, changed)} from iteration {self.latest.iteration + 1}")
-        if waiting:
-            parts.append(f"{_assignments(params, waiting)} on restart")
-        message = "; ".join(parts)
+        self._live_note = changed and f"{_assignments(live, changed)} from iteration {self.latest.iteration + 1}"
+        ended = " (the run has ended)" if self.finished else ""
+        self._restart_note = waiting and f"{_assignments(params, waiting)} on restart{ended}"
+        message = self.pending
         if message:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")
         return message
+
+    @property
+    def pending(self) -> str:
+        """Parameter changes not used yet, in words ("" when none)."""
+        return "; ".join(filter(None, (self._live_note, self._restart_note)))
 
     def step(self, paused: Callable[[], bool] = lambda: False) -> IterationState | None:
         """One iteration (retuned by gen.send when parameters changed); None when the run has ended, or
@@ -164,19 +183,31 @@ class Session:
                 return None
             state = next(self._generator)
         self._within_step = False
+        self._live_note = ""
         record(self.run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
         return state
 
     # -- derived data of history[index], cached per run
-    def set_skeleton_params(self, params: SkeletonParams) -> None:
-        self.skeleton_params = params.validated()
-        self.note(f"skeleton sample radius {params.sample_radius:g} of the diagonal")
+    def run_options(self, run: Run | None = None) -> pipeline.RunOptions:
+        """What `skelcore run` would be given for this run: the one owner of the skeleton parameters."""
+        run = run or self.run
+        return pipeline.RunOptions(params=run.start_params, sample_radius=self.sample_radius,
+                                   label_weights=tuple(sorted(run.label_weights.items())))
+
+    @property
+    def skeleton_params(self) -> SkeletonParams:
+        return self.run_options().skeleton_params()
+
+    def set_sample_radius(self, radius: float) -> None:
+        pipeline.RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius, keeping the old one
+        self.sample_radius = radius
+        self.note(f"skeleton sample radius {radius:g} of the diagonal")
 
     def skeleton(self, index: int, run: Run | None = None) -> Skeleton:
         run = run or self.run
-        key = (index, self.skeleton_params)
+        key = (index, self.run_options(run).skeleton_params())
         if key not in run.skeletons:
             run.skeletons[key] = pipeline.skeleton_of_state(run.history[index], run.cloud.points, key[1])
         return run.skeletons[key]
@@ -208,10 +239,9 @@ class Session:
         """The files of `skelcore run` (skeleton.json/.ply, contracted.ply, metrics.json, params.json)
         for the run up to history[index]."""
         run = self.run
-        options = pipeline.RunOptions(params=run.start_params, sample_radius=self.skeleton_params.sample_radius,
-                                      label_weights=tuple(sorted(run.label_weights.items())))
-        Result(run.cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
-               options, run.weights).save(out_dir)
+        cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name)  # never the server's paths
+        Result(cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
+               self.run_options(run), run.weights).save(out_dir)
 
     def note(self, line: str) -> None:
         self.log.append(line)

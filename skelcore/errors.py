@@ -9,6 +9,14 @@ class InputError(SkelError):
     """The input file or cloud cannot be used."""
 
 
+class NonFiniteError(InputError):
+    """Some points have NaN or Inf coordinates; `count` of `total` rows (loading may drop them on request)."""
+
+    def __init__(self, message: str, count: int, total: int):
+        super().__init__(message)
+        self.count, self.total = count, total
+
+
 class ParameterError(SkelError):
     """A parameter value is out of its valid range."""
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from . import memory, readers, sizing
-from .errors import InputError, TooLargeError
+from .errors import InputError, NonFiniteError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
@@ -41,13 +41,15 @@ class Cloud:
 
 
 def load(path, *, sample: int | None = None, voxel_size: float | None = None,
-         max_points: int = MAX_POINTS, budget: int | None = None, seed: int = 0, labels=None) -> Cloud:
+         max_points: int = MAX_POINTS, budget: int | None = None, seed: int = 0, labels=None,
+         drop_nonfinite: bool = False) -> Cloud:
     """Read a file into a validated Cloud.
 
     sample: for a mesh, draw this many points evenly over its surface instead of using its vertices.
     voxel_size: downsample to one point per voxel (the way to bring a huge cloud under max_points).
     labels: per-point labels (skelcore.labels.read_labels): a label file, a PLY vertex property name or an
     array in the file's vertex order; None: a PLY file's label property (LABEL_PROPERTIES) when it has one.
+    drop_nonfinite: leave out points with NaN or Inf coordinates (their faces and labels too) instead of refusing.
     budget: bytes a run on the cloud may take (default: skelcore.memory's share for the command line);
     the file is sized before it is parsed, and the cloud's points are checked against it.
     """
@@ -79,7 +81,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
     elif suffix == ".ply" and (prop := ply_label_property(path)) is not None:
         labels = read_ply_labels(path, prop, len(points))
     return validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
-                    max_points=max_points, budget=budget, seed=seed, labels=labels)
+                    max_points=max_points, budget=budget, seed=seed, labels=labels, drop_nonfinite=drop_nonfinite)
 
 
 def _check_file(path: Path) -> None:
@@ -138,11 +140,16 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
 
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
              voxel_size: float | None = None, max_points: int = MAX_POINTS, budget: int | None = None,
-             seed: int = 0, labels=None) -> Cloud:
+             seed: int = 0, labels=None, drop_nonfinite: bool = False) -> Cloud:
     """Check an array of points (and optional faces, per-point labels) and return a clean Cloud; more points
-    than max_points or the memory budget allows raise a TooLargeError with the voxel size that fits."""
-    points = as_points(points, name)
+    than max_points or the memory budget allows raise a TooLargeError with the voxel size that fits.
+    drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing them (NonFiniteError)."""
     notes: list[str] = []
+    if drop_nonfinite:
+        points, faces, labels, dropped = _drop_nonfinite(points, faces, labels, name)
+        if dropped:
+            notes.append(f"dropped {dropped} points with NaN or Inf coordinates")
+    points = as_points(points, name)
     if labels is not None:
         labels = as_labels(labels, len(points), name)
         if sample is not None or voxel_size is not None:
@@ -222,8 +229,30 @@ def as_points(value, name: str) -> np.ndarray:
         raise InputError(f"{name}: expected (n,3) coordinates, got shape {points.shape}")
     bad = int((~np.isfinite(points).all(axis=1)).sum())
     if bad:
-        raise InputError(f"{name}: {bad} of {len(points)} points are not finite (NaN or Inf)")
+        raise NonFiniteError(f"{name}: {bad} of {len(points)} points are not finite (NaN or Inf)", bad, len(points))
     return points
+
+
+def _drop_nonfinite(points, faces, labels, name: str):
+    """Points without their NaN/Inf rows, faces and labels without theirs, and how many rows went."""
+    try:
+        points = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        return points, faces, labels, 0  # as_points names the problem
+    if points.ndim != 2 or points.shape[1] != 3:
+        return points, faces, labels, 0
+    keep = np.isfinite(points).all(axis=1)
+    if keep.all():
+        return points, faces, labels, 0
+    if faces is not None:
+        faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+        if len(faces) and (faces.min() < 0 or faces.max() >= len(points)):
+            raise InputError(f"{name}: faces refer to vertices that do not exist")
+        remap = np.cumsum(keep) - 1
+        faces = remap[faces[keep[faces].all(axis=1)]]
+    if labels is not None and len(labels) == len(points):
+        labels = np.asarray(labels)[keep]
+    return points[keep], faces, labels, int((~keep).sum())
 
 
 def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:

@@ -8,6 +8,16 @@ from dataclasses import dataclass
 from .errors import ParameterError
 
 METHODS = ("lbc", "glskeleton")
+# Accepted values of the numeric parameters: name -> (low, high, low included); `validated` checks them
+# and the inspector's widgets take their ranges from here, so every valid value can be entered.
+LIMITS = {
+    "k": (3, 200, True), "wl0": (0.0, math.inf, False), "wh0": (0.0, math.inf, False), "sl": (1.0, math.inf, True),
+    "wl_max": (0.0, math.inf, False), "wh_max": (0.0, math.inf, False), "max_iterations": (1, 1000, True),
+    "termination": (0.0, math.inf, False), "bbox_growth": (1.0, math.inf, False), "collapse": (0.0, 0.99, True),
+    "curve_share": (0.0, 1.0, True),
+    "gl_merge": (0.0, math.inf, False), "gl_covariance": (0.0, math.inf, False), "gl_merge_share": (0.0, 1.0, False),
+}
+INTEGERS = ("k", "max_iterations")
 
 
 def default_k(n_points: int) -> int:
@@ -38,31 +48,16 @@ class ContractionParams:
 
     def validated(self) -> "ContractionParams":
         """These parameters, or a ParameterError naming the first out of range."""
-        def positive(name: str, value: float | None, allow_none: bool = False) -> None:
-            if value is None and allow_none:
-                return
-            if value is None or not math.isfinite(value) or value <= 0:
-                raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
-
         if self.method not in METHODS:
             raise ParameterError(f"parameter method={self.method!r}: must be one of {', '.join(METHODS)}")
-        if self.k is not None and (int(self.k) != self.k or not 3 <= self.k <= 200):
-            raise ParameterError(f"parameter k={self.k!r}: must be an integer between 3 and 200")
-        positive("wl0", self.wl0, allow_none=True)
-        for name in ("wh0", "wl_max", "wh_max", "termination", "gl_merge", "gl_covariance"):
-            positive(name, getattr(self, name))
-        if not math.isfinite(self.gl_merge_share) or not 0 < self.gl_merge_share <= 1:
-            raise ParameterError(f"parameter gl_merge_share={self.gl_merge_share!r}: must be a number in (0, 1]")
-        if not math.isfinite(self.sl) or self.sl < 1:
-            raise ParameterError(f"parameter sl={self.sl!r}: must be a finite number >= 1")
-        if int(self.max_iterations) != self.max_iterations or not 1 <= self.max_iterations <= 1000:
-            raise ParameterError(f"parameter max_iterations={self.max_iterations!r}: must be an integer between 1 and 1000")
-        if not math.isfinite(self.curve_share) or not 0 <= self.curve_share <= 1:
-            raise ParameterError(f"parameter curve_share={self.curve_share!r}: must be a number in [0, 1]")
-        if not math.isfinite(self.collapse) or not 0 <= self.collapse < 1:
-            raise ParameterError(f"parameter collapse={self.collapse!r}: must be a number in [0, 1)")
-        if not math.isfinite(self.bbox_growth) or self.bbox_growth <= 1:
-            raise ParameterError(f"parameter bbox_growth={self.bbox_growth!r}: must be a finite number > 1")
+        for name, (low, high, closed) in LIMITS.items():
+            value = getattr(self, name)
+            if value is None and name in ("k", "wl0"):  # automatic
+                continue
+            if name in INTEGERS and (isinstance(value, bool) or value is None or int(value) != value):
+                raise ParameterError(f"parameter {name}={value!r}: must be an integer between {low} and {high}")
+            if not _within(value, low, high, closed):
+                raise ParameterError(f"parameter {name}={value!r}: must be {_describe_range(low, high, closed)}")
         return self
 
     def replace(self, **changes) -> "ContractionParams":
@@ -72,3 +67,19 @@ class ContractionParams:
     def to_dict(self) -> dict:
         """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)
+
+
+def _within(value, low: float, high: float, closed: bool) -> bool:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        return False
+    if not math.isfinite(value) or value > high:
+        return False
+    return value >= low if closed else value > low
+
+
+def _describe_range(low: float, high: float, closed: bool) -> str:
+    if math.isinf(high):
+        return f"a finite number {'>=' if closed else '>'} {low:g}"
+    return f"a number in {'[' if closed else '('}{low:g}, {high:g}]"

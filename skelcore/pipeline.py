@@ -30,6 +30,9 @@ from .solver import backend
 from .verdict import run_verdict
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
+# A curve skeleton says something once the one-rings have shrunk to this share of their size at iteration 0
+# (the ring-size ratio a_t); before that the graph joins points across holes the contraction has not opened.
+SKELETON_RING_RATIO = 0.6
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
 EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
@@ -85,6 +88,11 @@ class RunResult:
                 f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
                 f"{topology['junctions']} junctions, {topology['ends']} ends; verdict {self.metrics['verdict']['label']}; "
                 f"{self.elapsed:.1f} s -> {self.out_dir}")
+
+
+def skeleton_is_provisional(state: IterationState) -> bool:
+    """True while the cloud has not contracted enough for its curve skeleton to mean anything."""
+    return state.iteration == 0 or state.ring_ratio > SKELETON_RING_RATIO
 
 
 def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams) -> Skeleton:
@@ -236,17 +244,22 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
     return states
 
 
+def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
+    """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
+    radius over the cloud's diagonal, as the contraction's stop rule measures it."""
+    return curve_share(state.points, SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(cloud.points, axis=0))))
+
+
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],
                      reduction: multires.Reduction | None = None, skeleton: dict | None = None) -> dict:
     """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict (with the
     skeleton checks given the skeleton's evidence, see skeleton_evidence)."""
     iterations = []
-    radius = SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
     for state, measured in zip(states, metrics):
         iterations.append({
             "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
             "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
-            "ring_ratio": state.ring_ratio, "curve_share": curve_share(state.points, radius),
+            "ring_ratio": state.ring_ratio, "curve_share": state_curve_share(state, cloud),
             "timings": state.timings, **measured.to_dict(),
         })
     final = states[-1]

@@ -65,8 +65,14 @@ def empty_figure(title: str = ""):
     return figure
 
 
-def histogram_figure(metrics, measure: str, iteration: int | None = None, title: str | None = None):
-    """Histogram of one measure at one iteration, with its mean, median, target and significant peaks marked."""
+def histogram_figure(metrics, measure: str, iteration: int | None = None, title: str | None = None,
+                     fit: bool = False):
+    """Histogram of one measure at one iteration, with its mean, median, target and significant peaks marked
+    (lines named in the legend, so no two labels overlap).
+
+    fit=True (an IterationMetrics only: it holds the values) spans the x axis over the values and the target
+    rather than the measure's whole range, rebinned into as many bins, so an early iteration whose values
+    all sit near 0 is not one bar; peaks are marked only on the full-range histogram the verdict counts."""
     import plotly.graph_objects as go
 
     key = measure_key(measure)
@@ -76,27 +82,50 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
     iteration = entry.get("iteration") if iteration is None else iteration
     edges = np.asarray(stats["histogram"]["edges"], float)
     counts = np.asarray(stats["histogram"]["counts"], float)
+    peaks = stats["peaks"]
+    shown_range = list(value_range)
+    if fit and isinstance(metrics, IterationMetrics):
+        values = getattr(metrics, key)
+        edges = fitted_edges(values, value_range, target, len(counts))
+        counts = np.histogram(values[np.isfinite(values)], bins=edges)[0].astype(float)
+        shown_range = [edges[0], edges[-1]]
     figure = go.Figure(go.Bar(x=(edges[:-1] + edges[1:]) / 2, y=counts, width=np.diff(edges), name="points",
                               marker_color="#5b7fb5", marker_line_width=0, showlegend=False))
-    peaks = stats["peaks"]
-    figure.add_trace(go.Scatter(x=peaks["positions"], y=peaks["heights"], mode="markers", name="significant peak",
-                                marker=dict(symbol="triangle-down", size=12, color="#d1342f")))
-    figure.add_vline(x=target, line_dash="dash", line_color="#888888", annotation_text=f"target {target:g}",
-                     annotation_position="bottom left")
+    if not fit:
+        figure.add_trace(go.Scatter(x=peaks["positions"], y=peaks["heights"], mode="markers",
+                                    name="significant peak", marker=dict(symbol="triangle-down", size=12,
+                                                                         color="#d1342f")))
+    top = max(float(counts.max(initial=0)), 1.0) * 1.05
+    marks = [(target, f"target {target:g}", dict(dash="dash", color="#d1342f", width=2))]
     if stats["mean"] is not None:
-        figure.add_vline(x=stats["mean"], line_color="#111111", annotation_text=f"mean {stats['mean']:.3f}",
-                         annotation_position="top right")
-        figure.add_vline(x=stats["median"], line_dash="dot", line_color="#111111")
-    summary = (f"skewness {_number(stats['skewness'])}<br>excess kurtosis {_number(stats['kurtosis'])}<br>"
-               f"symmetry {_number(stats['symmetry'])}<br>unimodality {_number(stats['unimodality'])}<br>"
+        marks += [(stats["mean"], f"mean {stats['mean']:.3f}", dict(color="#111111", width=2)),
+                  (stats["median"], f"median {stats['median']:.3f}", dict(dash="dot", color="#111111", width=1.5))]
+    for x, label, line in marks:
+        figure.add_trace(go.Scatter(x=[x, x], y=[0, top], mode="lines", name=label, line=line, hoverinfo="name"))
+    summary = (f"skew {_number(stats['skewness'])} · symmetry {_number(stats['symmetry'])} · "
                f"peaks {peaks['count']} · n {stats['n']}")
-    figure.add_annotation(text=summary, xref="paper", yref="paper", x=0.99, y=0.80, showarrow=False, align="right",
-                          xanchor="right", bgcolor="rgba(255,255,255,0.8)", font=dict(size=11))
     heading = title or (name if iteration is None else f"{name}, iteration {iteration}")
-    figure.update_layout(title=heading, height=FIGURE_HEIGHT, bargap=0, margin=dict(l=50, r=20, t=50, b=50),
-                         xaxis=dict(title=axis_label, range=list(value_range)), yaxis_title="points",
-                         legend=dict(orientation="h", y=-0.3))
+    figure.update_layout(title=dict(text=f"{heading}<br><sup>{summary}</sup>"), height=FIGURE_HEIGHT, bargap=0,
+                         margin=dict(l=50, r=20, t=60, b=95), xaxis=dict(title=axis_label, range=shown_range),
+                         yaxis=dict(title="points", range=[0, top]),
+                         legend=dict(orientation="h", y=-0.35, yanchor="top", x=0, font=dict(size=11)))
     return figure
+
+
+def fitted_edges(values: np.ndarray, value_range: tuple[float, float], target: float, bins: int,
+                 least: float = 0.1) -> np.ndarray:
+    """`bins` + 1 bin edges spanning the finite values and the target (at least `least` of value_range
+    wide), padded by a bin, inside value_range."""
+    full = value_range[1] - value_range[0]
+    finite = np.asarray(values, float)
+    finite = finite[np.isfinite(finite)]
+    low = min(float(finite.min()), target) if len(finite) else value_range[0]
+    high = max(float(finite.max()), target) if len(finite) else value_range[1]
+    widen = max(0.0, least * full - (high - low)) / 2
+    low, high = low - widen, high + widen
+    pad = (high - low) / bins
+    low, high = max(value_range[0], low - pad), min(value_range[1], high + pad)
+    return np.linspace(low, high, bins + 1)
 
 
 def histograms_over_iterations_figure(iterations, measure: str, title: str | None = None):
@@ -224,8 +253,9 @@ def final_means_figure(runs, thresholds: StabilityThresholds = StabilityThreshol
 
 
 def convergence_comparison_figure(runs, thresholds: StabilityThresholds = StabilityThresholds(),
-                                  title: str = "Convergence of the means, all objects"):
-    """The means of D_theta and delta_kappa per iteration, one line per run on shared axes, coloured by verdict."""
+                                  title: str = "Convergence of the means, all objects", colours=None):
+    """The means of D_theta and delta_kappa per iteration, one line per run on shared axes, coloured by verdict
+    (or by `colours`, one per run, with the runs named in the legend)."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -237,40 +267,48 @@ def convergence_comparison_figure(runs, thresholds: StabilityThresholds = Stabil
         figure.add_hrect(y0=target - tolerance, y1=target + tolerance, fillcolor="#2a9d3f", opacity=0.12,
                          line_width=0, row=row, col=1)
         figure.add_hline(y=target, line_dash="dash", line_color="#888888", row=row, col=1)
-    for run in runs:
+    for number, run in enumerate(runs):
         trend = convergence(run["iterations"], thresholds)
-        colour = _verdict_colour(run["verdict"]["label"])
+        colour = colours[number] if colours else _verdict_colour(run["verdict"]["label"])
         for row, (key, _, _) in enumerate(rows, start=1):
             figure.add_trace(go.Scatter(x=trend["iteration"], y=trend[f"{key}_mean"], mode="lines+markers",
-                                        name=run["name"], showlegend=False, opacity=0.75,
+                                        name=run["name"], showlegend=bool(colours) and row == 1, opacity=0.75,
                                         line=dict(color=colour, width=1.5), marker=dict(size=4, color=colour),
                                         hovertemplate="iteration %{x}: %{y:.4f}"),
                              row=row, col=1)
-    _verdict_legend(figure)
+    if not colours:
+        _verdict_legend(figure)
     figure.update_xaxes(title_text="iteration", row=2, col=1)
     figure.update_layout(title=title, height=FIGURE_HEIGHT + 120, margin=dict(l=50, r=20, t=70, b=50),
                          legend=dict(orientation="h", y=-0.2))
     return figure
 
 
-def final_histograms_figure(runs, measure: str, title: str | None = None):
+def final_histograms_figure(runs, measure: str, title: str | None = None, colours=None):
     """The last iteration's histogram of one measure for every run, overlaid as shares of the points and
-    coloured by verdict (paper Figs. 3-4 across objects)."""
+    coloured by verdict (paper Figs. 3-4 across objects), or by `colours`, one per run, named in the legend."""
     import plotly.graph_objects as go
 
     key = measure_key(measure)
     name, axis_label, value_range, target = MEASURES[key]
     figure = go.Figure()
-    for run in runs:
-        colour = _verdict_colour(run["verdict"]["label"])
-        figure.add_trace(_share_trace(run["iterations"][-1], key, name=run["name"], showlegend=False, opacity=0.7,
-                                      line=dict(color=colour, width=1.4)))
+    for number, run in enumerate(runs):
+        colour = colours[number] if colours else _verdict_colour(run["verdict"]["label"])
+        figure.add_trace(_share_trace(run["iterations"][-1], key, name=run["name"], showlegend=bool(colours),
+                                      opacity=0.7 if not colours else 1.0, line=dict(color=colour, width=1.8)))
     figure.add_vline(x=target, line_dash="dash", line_color="#888888", annotation_text=f"target {target:g}")
-    _verdict_legend(figure)
+    if not colours:
+        _verdict_legend(figure)
     figure.update_layout(title=title or f"Final {name} histograms, all objects", height=FIGURE_HEIGHT,
                          margin=dict(l=50, r=20, t=50, b=50), xaxis=dict(title=axis_label, range=list(value_range)),
                          yaxis_title="share of points", legend=dict(orientation="h", y=-0.3))
     return figure
+
+
+def run_summary(name: str, metrics) -> dict:
+    """A run as the comparison figures take it, from its per-iteration metrics (objects or dicts)."""
+    entries = _entries(metrics)
+    return {"name": name, "iterations": entries, "verdict": run_verdict(entries)}
 
 
 def verdict_text(verdict: dict, max_reasons: int = 6) -> str:
@@ -292,10 +330,23 @@ def per_point_values(metrics: IterationMetrics, measure: str) -> np.ndarray:
     return metrics.per_point(measure_key(measure))
 
 
-def histograms_html(metrics, iteration: int | None = None) -> str:
-    """A self-contained page with the two histograms of one iteration."""
-    figures = [histogram_figure(metrics, key, iteration=iteration) for key in MEASURES]
-    return _page("Histograms", "".join(_figure_html(figure) for figure in figures), plotly=True)
+def histograms_html(metrics, iteration: int | None = None, plotly: bool | str = True) -> str:
+    """A page with the two histograms of one iteration (plotly: see figures_html)."""
+    return figures_html("Histograms", [histogram_figure(metrics, key, iteration=iteration) for key in MEASURES],
+                        plotly)
+
+
+def figures_html(title: str, figures, plotly: bool | str = True) -> str:
+    """A page of figures. plotly=True embeds plotly.js (about 4.8 MB, opens offline); a string is the
+    address of a plotly.js script to load instead, e.g. PLOTLY_CDN or a shared copy beside the page."""
+    return _page(title, "".join(_figure_html(figure) for figure in figures), plotly=plotly)
+
+
+def plotly_cdn() -> str:
+    """plotly.js of the installed plotly's version, from plotly's CDN."""
+    from plotly.offline.offline import get_plotlyjs_version
+
+    return f"https://cdn.plot.ly/plotly-{get_plotlyjs_version()}.min.js"
 
 
 # --- the report of run folders ------------------------------------------------------------------
@@ -544,8 +595,9 @@ def _figure_html(figure) -> str:
     return figure.to_html(full_html=False, include_plotlyjs=False, config={"displaylogo": False})
 
 
-def _page(title: str, body: str, plotly: bool) -> str:
-    """The page; plotly=True embeds plotly.js once in the head, so it opens offline and stays one file."""
+def _page(title: str, body: str, plotly: bool | str) -> str:
+    """The page; plotly=True embeds plotly.js once in the head, so it opens offline and stays one file;
+    a string loads plotly.js from that address."""
     style = ("body{font-family:system-ui,sans-serif;margin:24px;color:#222}.row{display:grid;gap:8px}"
              ".muted{color:#666;font-size:90%}table{border-collapse:collapse}.scroll{overflow-x:auto}"
              "td,th{border:1px solid #ddd;padding:4px 8px;text-align:left}section{margin-top:32px}"
@@ -553,7 +605,9 @@ def _page(title: str, body: str, plotly: bool) -> str:
              "th[data-order=desc]::after{content:' ▼'}tr.failed{background:#fbeaea}"
              "td.error{min-width:24em;max-width:48em;font-size:90%;overflow-wrap:anywhere}")
     script = ""
-    if plotly:
+    if isinstance(plotly, str):
+        script = f"<script src='{html.escape(plotly)}' charset='utf-8'></script>"
+    elif plotly:
         from plotly.offline import get_plotlyjs
 
         script = f"<script>{get_plotlyjs()}</script>"

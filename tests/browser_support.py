@@ -11,7 +11,8 @@ import numpy as np
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-VIEWPORT = {"width": 1280, "height": 800}
+VIEWPORT = {"width": 1280, "height": 720}
+VIEWPORTS = ({"width": 1600, "height": 1000}, {"width": 1280, "height": 720})  # the sizes the checks run at
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 WAIT = 120.0  # seconds: generous, for waiting only (2 shared cores, software WebGL)
 
@@ -32,14 +33,14 @@ def launch(playwright):
     return playwright.chromium.launch(executable_path=str(executable), args=CHROMIUM_ARGS)
 
 
-def open_inspector(browser, url: str):
+def open_inspector(browser, url: str, viewport: dict = VIEWPORT):
     """A new page (own context) on the inspector, once its controls and 3-D canvas are up."""
-    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+    context = browser.new_context(viewport=viewport, accept_downloads=True)
     page = context.new_page()
     page.set_default_timeout(WAIT * 1000)
     page.goto(url)
     button(page, "Step").wait_for()
-    page.locator("canvas").first.wait_for()
+    page.locator("canvas[data-engine]").first.wait_for()
     return page
 
 
@@ -68,6 +69,29 @@ def open_folder(page, title: str) -> None:
     page.get_by_text(title, exact=True).first.click()
 
 
+def open_tab(page, name: str) -> None:
+    """Bring a tab of the control panel or the plots panel to the front."""
+    page.get_by_role("tab", name=name, exact=True).first.click()
+
+
+def inside_viewport(page, locator) -> bool:
+    """Whether the element's whole box lies inside the page's viewport (nothing to scroll to see it)."""
+    box = locator.bounding_box()
+    size = page.viewport_size
+    return (box is not None and box["x"] >= 0 and box["y"] >= 0 and box["x"] + box["width"] <= size["width"] + 0.5
+            and box["y"] + box["height"] <= size["height"] + 0.5)
+
+
+def close_browser_notices(page) -> None:
+    """Close viser's own notices (e.g. "Software WebGL rendering detected"), which cover the view."""
+    for close in page.locator(".mantine-Notification-root button").all():
+        try:
+            close.click(timeout=2000)
+        except Exception:  # already gone
+            pass
+    page.wait_for_timeout(600)  # the closing animation
+
+
 def wait_until(predicate, what: str, timeout: float = WAIT, interval: float = 0.05):
     """Poll until predicate() is truthy; return its value. Only a waiting limit, not a speed check."""
     deadline = time.monotonic() + timeout
@@ -84,7 +108,7 @@ def canvas_image(page, name: str | None = None) -> np.ndarray:
     """Screenshot of the 3-D canvas as an (h,w,3) array; saved under test-artifacts/ when named."""
     import imageio.v3 as iio
 
-    png = page.locator("canvas").first.screenshot()
+    png = page.locator("canvas[data-engine]").first.screenshot()
     if name:
         ARTIFACTS.mkdir(exist_ok=True)
         (ARTIFACTS / name).write_bytes(png)

@@ -10,7 +10,8 @@ import pytest
 import skelcore
 from skelcore.shapes import make_shape
 
-from browser_support import browser_missing, button, launch, open_folder, open_inspector, save_page, wait_until
+from browser_support import (browser_missing, button, launch, open_folder, open_inspector, open_tab, save_page,
+                             wait_until)
 
 browser_needed = pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))
 
@@ -58,11 +59,12 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             button(page, "Restart with these parameters").click()
             wait_until(lambda: handle.session.run.weights is not None and handle.session.run.weights.max() == 6.0,
                        "the restart with the new weight")
-            page.get_by_label("Colour contracted by").click()
+            open_tab(page, "View")
+            page.get_by_label("Colour by").click()
             page.get_by_role("option", name="label").click()
-            wait_until(lambda: handle.inspector.view._colours_key is not None, "colours by label")
+            wait_until(lambda: handle.inspector.view.coloured, "colours by label")
             page.get_by_text("(w=6)").first.wait_for()  # the legend
-            colours = np.asarray(handle.inspector.view._contracted.colors)
+            colours = np.asarray(handle.inspector.view.drawn_colours("contracted"))
             assert len(np.unique(colours.reshape(-1, 3), axis=0)) == 2
             save_page(page, "inspect_labels.png")
             browser.close()

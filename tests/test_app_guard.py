@@ -97,7 +97,7 @@ def settle(predicate, what: str, timeout: float = 120.0):
 
 def test_oversized_and_abandoned_uploads_keep_memory_bounded(served):
     server, inspector = served
-    guard, button = inspector.upload_guard, inspector.upload._impl.uuid
+    guard, button = inspector.upload_guard, inspector.ui.files.upload._impl.uuid
     cap = inspector.max_upload_bytes
     chunk = bytes(MIB)
     baseline = rss()
@@ -143,7 +143,7 @@ def test_oversized_and_abandoned_uploads_keep_memory_bounded(served):
 
 def test_an_idle_transfer_is_dropped_while_its_client_stays(served):
     server, inspector = served
-    guard, button = inspector.upload_guard, inspector.upload._impl.uuid
+    guard, button = inspector.upload_guard, inspector.ui.files.upload._impl.uuid
     guard.idle_seconds = 1.0
     try:
         client = RawClient(server.get_port())
@@ -161,7 +161,7 @@ def test_an_idle_transfer_is_dropped_while_its_client_stays(served):
 
 def test_a_whole_upload_within_the_cap_still_loads(served):
     server, inspector = served
-    button = inspector.upload._impl.uuid
+    button = inspector.ui.files.upload._impl.uuid
     content = "\n".join(" ".join(map(str, p)) for p in make_shape("y_branch", 500).points).encode()
     client = RawClient(server.get_port(), camera=True)
     transfer = client.start(button, len(content), 1, name="branch.xyz")
@@ -246,7 +246,7 @@ def test_save_names_are_sanitised_and_short_and_paths_stay_on_the_server(served,
     from app.inspector import without_paths
 
     inspector.save_dir = tmp_path / "saves"
-    inspector.save_on_server.value = True
+    inspector.ui.files.save_on_server.value = True
     try:
         long_name = ("a/../b \u00e9" + "x" * 300)[:251] + ".xyz"
         inspector.open(validate(make_shape("torus", 300).points, name=long_name))
@@ -258,7 +258,7 @@ def test_save_names_are_sanitised_and_short_and_paths_stay_on_the_server(served,
         assert not any(str(tmp_path) in line for line in inspector.session.log)
         assert without_paths(f"{tmp_path}/saves/x.png: cannot write") == "x.png: cannot write"
     finally:
-        inspector.save_on_server.value = False
+        inspector.ui.files.save_on_server.value = False
         inspector.save_dir = None
 
 
@@ -271,7 +271,7 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
 
     server, inspector = served
     inspector.save_dir = tmp_path / "saves"
-    inspector.save_on_server.value = True
+    inspector.ui.files.save_on_server.value = True
     try:
         inspector._deliver(None, "first.png", b"first")
         real = os.replace
@@ -286,7 +286,7 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
         assert (tmp_path / "saves" / "first.png").read_bytes() == b"first"
         assert sorted(p.name for p in (tmp_path / "saves").iterdir()) == ["first.png"]
     finally:
-        inspector.save_on_server.value = False
+        inspector.ui.files.save_on_server.value = False
         inspector.save_dir = None
 
 
@@ -324,17 +324,17 @@ def test_a_cloud_over_the_inspector_budget_is_offered_downsampled(served, monkey
     points = make_shape("torus", 5000).points
     content = "\n".join(" ".join(map(str, p)) for p in points).encode()
     client = RawClient(server.get_port(), camera=True)
-    transfer = client.start(inspector.upload._impl.uuid, len(content), 1, name="dense.xyz")
-    client.part(inspector.upload._impl.uuid, transfer, 0, content)
+    transfer = client.start(inspector.ui.files.upload._impl.uuid, len(content), 1, name="dense.xyz")
+    client.part(inspector.ui.files.upload._impl.uuid, transfer, 0, content)
     client.ws.ping().wait(60)
     settle(lambda: inspector.offer is not None, "the offer of a voxel size")
     assert inspector.wait_idle(120)
-    assert inspector.downsample_button.visible and "voxel" in inspector.downsample_button.label
+    assert inspector.ui.files.downsample.visible and "voxel" in inspector.ui.files.downsample.label
     assert any("dense.xyz" in line and "Load downsampled" in line for line in inspector.session.log)
     assert inspector.session.cloud.name != "dense.xyz"  # the session stayed as it was
     voxel, read = inspector.offer
     inspector.worker.submit(lambda: inspector._load(lambda: read(voxel)))
     assert inspector.wait_idle(120)
     assert inspector.session.cloud.name == "dense.xyz" and len(inspector.session.cloud.points) <= 1000
-    assert not inspector.downsample_button.visible and inspector.offer is None
+    assert not inspector.ui.files.downsample.visible and inspector.offer is None
     client.close()

@@ -16,7 +16,6 @@ from skelcore.errors import InputError, ParameterError
 from skelcore.io import load_bytes, validate
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
-from skelcore.skeleton import SkeletonParams
 
 
 @pytest.fixture(scope="module")
@@ -46,6 +45,21 @@ def test_weight_change_applies_from_the_next_step(session):
     state = session.step()
     assert state.params.sl == 2.0 and session.history[1].params.sl == 3.0
     assert state.wl == pytest.approx(session.history[0].wl * 2.0)
+
+
+def test_tuning_after_the_end_waits_for_restart(session):
+    while session.step() is not None:
+        pass
+    message = session.tune(session.params.replace(sl=2.0))
+    assert message == "sl=2.0 on restart (the run has ended)" and session.pending == message
+    assert "from iteration" not in message
+
+
+def test_pending_change_is_told_until_used(session):
+    session.tune(session.params.replace(wh0=2.0))
+    assert session.pending == "wh0=2.0 from iteration 1"
+    session.step()
+    assert session.pending == ""
 
 
 def test_restart_only_fields_wait_for_restart(session):
@@ -79,7 +93,7 @@ def test_metrics_and_skeletons_are_computed_once(session):
     assert "skeleton loops" not in {c["name"] for c in session.verdict(2)["criteria"]}
     skeleton = session.skeleton(2)
     assert session.skeleton(2) is skeleton
-    session.set_skeleton_params(SkeletonParams(sample_radius=0.05))
+    session.set_sample_radius(0.05)
     coarser = session.skeleton(2)
     assert coarser is not skeleton and coarser.radius > skeleton.radius
 
@@ -94,7 +108,9 @@ def test_bad_upload_leaves_the_session_alone(session):
 def test_load_replaces_the_cloud(session):
     capsule = validate(make_shape("capsule", 500).points, name="capsule.xyz")
     session.load(capsule)
-    assert session.cloud is capsule and len(session.history[0].points) == 500
+    # cleaned as `skelcore run` cleans it: a clean synthetic capsule keeps every point, denoised
+    assert session.cloud.name == "capsule.xyz" and len(session.history[0].points) == 500
+    assert session.cloud.cleaning is not None and np.abs(session.cloud.points - capsule.points).max() < 0.05
 
 
 def test_bad_parameter_is_refused(session):
@@ -143,14 +159,21 @@ def test_latest_runs_only_the_newest_request():
     latest.close()
 
 
-def test_colour_values_cover_the_range_and_grey_out_nan():
-    colours = colour_values(np.array([0.0, 0.5, 1.0, np.nan]), "D_theta")
+@pytest.mark.parametrize("quantity, target", [("D_theta", 0.5), ("delta_kappa", 0.0)])
+def test_colour_map_target_stands_out_on_the_white_background(quantity, target):
+    from app.scene import COLOUR_RANGES
+
+    low, high = COLOUR_RANGES[quantity]
+    colours = colour_values(np.array([low, target, high, np.nan]), quantity)
     assert colours.dtype == np.uint8 and colours.shape == (4, 3)
     assert not np.array_equal(colours[0], colours[2])
     assert tuple(colours[3]) == (150, 150, 150)
+    for colour in colours[:3]:  # every value, the target above all, is far from white
+        assert 255 * 3 - int(colour.astype(int).sum()) > 150
+    assert colours[1].astype(int).sum() < 200  # the target is dark
 
 
-def test_png_bytes_flattens_transparency_onto_white():
+def test_png_bytes_flattens_transparency_onto_white_or_keeps_it():
     import imageio.v3 as iio
 
     rgba = np.zeros((4, 6, 4), np.uint8)
@@ -158,15 +181,81 @@ def test_png_bytes_flattens_transparency_onto_white():
     image = iio.imread(io.BytesIO(export.png_bytes(rgba)), extension=".png")
     assert image.shape == (4, 6, 3)
     assert tuple(image[0, 0]) == (255, 255, 255) and tuple(image[1, 2]) == (200, 10, 10)
+    clear = iio.imread(io.BytesIO(export.png_bytes(rgba, transparent=True)), extension=".png")
+    assert clear.shape == (4, 6, 4) and clear[0, 0, 3] == 0 and clear[1, 2, 3] == 255
+
+
+def test_labels_are_burned_in():
+    plain = export.compose(np.zeros((200, 400, 4), np.uint8))
+    labelled = export.compose(np.zeros((200, 400, 4), np.uint8), ["iteration 3 · lbc", "verdict: stable"])
+    assert (plain == 255).all() and (labelled < 100).any()
+
+
+def test_animation_has_one_frame_per_iteration():
+    import imageio.v3 as iio
+
+    frames = [np.full((64, 96, 3), 40 * i, np.uint8) for i in range(4)]
+    files = export.animation_files(frames)
+    assert iio.imread(files["gif"], index=None, extension=".gif").shape[0] == 4
+    assert files["mp4"][4:8] == b"ftyp"
+    assert _mp4_frames(files["mp4"]) == 4
+
+
+def _mp4_frames(data: bytes) -> int:
+    import tempfile
+
+    import imageio
+
+    with tempfile.NamedTemporaryFile(suffix=".mp4") as handle:
+        handle.write(data)
+        handle.flush()
+        reader = imageio.get_reader(handle.name, format="FFMPEG")
+        try:
+            return reader.count_frames()
+        finally:
+            reader.close()
 
 
 def test_bundle_holds_the_result_files(session):
+    import json
+
     session.step()
     data = export.bundle(session, 1, export.png_bytes(np.full((2, 2, 4), 255, np.uint8)))
     with zipfile.ZipFile(io.BytesIO(data)) as archive:
         assert set(archive.namelist()) == {"screenshot.png", "skeleton.json", "skeleton.ply", "contracted.ply",
-                                           "metrics.json", "params.json", "histograms.html"}
-        assert b"plotly" in archive.read("histograms.html").lower()
+                                           "metrics.json", "params.json", "histograms.html", "convergence.html"}
+        for page in ("histograms.html", "convergence.html"):
+            text = archive.read(page).decode()
+            assert "Plotly.newPlot" in text and "cdn.plot.ly/plotly-" in text
+            assert len(text) < 200_000  # plotly.js is loaded, not inlined (4.8 MB)
+        assert json.loads(archive.read("params.json"))["input"] == "torus.xyz"
+    assert len(data) < 500_000
+
+
+def test_bundle_skeleton_is_the_one_skelcore_run_builds(tmp_path):
+    """One owner of the skeleton parameters: a GLSkeleton bundle's skeleton.json matches its params.json
+    and what `skelcore run` writes for the same input and parameters."""
+    import json
+
+    from skelcore.export import write_points_ply
+    from skelcore.pipeline import RunOptions, run_pipeline
+
+    cloud = validate(make_shape("y_branch", 1500).points, name=str(tmp_path / "server" / "y_branch.xyz"))
+    params = ContractionParams(method="glskeleton")
+    session = Session(cloud, params)
+    while session.step() is not None:
+        pass
+    last = len(session.history) - 1
+    with zipfile.ZipFile(io.BytesIO(export.bundle(session, last, b"png"))) as archive:
+        bundled = {name: json.loads(archive.read(name)) for name in ("params.json", "skeleton.json")}
+    assert bundled["params.json"]["skeleton"]["drop_collinear"] is True
+    assert bundled["params.json"]["input"] == "y_branch.xyz"  # the file name, never the server's path
+    source = write_points_ply(tmp_path / "y_branch.ply", cloud.points)
+    result = run_pipeline(source, tmp_path / "cli", RunOptions(params=params))
+    cli = json.loads((tmp_path / "cli" / "skeleton.json").read_text())
+    assert bundled["params.json"]["skeleton"] == json.loads((tmp_path / "cli" / "params.json").read_text())["skeleton"]
+    assert len(bundled["skeleton.json"]["nodes"]) == len(cli["nodes"]) == result.skeleton.graph.number_of_nodes()
+    assert np.allclose(bundled["skeleton.json"]["nodes"], cli["nodes"])
 
 
 def test_exports_are_saved_on_the_server_only_when_asked(cloud, tmp_path):
@@ -180,7 +269,7 @@ def test_exports_are_saved_on_the_server_only_when_asked(cloud, tmp_path):
         assert inspector.wait_idle(120)
         inspector._deliver(None, "view.png", b"png")
         assert not (tmp_path / "exports").exists()
-        inspector.save_on_server.value = True
+        inspector.ui.files.save_on_server.value = True
         inspector._deliver(None, "view.png", b"png")
         assert (tmp_path / "exports" / "view.png").read_bytes() == b"png"
     finally:
@@ -198,11 +287,17 @@ def test_large_clouds_are_drawn_from_a_fixed_subset(cloud):
         view = SceneView(server.scene, display_cap=300)
         view.load(cloud.points)
         view.show_points("state", cloud.points * 0.5)
-        assert len(view._original.points) == len(view._contracted.points) == 300
-        assert view._original.points.dtype == np.float32
+        assert len(view.drawn_points("original")) == len(view.drawn_points("contracted")) == 300
+        assert view.drawn_points("original").dtype == np.float32
         assert "300 of 800" in view.notice(len(cloud.points)) and view.notice(300) == ""
-        rows = view.subset(len(cloud.points))
-        assert np.allclose(view._contracted.points, (cloud.points[rows] * 0.5).astype(np.float32))
+        rows = view.rows(len(cloud.points))
+        assert np.allclose(view.drawn_points("contracted"), (cloud.points[rows] * 0.5).astype(np.float32))
+        view.set_opacity("original", 0.25)  # a quarter of the points, the same ones whatever the opacity
+        assert len(view.drawn_points("original")) == 200
+        assert set(map(tuple, view.drawn_points("original"))) <= set(map(tuple, cloud.points.astype(np.float32)))
+        colours = np.zeros((800, 3), np.uint8)
+        view.set_colours("state", colours, "D_theta")
+        assert len(view.drawn_colours("contracted")) == 300 and view.coloured
     finally:
         server.stop()
 
@@ -221,3 +316,41 @@ def test_a_pause_between_stages_resumes_the_same_step(cloud):
     assert stops >= 3  # at least one stop within every step
     for a, b in zip(straight.history, paused.history):
         assert a.iteration == b.iteration and np.array_equal(a.points, b.points)
+
+
+def test_dense_clouds_start_thinned():
+    from app.scene import auto_opacity
+
+    assert auto_opacity(5_000) == 1.0
+    assert auto_opacity(50_000) == pytest.approx(0.4)
+    assert auto_opacity(2_000_000) == pytest.approx(0.05)
+
+
+
+def test_framing_camera_fills_the_shorter_side():
+    from skelcore.display import framing_camera, projected_box_share
+
+    points = make_shape("torus", 800).points * 3.0 + 10.0
+    for direction, (width, height) in (((1, -1, 0.5), (1280, 720)), ((0, 0, -1), (800, 600)),
+                                       ((0.2, 1, 0), (720, 1280))):
+        camera = framing_camera(points, direction, fov=np.radians(50), aspect=width / height, fill=0.8)
+        share = projected_box_share(points, camera, np.radians(50), width, height)
+        assert 0.5 <= share <= 1.0 / min(width, height) * max(width, height)
+        local = (points - camera.position) @ camera.rotation
+        assert (local[:, 2] > 0).all()  # everything in front of the camera
+
+
+def test_every_point_gets_a_value_when_metrics_are_sampled():
+    from skelcore.display import values_for_all_points
+    from skelcore.metrics import MetricsReference
+
+    points = make_shape("torus", 3000).points
+    reference = MetricsReference.from_points(points, k=20, max_points=500)
+    contracted = points * 0.9
+    metrics = reference.evaluate(contracted)
+    result = values_for_all_points(metrics, contracted, "d_theta")
+    assert result.measured <= 500 and result.carried >= 2500
+    assert np.isfinite(result.values).all()
+    own = metrics.per_point("d_theta")
+    measured = np.isfinite(own)
+    assert np.array_equal(result.values[measured], own[measured])

@@ -228,3 +228,21 @@ def test_capsule_seed_that_over_contracts_stops_before_its_collapse():
     final = run_contraction(shape.points)[-1]
     assert final.termination == "collapse"
     assert np.ptp(final.points[:, 0]) > 0.8 * np.ptp(shape.points[:, 0])
+
+
+def test_parameter_limits_are_the_checks():
+    import math
+
+    from skelcore.params import LIMITS
+
+    assert ContractionParams(wh0=20).validated().wh0 == 20  # a valid value the old GUI slider refused
+    for name, (low, high, closed) in LIMITS.items():
+        if not math.isinf(high):
+            ContractionParams(**{name: high}).validated()
+            with pytest.raises(ParameterError, match=name):
+                ContractionParams(**{name: high + 1}).validated()
+        with pytest.raises(ParameterError, match=name):
+            ContractionParams(**{name: low - 1}).validated()
+        if not closed:
+            with pytest.raises(ParameterError, match=name):
+                ContractionParams(**{name: low}).validated()

@@ -175,3 +175,18 @@ def test_reference_files_load(reference_dir):
     cloud = io.load(reference_dir / "cloudcontr_simplejoint_v4770.off")
     assert cloud.points.shape == (4770, 3) and cloud.faces.shape == (9536, 3)
     assert len(io.load(reference_dir / "libigl_elephant.obj").points) == 6034
+
+
+def test_nonfinite_rows_are_refused_or_dropped_on_request(tmp_path):
+    from skelcore.errors import NonFiniteError
+
+    points = np.random.default_rng(0).normal(size=(100, 3))
+    points[[3, 70]] = [np.nan, 0, np.inf]
+    path = tmp_path / "holes.xyz"
+    path.write_text("\n".join(" ".join(str(v) for v in row) for row in points))
+    with pytest.raises(NonFiniteError, match="2 of 100 points are not finite") as refused:
+        io.load(path)
+    assert (refused.value.count, refused.value.total) == (2, 100)
+    cloud = io.load_bytes(path.read_bytes(), "holes.xyz", drop_nonfinite=True)
+    assert len(cloud.points) == 98 and any("dropped 2 points" in note for note in cloud.notes)
+

@@ -209,3 +209,19 @@ def test_report_states_the_measured_predictive_power():
     text = report.predictive_power_html(power)
     assert "right in 95% of the 40 runs it labelled" in text and "labelled 54% of the right runs" in text
     assert "inside_share 0.63" in text
+
+
+def test_fitted_histogram_spans_the_values_and_the_target(history):
+    _, _, metrics = history
+    first = metrics[1]
+    figure = report.histogram_figure(first, "d_theta", fit=True)
+    low, high = figure.layout.xaxis.range
+    values = first.d_theta[np.isfinite(first.d_theta)]
+    assert low <= values.min() and high >= max(values.max(), 0.5)
+    assert high - low < 1.0 or values.max() > 0.9
+    assert sum(figure.data[0].y) == len(values)  # every value in a bin
+    edges = report.fitted_edges(np.zeros(10), (-1 / 3, 1 / 3), 0.0, 50)
+    assert edges[-1] - edges[0] >= 0.1 * 2 / 3  # a spike is shown in a readable window, not +-10 micro
+    names = [trace.name for trace in figure.data]
+    assert any(name.startswith("target") for name in names) and any(name.startswith("mean") for name in names)
+    assert not figure.layout.annotations  # labels are legend entries: they cannot overlap

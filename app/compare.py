@@ -1,0 +1,52 @@
+"""Compare runs: a pinned run kept beside the current one (its metrics, the skeleton of its last iteration),
+and the figures that put the two side by side."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from skelcore import pipeline, report
+
+RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
+
+
+@dataclass
+class Pinned:
+    """A run kept for comparison: its metrics up to the pinned iteration and that iteration's skeleton."""
+    run: object  # app.session.Run
+    name: str
+    summary: dict  # report.run_summary
+    skeleton: tuple[np.ndarray, np.ndarray] | None  # nodes, edges; None before the cloud has contracted
+
+
+def describe(state, role: str) -> str:
+    p = state.params
+    return f"{role}: {p.method}, W_H0 {p.wh0:g}, s_L {p.sl:g}, it {state.iteration}"
+
+
+def pin(session) -> Pinned:
+    """The session's run as it stands (its newest iteration)."""
+    index, run, state = len(session.history) - 1, session.run, session.latest
+    metrics = session.metrics_upto(index, run)
+    skeleton = None
+    if not pipeline.skeleton_is_provisional(state):
+        found = session.skeleton(index, run)
+        skeleton = (found.nodes_array(), found.edges_array())
+    name = describe(state, "pinned")
+    return Pinned(run, name, report.run_summary(name, metrics), skeleton)
+
+
+def comparison(pinned: Pinned, state, history) -> tuple[str, object, object, object]:
+    """Markdown naming both runs, the overlaid convergence curves, the last histograms of both (D_theta,
+    delta_kappa); `history`: the current run's metrics up to the shown `state`."""
+    current = report.run_summary(describe(state, "current"), history)
+    runs = [pinned.summary, current]
+    note = (f"**{pinned.name}** (grey, verdict {runs[0]['verdict']['label']}) against **{current['name']}** "
+            f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in light blue.")
+    convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
+                                                       colours=RUN_COLOURS)
+    theta = report.final_histograms_figure(runs, "d_theta", title="D_theta, last iteration", colours=RUN_COLOURS)
+    kappa = report.final_histograms_figure(runs, "delta_kappa", title="delta_kappa, last iteration",
+                                           colours=RUN_COLOURS)
+    return note, convergence, theta, kappa

@@ -1,0 +1,236 @@
+"""Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
+
+- the control panel (docked right): the run controls and status on top, then tabs
+  Parameters | View | Files | Log, and below them the Labels folder of clouds with labels (app.labels);
+- the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
+  Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more `with panel.add_tab(...)` in `build_plots`;
+- the legend, a small window floating over the 3-D view (bottom left), so it stays on screen.
+
+Each builder returns a plain dataclass of handles; app.inspector wires them. Number widgets take their
+ranges from skelcore.params.LIMITS, the checks the parameters themselves go through.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import viser
+
+from skelcore import report
+from skelcore.io import FORMATS as INPUT_FORMATS
+from skelcore.params import LIMITS, METHODS, ContractionParams
+
+PLOTS_WIDTH = 420  # px: two histograms of this width fit one above the other in a 720 px high window
+CONTROLS_WIDTH = 340
+HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
+RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
+LAYERS = ("original", "contracted", "skeleton", "removed")
+SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
+             "F": "fit the view"}
+
+
+@dataclass
+class RunControls:
+    title: viser.GuiMarkdownHandle
+    step: viser.GuiButtonHandle
+    play: viser.GuiButtonHandle
+    end: viser.GuiButtonHandle
+    reset: viser.GuiButtonHandle
+    timeline: viser.GuiSliderHandle
+    follow: viser.GuiCheckboxHandle
+    status: viser.GuiMarkdownHandle
+    interval: viser.GuiSliderHandle
+
+
+@dataclass
+class ParameterWidgets:
+    method: viser.GuiDropdownHandle
+    wl0: viser.GuiNumberHandle
+    wh0: viser.GuiNumberHandle
+    sl: viser.GuiNumberHandle
+    wl_max: viser.GuiNumberHandle
+    k: viser.GuiNumberHandle
+    max_iterations: viser.GuiNumberHandle
+    termination: viser.GuiNumberHandle
+    radius: viser.GuiSliderHandle
+    restart: viser.GuiButtonHandle
+
+    def contraction_handles(self) -> tuple:
+        return (self.method, self.wl0, self.wh0, self.sl, self.wl_max, self.k, self.max_iterations, self.termination)
+
+
+@dataclass
+class ViewWidgets:
+    show: dict[str, viser.GuiCheckboxHandle]
+    opacity: dict[str, viser.GuiSliderHandle]
+    size: dict[str, viser.GuiSliderHandle]
+    provisional: viser.GuiCheckboxHandle
+    colouring: viser.GuiDropdownHandle
+    colour_original: viser.GuiCheckboxHandle
+    fit: viser.GuiButtonHandle
+
+
+@dataclass
+class FileWidgets:
+    asset: viser.GuiDropdownHandle
+    load: viser.GuiButtonHandle
+    upload: viser.GuiUploadButtonHandle
+    downsample: viser.GuiButtonHandle
+    resolution: viser.GuiDropdownHandle
+    labels: viser.GuiCheckboxHandle
+    transparent: viser.GuiCheckboxHandle
+    save_on_server: viser.GuiCheckboxHandle
+    screenshot: viser.GuiButtonHandle
+    animation: viser.GuiButtonHandle
+    bundle: viser.GuiButtonHandle
+
+
+@dataclass
+class PlotWidgets:
+    verdict_line: viser.GuiMarkdownHandle  # the verdict in one line, above the histograms
+    verdict: viser.GuiMarkdownHandle  # each criterion, its threshold, this iteration's value, pass or fail
+    hist_theta: viser.GuiPlotlyHandle
+    hist_kappa: viser.GuiPlotlyHandle
+    convergence: viser.GuiPlotlyHandle
+    pin: viser.GuiButtonHandle
+    compare_note: viser.GuiMarkdownHandle
+    compare_convergence: viser.GuiPlotlyHandle
+    compare_theta: viser.GuiPlotlyHandle
+    compare_kappa: viser.GuiPlotlyHandle
+
+
+@dataclass
+class Layout:
+    run: RunControls
+    params: ParameterWidgets
+    view: ViewWidgets
+    files: FileWidgets
+    plots: PlotWidgets
+    legend: viser.GuiHtmlHandle
+    log: viser.GuiMarkdownHandle
+    plots_panel: object
+    legend_panel: object
+    labels_order: float  # where app.labels puts its "Labels" folder: below the tabs
+
+
+def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *, play_interval: float,
+          assets: tuple[str, ...], max_upload_mib: int, save_dir) -> Layout:
+    gui.configure_theme(control_width="medium", dark_mode=False, show_share_button=False)
+    gui.main_panel.dock_right()
+    gui.main_panel.set_width(CONTROLS_WIDTH)
+    run = build_run_controls(gui, play_interval)
+    tabs = gui.add_tab_group()
+    with tabs.add_tab("Parameters"):
+        parameters = build_parameters(gui, params, sample_radius)
+    with tabs.add_tab("View"):
+        view = build_view(gui)
+    with tabs.add_tab("Files"):
+        files = build_files(gui, assets, max_upload_mib, save_dir)
+    with tabs.add_tab("Log"):
+        gui.add_markdown("Shortcuts: " + ", ".join(f"**{key}** {what}" for key, what in SHORTCUTS.items()))
+        log = gui.add_markdown("")
+    plots_panel = gui.add_panel()
+    plots = build_plots(gui, plots_panel)
+    plots_panel.dock_left()
+    plots_panel.set_width(PLOTS_WIDTH)
+    legend_panel = gui.add_panel()
+    with legend_panel.add_tab("Legend"):
+        legend = gui.add_html("")
+    legend_panel.float(x=12, y=-12, width=300)
+    return Layout(run, parameters, view, files, plots, legend, log, plots_panel, legend_panel, tabs.order + 0.5)
+
+
+def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
+    title = gui.add_markdown("")
+    step = gui.add_button("Step", hint="one iteration (key N)")
+    play = gui.add_button("Play", hint="iterate until the run ends or Pause (key P)")
+    end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
+    reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
+    timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True,
+                              hint="the iteration this browser shows (keys J and K)")
+    follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed")
+    status = gui.add_markdown("")
+    interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
+                              hint="least time between two iterations during Play, to watch them")
+    return RunControls(title, step, play, end, reset, timeline, follow, status, interval)
+
+
+def _number(gui: viser.GuiApi, label: str, name: str, value, step: float, hint: str | None = None):
+    low, high, _ = LIMITS[name]
+    return gui.add_number(label, initial_value=value, min=low, max=None if math.isinf(high) else high, step=step,
+                          hint=hint)
+
+
+def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius: float) -> ParameterWidgets:
+    method = gui.add_dropdown("Method", METHODS, initial_value=params.method, hint="applies on Restart")
+    wl0 = gui.add_number("W_L0 (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
+    wh0 = _number(gui, "W_H0", "wh0", params.wh0, 0.1)
+    sl = _number(gui, "s_L", "sl", params.sl, 0.1)
+    wl_max = _number(gui, "W_L cap", "wl_max", params.wl_max, 1.0)
+    k = gui.add_number("k (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
+                       hint="applies on Restart")
+    max_iterations = _number(gui, "Max iterations", "max_iterations", params.max_iterations, 1)
+    termination = _number(gui, "Termination", "termination", params.termination, 0.0001,
+                          hint="stop when the ring-size ratio falls by less")
+    radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
+                            hint="skeleton ball radius, fraction of the bounding-box diagonal")
+    restart = gui.add_button("Restart with these parameters")
+    return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, radius, restart)
+
+
+def build_view(gui: viser.GuiApi) -> ViewWidgets:
+    fit = gui.add_button("Fit view", hint="point the camera at the whole cloud (key F)")
+    colouring = gui.add_dropdown("Colour by", ("plain", "D_theta", "delta_kappa", "label"), initial_value="plain",
+                                 hint="per-point metric of the shown iteration, or the cloud's labels")
+    colour_original = gui.add_checkbox("Colour original too", False,
+                                       hint="colour each original point by its metric value")
+    provisional = gui.add_checkbox("Provisional skeleton", False,
+                                   hint="draw the skeleton before the cloud has contracted (it means little then)")
+    show = {layer: gui.add_checkbox(f"Show {layer}", True) for layer in LAYERS}
+    opacity, size = {}, {}
+    with gui.add_folder("Opacity and size"):
+        for layer in LAYERS:
+            opacity[layer] = gui.add_slider(f"{layer.capitalize()} opacity", min=0.05, max=1.0, step=0.05,
+                                            initial_value=1.0, hint="share of the points drawn, faded to match")
+            size[layer] = gui.add_slider(f"{layer.capitalize()} size", min=0.2, max=5.0, step=0.1, initial_value=1.0)
+    return ViewWidgets(show, opacity, size, provisional, colouring, colour_original, fit)
+
+
+def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int, save_dir) -> FileWidgets:
+    names = assets or ("(no bundled assets)",)
+    asset = gui.add_dropdown("Bundled asset", names, disabled=not assets)
+    load = gui.add_button("Load asset", disabled=not assets)
+    upload = gui.add_upload_button("Upload cloud", hint=f"{' '.join(INPUT_FORMATS)}, at most {max_upload_mib} MiB")
+    downsample = gui.add_button("Load downsampled", visible=False,
+                                hint="the last cloud too large for this server, voxel-downsampled")
+    gui.add_divider()
+    resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
+    labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
+    transparent = gui.add_checkbox("Transparent background", False)
+    save_on_server = gui.add_checkbox(
+        "Also save on server", False, disabled=save_dir is None,
+        hint=f"into {save_dir}" if save_dir else "start skel-inspect with --save-dir to enable")
+    screenshot = gui.add_button("Screenshot", hint="a PNG framed on the object")
+    animation = gui.add_button("Export animation", hint="a GIF and an MP4 of the run, one frame per iteration")
+    bundle = gui.add_button("Export bundle", hint="zip: screenshot, skeleton, contracted points, metrics, plots")
+    return FileWidgets(asset, load, upload, downsample, resolution, labels, transparent, save_on_server, screenshot, animation,
+                       bundle)
+
+
+def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
+    with panel.add_tab("Histograms"):
+        verdict_line = gui.add_markdown("")
+        hist_theta = gui.add_plotly(report.empty_figure("D_theta"), aspect=HISTOGRAM_ASPECT)
+        hist_kappa = gui.add_plotly(report.empty_figure("delta_kappa"), aspect=HISTOGRAM_ASPECT)
+    with panel.add_tab("Convergence"):
+        convergence = gui.add_plotly(report.empty_figure("convergence"), aspect=1.15)
+    with panel.add_tab("Verdict"):
+        verdict = gui.add_markdown("")
+    with panel.add_tab("Compare"):
+        pin = gui.add_button("Pin this run", hint="keep this run to compare the next ones with it")
+        compare_note = gui.add_markdown("Pin a run, change parameters or method, Restart: both runs show here.")
+        compare_convergence = gui.add_plotly(report.empty_figure("convergence, pinned and current"), aspect=1.15)
+        compare_theta = gui.add_plotly(report.empty_figure("final D_theta"), aspect=HISTOGRAM_ASPECT)
+        compare_kappa = gui.add_plotly(report.empty_figure("final delta_kappa"), aspect=HISTOGRAM_ASPECT)
+    return PlotWidgets(verdict_line, verdict, hist_theta, hist_kappa, convergence, pin, compare_note, compare_convergence,
+                       compare_theta, compare_kappa)

@@ -1,0 +1,103 @@
+"""Numbers behind the inspector's pictures: a metric value for every point, and a camera that frames a cloud.
+
+Metrics are measured on a fixed sample of the points of large clouds (see skelcore.metrics); to colour
+every point, `values_for_all_points` gives each point the value of the nearest measured point of the
+same iteration (a measured point keeps its own). `framing_camera` places a perspective camera along a
+given viewing direction so that the object's bounding box fills a chosen share of the shorter image side.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .errors import ParameterError
+from .io import as_points
+from .metrics import IterationMetrics
+
+
+@dataclass(frozen=True)
+class PointValues:
+    """One value per point of an iteration and how many of them were measured rather than carried."""
+    values: np.ndarray  # (n,) finite wherever any measured point has a finite value
+    measured: int  # points whose own value was computed
+    carried: int  # points that took the value of their nearest measured point
+
+    @property
+    def complete(self) -> bool:
+        """Whether every point's value is its own."""
+        return self.carried == 0
+
+
+def values_for_all_points(metrics: IterationMetrics, points: np.ndarray, quantity: str) -> PointValues:
+    """Values of "d_theta" or "delta_kappa" for every row of `points` (the cloud `metrics` was evaluated on).
+
+    Points outside the measured sample, and measured points whose neighbourhood collapsed (NaN), take
+    the value of the nearest measured point with a finite value, in the current positions."""
+    points = as_points(points, "points")
+    if len(points) != metrics.n_present:
+        raise ParameterError(f"points: {len(points)} rows, the metrics were evaluated on {metrics.n_present}")
+    values = metrics.per_point(quantity)
+    known = np.isfinite(values)
+    missing = np.flatnonzero(~known)
+    if len(missing) and known.any():
+        sources = np.flatnonzero(known)
+        _, nearest = cKDTree(points[sources]).query(points[missing], k=1)
+        values[missing] = values[sources[nearest]]
+    return PointValues(values, measured=int(known.sum()), carried=int(len(missing) if known.any() else 0))
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A perspective camera's pose."""
+    position: np.ndarray  # (3,)
+    look_at: np.ndarray  # (3,)
+    rotation: np.ndarray  # (3,3) camera-to-world, columns: right, down, forward (OpenCV convention)
+
+
+FRAMING_SAMPLE = 20_000  # points enough to find a cloud's projected extent
+
+
+def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
+                   up=(0.0, 0.0, 1.0)) -> Camera:
+    """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
+    point fit in `fill` of the image: the projected bounding box of the points spans `fill` of the image
+    height or width, whichever binds. fov: vertical field of view in radians; aspect: width / height."""
+    points = as_points(points, "points")
+    if not (0 < fov < np.pi and aspect > 0 and 0 < fill <= 1):
+        raise ParameterError(f"framing: need 0 < fov < pi, aspect > 0, 0 < fill <= 1 (got {fov}, {aspect}, {fill})")
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = (low + high) / 2
+    forward = np.asarray(direction, float)
+    if not np.isfinite(forward).all() or np.linalg.norm(forward) == 0:
+        forward = np.array([-0.7, 0.7, -0.5])
+    forward = forward / np.linalg.norm(forward)
+    up = np.asarray(up, float)
+    right = np.cross(forward, up)
+    if np.linalg.norm(right) < 1e-6 * np.linalg.norm(up):  # looking along `up`: any sideways axis will do
+        right = np.cross(forward, np.eye(3)[np.argmin(np.abs(forward))])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    sample = points[::max(1, len(points) // FRAMING_SAMPLE)]
+    half = np.tan(fov / 2)
+    for _ in range(4):  # aim, then re-aim at the middle of the projected extent (near points look larger)
+        local = sample - centre
+        x, y, z = local @ right, local @ down, local @ forward
+        # Pinhole: a point at depth D + z projects to x / ((D + z) tan(fov/2) aspect) of the half-width;
+        # each point and axis gives the least distance D that keeps it inside `fill` (the tightest binds).
+        distance = max(np.max(-z + np.abs(x) / (fill * half * aspect)), np.max(-z + np.abs(y) / (fill * half)))
+        distance = max(distance, 1e-9 + np.max(-z))  # in front of every point
+        u, v = x / (distance + z), y / (distance + z)
+        centre = centre + distance * ((u.max() + u.min()) / 2 * right + (v.max() + v.min()) / 2 * down)
+    rotation = np.column_stack([right, down, forward])
+    return Camera(centre - forward * distance, centre, rotation)
+
+
+def projected_box_share(points: np.ndarray, camera: Camera, fov: float, width: int, height: int) -> float:
+    """Share of the shorter image side spanned by the projected bounding box of the points (for checks)."""
+    local = (as_points(points, "points") - camera.position) @ camera.rotation
+    focal = height / 2 / np.tan(fov / 2)
+    u = local[:, 0] / local[:, 2] * focal
+    v = local[:, 1] / local[:, 2] * focal
+    return float(max(np.ptp(u), np.ptp(v)) / min(width, height))
