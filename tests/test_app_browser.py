@@ -94,21 +94,24 @@ def _reset(inspector, page) -> None:
     inspector.wait_idle()
 
 
-@pytest.fixture
-def fresh(inspector, page):
-    """A reset run, drawn in full, before each test."""
+def _fresh_run(inspector, page, value):
+    """A reset run, drawn in full, before the test; no internal error logged after it. Yields `value`."""
     _reset(inspector, page)
-    yield inspector
+    yield value
     inspector.wait_idle()
     assert not [line for line in inspector.session.log if "internal error" in line]
+
+
+@pytest.fixture
+def fresh(inspector, page):
+    """A reset run on the default page."""
+    yield from _fresh_run(inspector, page, inspector)
 
 
 @pytest.fixture
 def fresh_sized(inspector, sized):
-    _reset(inspector, sized)
-    yield sized
-    inspector.wait_idle()
-    assert not [line for line in inspector.session.log if "internal error" in line]
+    """A reset run on the page of the parametrised window size."""
+    yield from _fresh_run(inspector, sized, sized)
 
 
 def shown_iteration(page) -> int | None:
