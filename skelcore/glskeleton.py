@@ -46,6 +46,10 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
   the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
+Curves first (not in LCWR): the covariance of a whole plate or block barely changes while it thins to its
+  medial sheet, so the covariance rule alone stops there (a drilled plate: 3 steps, its hole lost). It stops
+  only a cloud at least curve_share curve-like (skelcore.curveness); until then the ring-ratio rule ends the
+  run, and, as in LBC, lets a cloud go on while each step makes it more curve-like.
 The constants assume the normalised frame (bounding box 1.6), as the MATLAB does.
 """
 from __future__ import annotations
