@@ -46,6 +46,10 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
   the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
+Curves first (not in LCWR): the covariance of a whole plate or block barely changes while it thins to its
+  medial sheet, so the covariance rule alone stops there (a drilled plate: 3 steps, its hole lost). It stops
+  only a cloud at least curve_share curve-like (skelcore.curveness); until then the ring-ratio rule ends the
+  run, and, as in LBC, lets a cloud go on while each step makes it more curve-like.
 The constants assume the normalised frame (bounding box 1.6), as the MATLAB does.
 """
 from __future__ import annotations
@@ -60,7 +64,8 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import TERMINATION_MESSAGES, IterationState, retune, schedule, solve_stages, start_run, stopped
+from .step import (TERMINATION_MESSAGES, IterationState, curve_like, goes_on, retune, schedule, solve_stages,
+                   start_run, stopped)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -107,7 +112,9 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         new_ratio = float(new_sizes.sum() / sizes0.sum())
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
-        if iteration > 1 and drop < params.termination:
+        # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
+        if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params,
+                                                                                        run.curve_radius)):
             yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
                           notes)
             return
@@ -138,7 +145,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         previous, score = score, _covariance_score(current)
         change = abs(score - previous) * (1.0 - share_removed)
         termination, detail = None, ""
-        if iteration >= COVARIANCE_FROM and change < params.gl_covariance:
+        # the covariance of the whole cloud barely changes while a plate or a block thins to its medial sheet,
+        # so the rule alone stops on a sheet: it waits until the cloud is curve-like; till then the rings
+        # (the ring-ratio rule above) tell when the contraction has stalled
+        if iteration >= COVARIANCE_FROM and change < params.gl_covariance and curve_like(candidate, params,
+                                                                                          run.curve_radius):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
         elif iteration >= params.max_iterations:
             termination = "max_iterations"

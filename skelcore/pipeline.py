@@ -246,8 +246,8 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
 
 def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
-    radius, a fraction of the input cloud's bounding-box diagonal (the skeleton's own scale; the contraction's
-    stop rule, skelcore.step.goes_on, takes that fraction of the current cloud's robust extent instead)."""
+    radius, a fraction of the input cloud's bounding-box diagonal (the skeleton's own scale, which the
+    contraction's stop rule, skelcore.step.goes_on, also uses)."""
     return curve_share(state.points, SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(cloud.points, axis=0))))
 
 

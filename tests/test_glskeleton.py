@@ -191,3 +191,17 @@ def test_pipeline_writes_results(tmp_path):
     assert counts[0] == 1500 and counts[-1] < counts[0]
     assert {key: result.skeleton.topology()[key] for key in TOPOLOGY} == \
         {key: EXPECTED_TOPOLOGY["y_branch"][key] for key in TOPOLOGY}
+
+
+def test_a_drilled_plate_contracts_past_its_sheet_and_keeps_its_hole():
+    """The covariance of a whole plate barely changes while it thins to its medial sheet: the rule alone
+    stopped GLSkeleton there (3 steps, a 5-node tree). It now waits for a curve-like cloud."""
+    from skelcore.pipeline import state_curve_share
+    from skelcore.solids import solid_shape
+    shape = solid_shape("block_1_hole", 4000)
+    states = run_contraction(shape.points, GLSKELETON)
+    final = states[-1]
+    assert final.iteration > 3
+    assert final.termination != "covariance" or state_curve_share(final, Cloud(shape.points)) >= GLSKELETON.curve_share
+    skeleton = skeleton_of_state(final, shape.points, RunOptions(params=GLSKELETON).skeleton_params())
+    assert skeleton.topology()["cycles"] == 1 and skeleton.topology()["components"] == 1
