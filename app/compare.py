@@ -30,7 +30,7 @@ def pin(session) -> Pinned:
     index, run, state = len(session.history) - 1, session.run, session.latest
     metrics = session.metrics_upto(index, run)
     skeleton = None
-    if not pipeline.skeleton_is_provisional(state):
+    if not pipeline.skeleton_is_provisional(state, pipeline.state_curve_share(state, run.cloud)):
         found = session.skeleton(index, run)
         skeleton = (found.nodes_array(), found.edges_array())
     name = describe(state, "pinned")
