@@ -60,12 +60,10 @@ class Presenter:
                 "sizes": {layer: float(v.size[layer].value) for layer in layout.LAYERS},
                 "opacity": {layer: float(v.opacity[layer].value) for layer in layout.LAYERS}}
 
-
     def set_fixed_colours(self, viewer: Viewer, run, index: int) -> None:
         """Colours that need no metrics: plain, or by label."""
         colours = self.labels.colours(run.history[index].point_ids) if self.colour_by == "label" else None
         viewer.view.set_colours((run, index), colours, self.colour_by)
-
 
     def show(self, viewer: Viewer, index: int, full: bool = True) -> None:
         """Draw history[index] in one viewer: the points and the status now; plots, colours and skeleton follow
@@ -150,7 +148,6 @@ class Presenter:
             viewer.show_verdict(verdict)
             viewer.client.flush()
 
-
     # ------------------------------------------------------------------ status and legend
     def update_statuses(self) -> None:
         for viewer in self.all():
@@ -205,6 +202,3 @@ class Presenter:
                                          camera.aspect or 1.0, export.FRAME_FILL, up=camera.up_direction)
         camera.position = framing.position
         camera.look_at = framing.look_at
-
-
-
