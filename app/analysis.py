@@ -47,8 +47,7 @@ class Readiness:
             return ""
         if state.iteration == 0:
             return "nothing contracted yet (iteration 0)"
-        return (f"{self.share:.0%} of points curve-like (it means something from "
-                f"{pipeline.provisional_target(state):.0%})")
+        return f"{self.share:.0%} of points curve-like, {pipeline.provisional_target(state):.0%} needed"
 
 
 class Analyses:

@@ -203,7 +203,7 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
     colour_original = gui.add_checkbox("Colour original too", False,
                                        hint="colour each original point by its metric value")
     provisional = gui.add_checkbox("Provisional skeleton", False,
-                                   hint="draw the skeleton before the cloud has contracted (it means little then)")
+                                   hint="draw the skeleton before the cloud is curve-like (it means little then)")
     show = {layer: gui.add_checkbox(f"Show {layer}", True) for layer in LAYERS}
     opacity, size = {}, {}
     with gui.add_folder("Opacity and size"):

@@ -23,8 +23,8 @@ def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional
     if readiness is None or not readiness.provisional or not skeleton_shown:
         return ""
     if provisional_wanted:
-        return "skeleton drawn provisionally: the cloud has not contracted yet"
-    return "no skeleton yet: the cloud has not contracted (View: Provisional skeleton)"
+        return "skeleton drawn provisionally: the cloud is not curve-like yet"
+    return "no skeleton yet: the cloud is not curve-like yet (View: Provisional skeleton)"
 
 
 def status_markdown(session, index: int, *, run: str, notice: str, readiness: Readiness | None,
