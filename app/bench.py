@@ -8,8 +8,8 @@ after the frame with the new points was drawn), and reports the wall clock, whic
 with the server. Also reported: when the server pushed the points, and when the histograms and the
 skeleton of that iteration were pushed, and the engine's share of those times: how long the step's solve,
 the paper's metrics and the skeleton's extraction took (the floor the app cannot go under). The skeleton
-is asked for at every iteration ("Provisional skeleton" ticked), so each click measures it. Each click waits until the previous
-state is fully drawn, as a person stepping through would; a finished run is reset (untimed).
+is asked for at every iteration ("Provisional skeleton" ticked), so each click measures it. Each click
+waits until the previous state is fully drawn, as a person stepping through would; a finished run is reset (untimed).
 """
 from __future__ import annotations
 

@@ -131,8 +131,7 @@ class Inspector:
 
         self._on = on
         on(ui.run.step, self._on_step)
-        on(ui.run.play, lambda event: self.playback.toggle(lambda: self._tick(True), event.client,
-                                                           self.presenter.update_statuses))
+        on(ui.run.play, self._on_play)
         on(ui.run.end, lambda event: self.playback.start(lambda: self._tick(False), event.client, full=False))
         on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
@@ -148,11 +147,11 @@ class Inspector:
         on(ui.files.load, self.loader.on_load_asset)
         on(ui.files.upload, self.loader.on_upload, method="on_upload")
         on(ui.files.downsample, self.loader.on_downsample)
-        for handle, job in ((ui.files.screenshot, self.delivery.screenshot), (ui.files.animation, self.delivery.animation),
-                            (ui.files.bundle, self.delivery.bundle)):
+        exports = ((ui.files.screenshot, self.delivery.screenshot), (ui.files.animation, self.delivery.animation),
+                   (ui.files.bundle, self.delivery.bundle))
+        for handle, job in exports:
             on(handle, lambda e, job=job: self._for_viewer(e.client, job))
-        shortcuts = {"N": self._on_step,
-                     "P": lambda e: self.playback.toggle(lambda: self._tick(True), e.client, self.presenter.update_statuses),
+        shortcuts = {"N": self._on_step, "P": self._on_play,
                      "J": lambda e: self._scrub(e.client, -1), "K": lambda e: self._scrub(e.client, +1),
                      "L": lambda e: self._follow(e.client), "F": lambda e: self.presenter.fit(e.client)}
         for key, job in shortcuts.items():
@@ -177,6 +176,9 @@ class Inspector:
         self.playback.pause()
         viewer = self.presenter.viewer(event.client)
         self.worker.submit(lambda: self._step(viewer, event.client), event.client)
+
+    def _on_play(self, event) -> None:
+        self.playback.toggle(lambda: self._tick(True), event.client, self.presenter.update_statuses)
 
     def _on_restart(self, client) -> None:
         try:
