@@ -6,13 +6,16 @@ frame with the new points: the new points and the status text arrive in one atom
 in the page waits for the status to change and then for two animation frames (the second starts
 after the frame with the new points was drawn), and reports the wall clock, which this machine shares
 with the server. Also reported: when the server pushed the points, and when the histograms and the
-skeleton of that iteration were pushed. Each click waits until the previous state is fully drawn, as
-a person stepping through would; a finished run is reset (untimed).
+skeleton of that iteration were pushed, and the engine's share of those times: how long the step's solve,
+the paper's metrics and the skeleton's extraction took (the floor the app cannot go under). The skeleton
+is asked for at every iteration ("Provisional skeleton" ticked), so each click measures it. Each click
+waits until the previous state is fully drawn, as a person stepping through would; a finished run is reset (untimed).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import time
 
@@ -49,7 +52,17 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
     cloud = validate(make_shape(shape, n_points).points, name=f"{shape}-{n_points}")
     server, inspector = serve(cloud, "127.0.0.1", 0, params=ContractionParams())
     samples = {name: [] for name in ("click_to_pushed", "click_to_drawn", "driver_click_to_drawn", "click_to_plots",
-                                     "click_to_skeleton")}
+                                     "click_to_skeleton", "engine_step", "engine_metrics", "engine_skeleton")}
+    engine = {"step": [], "metrics_upto": [], "skeleton": []}  # seconds the engine took, by call
+    session = inspector.session
+    for name in engine:
+        def timed(*args, _call=getattr(session, name), _times=engine[name], **kwargs):
+            started = time.perf_counter()
+            try:
+                return _call(*args, **kwargs)
+            finally:
+                _times.append(time.perf_counter() - started)
+        setattr(session, name, timed)
     try:
         with sync_playwright() as playwright:
             browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
@@ -58,8 +71,10 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
             page.goto(f"http://127.0.0.1:{server.get_port()}")
             step = page.get_by_role("button", name="Step", exact=True)
             step.wait_for()
-            if not skeleton:
-                page.get_by_role("tab", name="View", exact=True).first.click()
+            page.get_by_role("tab", name="View", exact=True).first.click()
+            if skeleton:
+                page.get_by_label("Provisional skeleton").check()
+            else:
                 page.get_by_label("Show skeleton").uncheck()
             page.get_by_text("computed").first.wait_for()
             inspector.wait_idle(WAIT)
@@ -71,6 +86,8 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
                     inspector.wait_idle(WAIT)
                     page.wait_for_timeout(200)  # let the page settle on iteration 0
                 page.evaluate(PROBE)
+                for times in engine.values():
+                    times.clear()
                 driver_click = time.perf_counter()
                 step.click()
                 drawn = page.evaluate("() => window.__skelDrawn") - wall
@@ -89,12 +106,16 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
                     samples["click_to_plots"].append(plots[1] - clicked)
                 if drawn_skeleton is not None:
                     samples["click_to_skeleton"].append(drawn_skeleton[1] - clicked)
+                samples["engine_step"].append(sum(engine["step"]))
+                samples["engine_metrics"].append(sum(engine["metrics_upto"]))
+                if engine["skeleton"]:
+                    samples["engine_skeleton"].append(max(engine["skeleton"]))
             browser.close()
     finally:
         inspector.close()
         server.stop()
     result = {"n_points": n_points, "shape": shape, "repeats": repeats, "skeleton_shown": skeleton,
-              "viewport": f"{viewport[0]}x{viewport[1]}"}
+              "viewport": f"{viewport[0]}x{viewport[1]}", "load_average": os.getloadavg()}
     for name, values in samples.items():
         if values:
             result[f"{name}_median_s"] = statistics.median(values)
@@ -126,13 +147,19 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(result, indent=1))
     else:
         print(f"{result['n_points']} points ({result['shape']}), browser {result['viewport']}, "
-              f"median of {result['repeats']} Step clicks:")
+              f"median of {result['repeats']} Step clicks (load average "
+              f"{' '.join(f'{value:.2f}' for value in result['load_average'])} at the end):")
         print(f"  click received -> points pushed:              {result['click_to_pushed_median_s']:.3f} s")
         print(f"  click received -> scene drawn in the browser: {result['click_to_drawn_median_s']:.3f} s"
               f"  (from the driver's click: {result['driver_click_to_drawn_median_s']:.3f} s)")
         print(f"  click received -> histograms pushed:         {result['click_to_plots_median_s']:.3f} s")
         if "click_to_skeleton_median_s" in result:
             print(f"  click received -> skeleton pushed:           {result['click_to_skeleton_median_s']:.3f} s")
+        print(f"  of which the engine: step solve {result['engine_step_median_s']:.3f} s, metrics "
+              f"{result['engine_metrics_median_s']:.3f} s", end="")
+        if "engine_skeleton_median_s" in result:
+            print(f", skeleton extraction {result['engine_skeleton_median_s']:.3f} s", end="")
+        print()
     return 0
 
 

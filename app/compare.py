@@ -30,7 +30,7 @@ def pin(session) -> Pinned:
     index, run, state = len(session.history) - 1, session.run, session.latest
     metrics = session.metrics_upto(index, run)
     skeleton = None
-    if not pipeline.skeleton_is_provisional(state):
+    if not pipeline.skeleton_is_provisional(state, pipeline.state_curve_share(state, run.cloud)):
         found = session.skeleton(index, run)
         skeleton = (found.nodes_array(), found.edges_array())
     name = describe(state, "pinned")
@@ -46,7 +46,7 @@ def comparison(pinned: Pinned, state, history) -> tuple[str, object, object, obj
             f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in light blue.")
     convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
                                                        colours=RUN_COLOURS)
-    theta = report.final_histograms_figure(runs, "d_theta", title="D_theta, last iteration", colours=RUN_COLOURS)
-    kappa = report.final_histograms_figure(runs, "delta_kappa", title="delta_kappa, last iteration",
-                                           colours=RUN_COLOURS)
+    theta, kappa = (report.final_histograms_figure(runs, key, title=f"{key_name}, last iteration", colours=RUN_COLOURS)
+                    .update_layout(xaxis_title=None, legend=dict(y=-0.13, yanchor="top"))  # the title names it
+                    for key, key_name in (("d_theta", "D_theta"), ("delta_kappa", "delta_kappa")))
     return note, convergence, theta, kappa

@@ -3,11 +3,16 @@
 - the control panel (docked right): the run controls and status on top, then tabs
   Parameters | View | Files | Log, and below them the Labels folder of clouds with labels (app.labels);
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
-  Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more `with panel.add_tab(...)` in `build_plots`;
+  Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
+  `with panel.add_tab(...)` in `build_plots`;
 - the legend, a small window floating over the 3-D view (bottom left), so it stays on screen.
 
-Each builder returns a plain dataclass of handles; app.inspector wires them. Number widgets take their
-ranges from skelcore.params.LIMITS, the checks the parameters themselves go through.
+The run, its parameters and the view settings are shared by every browser (`build`, on the server's GUI).
+What shows one iteration is each browser's own (`build_viewer`, on that client's GUI): the iteration
+slider, Follow newest, the status, the plots panel and the legend, so each browser can look at its own
+iteration of the shared run. Each builder returns a plain dataclass of handles; app.inspector and
+app.viewer wire them. Number widgets take their ranges from skelcore.params.LIMITS, the checks the
+parameters themselves go through.
 """
 from __future__ import annotations
 
@@ -26,7 +31,7 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
-             "F": "fit the view"}
+             "L": "follow the newest iteration", "F": "fit the view"}
 
 
 @dataclass
@@ -36,10 +41,20 @@ class RunControls:
     play: viser.GuiButtonHandle
     end: viser.GuiButtonHandle
     reset: viser.GuiButtonHandle
+    interval: viser.GuiSliderHandle
+    viewer_order: float  # where each browser's own iteration slider and status go: below Reset
+
+
+@dataclass
+class ViewerControls:
+    """One browser's: the iteration it shows, whether it follows the newest, its status, plots and legend."""
     timeline: viser.GuiSliderHandle
     follow: viser.GuiCheckboxHandle
     status: viser.GuiMarkdownHandle
-    interval: viser.GuiSliderHandle
+    plots: "PlotWidgets"
+    legend: viser.GuiHtmlHandle
+    plots_panel: object
+    legend_panel: object
 
 
 @dataclass
@@ -105,11 +120,7 @@ class Layout:
     params: ParameterWidgets
     view: ViewWidgets
     files: FileWidgets
-    plots: PlotWidgets
-    legend: viser.GuiHtmlHandle
     log: viser.GuiMarkdownHandle
-    plots_panel: object
-    legend_panel: object
     labels_order: float  # where app.labels puts its "Labels" folder: below the tabs
 
 
@@ -129,15 +140,7 @@ def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *,
     with tabs.add_tab("Log"):
         gui.add_markdown("Shortcuts: " + ", ".join(f"**{key}** {what}" for key, what in SHORTCUTS.items()))
         log = gui.add_markdown("")
-    plots_panel = gui.add_panel()
-    plots = build_plots(gui, plots_panel)
-    plots_panel.dock_left()
-    plots_panel.set_width(PLOTS_WIDTH)
-    legend_panel = gui.add_panel()
-    with legend_panel.add_tab("Legend"):
-        legend = gui.add_html("")
-    legend_panel.float(x=12, y=-12, width=300)
-    return Layout(run, parameters, view, files, plots, legend, log, plots_panel, legend_panel, tabs.order + 0.5)
+    return Layout(run, parameters, view, files, log, tabs.order + 0.5)
 
 
 def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
@@ -146,13 +149,28 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     play = gui.add_button("Play", hint="iterate until the run ends or Pause (key P)")
     end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
     reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
-    timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True,
-                              hint="the iteration this browser shows (keys J and K)")
-    follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed")
-    status = gui.add_markdown("")
     interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
                               hint="least time between two iterations during Play, to watch them")
-    return RunControls(title, step, play, end, reset, timeline, follow, status, interval)
+    return RunControls(title, step, play, end, reset, interval, viewer_order=reset.order)
+
+
+def build_viewer(gui: viser.GuiApi, order: float) -> ViewerControls:
+    """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`."""
+    timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True,
+                              hint="the iteration this browser shows (keys J and K; the end follows the newest)",
+                              order=order + 0.2)
+    follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
+                              order=order + 0.4)
+    status = gui.add_markdown("", order=order + 0.6)
+    plots_panel = gui.add_panel()
+    plots = build_plots(gui, plots_panel)
+    plots_panel.dock_left()
+    plots_panel.set_width(PLOTS_WIDTH)
+    legend_panel = gui.add_panel()
+    with legend_panel.add_tab("Legend"):
+        legend = gui.add_html("")
+    legend_panel.float(x=12, y=-12, width=300)
+    return ViewerControls(timeline, follow, status, plots, legend, plots_panel, legend_panel)
 
 
 def _number(gui: viser.GuiApi, label: str, name: str, value, step: float, hint: str | None = None):
@@ -185,7 +203,7 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
     colour_original = gui.add_checkbox("Colour original too", False,
                                        hint="colour each original point by its metric value")
     provisional = gui.add_checkbox("Provisional skeleton", False,
-                                   hint="draw the skeleton before the cloud has contracted (it means little then)")
+                                   hint="draw the skeleton before the cloud is curve-like (it means little then)")
     show = {layer: gui.add_checkbox(f"Show {layer}", True) for layer in LAYERS}
     opacity, size = {}, {}
     with gui.add_folder("Opacity and size"):

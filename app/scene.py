@@ -58,10 +58,11 @@ def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
     return colours.astype(np.uint8)
 
 
-def legend_html(quantity: str | None, note: str = "", provisional: bool = False, pinned: bool = False,
+def legend_html(quantity: str | None, note: str = "", provisional: str = "", pinned: bool = False,
                 extra: str = "") -> str:
     """The key of the 3-D view: layers, skeleton nodes and, when colouring, the colour bar with its target
-    (`extra`: more HTML, e.g. the label colours)."""
+    (`provisional`: a line on why the skeleton is provisional or not drawn yet, "" when it is final; `extra`: more HTML, e.g. the
+    label colours)."""
     def dot(colour, text):
         return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
 
@@ -70,7 +71,7 @@ def legend_html(quantity: str | None, note: str = "", provisional: bool = False,
                        dot(LAYER_COLOURS["removed"], "removed")]),
              " ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")])]
     if provisional:
-        lines.append("<i>skeleton provisional: the cloud has not contracted yet</i>")
+        lines.append(f"<i>{provisional}</i>")
     if pinned:
         lines.append(dot(GHOST_COLOUR, "pinned run's skeleton"))
     if quantity is not None:
@@ -336,11 +337,11 @@ class SceneView:
         elif self._skeleton is not None:
             self.show_skeleton(*self._skeleton)
 
-    def frame_camera(self, camera, aspect: float = 0.75) -> None:
-        """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
-        between two panels, so taller than wide) at the whole cloud, from above and aside."""
-        if self._source is None:
-            return
-        framing = framing_camera(self._source, INITIAL_DIRECTION, camera.fov, aspect, fill=0.8)
-        camera.position = framing.position
-        camera.look_at = framing.look_at  # after the position: moving the position drags look_at along
+
+
+def frame_camera(camera, points: np.ndarray, aspect: float = 0.75) -> None:
+    """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
+    between two panels, so taller than wide) at the whole cloud, from above and aside."""
+    framing = framing_camera(points, INITIAL_DIRECTION, camera.fov, aspect, fill=0.8)
+    camera.position = framing.position
+    camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

@@ -3,8 +3,8 @@
 `Worker` runs every engine call, in submission order. Play is a job that re-submits itself after
 each iteration (after a wait, when Play is paced), so a pause, a parameter change or a timeline move
 queued meanwhile runs between two iterations. `Latest` runs the slow per-iteration analysis (metrics,
-skeleton) for the newest request only: requests made while it is busy replace each other, so the
-engine never waits for it.
+skeleton) for the newest request of each key (each browser) only: requests made while it is busy replace
+the waiting one of their key, so the engine never waits for it.
 """
 from __future__ import annotations
 
@@ -113,21 +113,23 @@ class Latest:
     def __init__(self, handle: Callable[[object], None], on_error: ErrorHandler):
         self._handle = handle
         self._on_error = on_error
-        self._pending: tuple | None = None
+        self._pending: dict = {}  # key -> (item, client), oldest first
         self._busy = False
         self._closed = False
         self._changed = threading.Condition()
         self._thread = threading.Thread(target=self._loop, name="skel-inspect-analysis", daemon=True)
         self._thread.start()
 
-    def request(self, item, client=None) -> None:
+    def request(self, item, client=None, key=None) -> None:
+        """Handle `item` once the thread is free, instead of an earlier request of the same `key` not handled yet."""
         with self._changed:
-            self._pending = (item, client)
+            self._pending.pop(key, None)
+            self._pending[key] = (item, client)
             self._changed.notify_all()
 
     def wait_idle(self, timeout: float | None = None) -> bool:
         with self._changed:
-            return self._changed.wait_for(lambda: self._pending is None and not self._busy, timeout)
+            return self._changed.wait_for(lambda: not self._pending and not self._busy, timeout)
 
     def close(self) -> None:
         with self._changed:
@@ -138,10 +140,10 @@ class Latest:
     def _loop(self) -> None:
         while True:
             with self._changed:
-                self._changed.wait_for(lambda: self._pending is not None or self._closed)
+                self._changed.wait_for(lambda: self._pending or self._closed)
                 if self._closed:
                     return
-                (item, client), self._pending = self._pending, None
+                item, client = self._pending.pop(next(iter(self._pending)))
                 self._busy = True
             _guarded(lambda: self._handle(item), client, self._on_error)
             with self._changed:

@@ -32,7 +32,6 @@ from .verdict import run_verdict
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 # A curve skeleton says something once the one-rings have shrunk to this share of their size at iteration 0
 # (the ring-size ratio a_t); before that the graph joins points across holes the contraction has not opened.
-SKELETON_RING_RATIO = 0.6
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
 EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
 
@@ -90,9 +89,19 @@ class RunResult:
                 f"{self.elapsed:.1f} s -> {self.out_dir}")
 
 
-def skeleton_is_provisional(state: IterationState) -> bool:
-    """True while the cloud has not contracted enough for its curve skeleton to mean anything."""
-    return state.iteration == 0 or state.ring_ratio > SKELETON_RING_RATIO
+def provisional_target(state: IterationState) -> float:
+    """The curve-like share below which a state's skeleton is provisional: the share the contraction itself aims
+    at (its params.curve_share; the owner's default when the run turned that aim off)."""
+    return state.params.curve_share if state.params.curve_share > 0 else ContractionParams.curve_share
+
+
+def skeleton_is_provisional(state: IterationState, share: float) -> bool:
+    """True while the cloud is not curve-like enough for its curve skeleton to mean anything: fewer than
+    provisional_target of its points are curve-like (`share`, from state_curve_share). Iteration 0 always is;
+    a run's last state never is: its skeleton is the run's result."""
+    if state.iteration == 0:
+        return True
+    return state.termination is None and share < provisional_target(state)
 
 
 def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams) -> Skeleton:

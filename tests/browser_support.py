@@ -44,6 +44,17 @@ def open_inspector(browser, url: str, viewport: dict = VIEWPORT):
     return page
 
 
+def open_viewer(browser, inspector, url: str, viewport: dict = VIEWPORT):
+    """open_inspector on the app.inspector.Inspector serving `url`; the page's own app.viewer.Viewer, the one
+    that connected with it, becomes page.viewer, and the inspector page.inspector."""
+    before = set(inspector.presenter.viewers)
+    page = open_inspector(browser, url, viewport)
+    page.viewer = wait_until(lambda: next((viewer for key, viewer in list(inspector.presenter.viewers.items())
+                                           if key not in before), None), "the page's viewer")
+    page.inspector = inspector
+    return page
+
+
 def button(page, name: str):
     return page.get_by_role("button", name=name, exact=True)
 

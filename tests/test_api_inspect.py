@@ -10,8 +10,7 @@ import pytest
 import skelcore
 from skelcore.shapes import make_shape
 
-from browser_support import (browser_missing, button, launch, open_folder, open_inspector, open_tab, save_page,
-                             wait_until)
+from browser_support import browser_missing, button, launch, open_tab, open_viewer, save_page, wait_until
 
 browser_needed = pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))
 
@@ -49,7 +48,7 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
     try:
         with sync_playwright() as playwright:
             browser = launch(playwright)
-            page = open_inspector(browser, handle.url)
+            page = open_viewer(browser, handle.inspector, handle.url)
             page.get_by_text("Labels", exact=True).first.wait_for()
             weight = page.get_by_label("Label 1 (", exact=False)
             assert float(weight.input_value()) == 2.0
@@ -62,9 +61,9 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             open_tab(page, "View")
             page.get_by_label("Colour by").click()
             page.get_by_role("option", name="label").click()
-            wait_until(lambda: handle.inspector.view.coloured, "colours by label")
+            wait_until(lambda: page.viewer.view.coloured, "colours by label")
             page.get_by_text("(w=6)").first.wait_for()  # the legend
-            colours = np.asarray(handle.inspector.view.drawn_colours("contracted"))
+            colours = np.asarray(page.viewer.view.drawn_colours("contracted"))
             assert len(np.unique(colours.reshape(-1, 3), axis=0)) == 2
             save_page(page, "inspect_labels.png")
             browser.close()

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from browser_support import (ARTIFACTS, VIEWPORTS, browser_missing, button, canvas_image, click,
-                             close_browser_notices, inside_viewport, launch, open_inspector, open_tab, save_page,
+                             close_browser_notices, inside_viewport, launch, open_tab, open_viewer, save_page,
                              set_value, wait_until, write_ply)
 
 pytestmark = [pytest.mark.browser, pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))]
@@ -56,13 +56,13 @@ def _hide_skeleton(page, inspector) -> None:
     # The skeleton of a barely contracted surface is slow to extract: hidden, except where tested.
     open_tab(page, "View")
     page.get_by_label("Show skeleton").uncheck()
-    wait_until(lambda: not inspector.view.visible["skeleton"], "the skeleton hidden")
+    wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
     open_tab(page, "Parameters")
 
 
 @pytest.fixture(scope="module")
 def page(browser, inspector):
-    page = open_inspector(browser, inspector.url)
+    page = open_viewer(browser, inspector, inspector.url)
     _hide_skeleton(page, inspector)
     yield page
     page.context.close()
@@ -71,25 +71,26 @@ def page(browser, inspector):
 @pytest.fixture(scope="module", params=VIEWPORTS, ids=lambda size: f"{size['width']}x{size['height']}")
 def sized(request, browser, inspector):
     """A page of the given size; the module's main page stays open too (two browsers share the run)."""
-    page = open_inspector(browser, inspector.url, request.param)
+    page = open_viewer(browser, inspector, inspector.url, request.param)
     _hide_skeleton(page, inspector)
     page.size_name = f"{request.param['width']}x{request.param['height']}"
     yield page
     page.context.close()
 
 
-def drawn(inspector, stage: str) -> int | None:
-    """Index of the state whose `stage` ('points', 'plots', 'skeleton') was pushed last, in the current run."""
-    run, index, _ = inspector.drawn.get(stage, (None, None, None))
-    return index if run is inspector.session.run else None
+def drawn(page, stage: str) -> int | None:
+    """Index of the state whose `stage` ('points', 'plots', 'skeleton') was pushed last to this page, in the
+    current run."""
+    run, index = page.viewer.drawn.get(stage, (None, None))
+    return index if run is page.inspector.session.run else None
 
 
 def _reset(inspector, page) -> None:
-    inspector._pause()
+    inspector.playback.pause()
     inspector.wait_idle()
     open_tab(page, "Parameters")
     click(page, "Reset")
-    wait_until(lambda: len(inspector.session.history) == 1 and drawn(inspector, "plots") == 0
+    wait_until(lambda: len(inspector.session.history) == 1 and drawn(page, "plots") == 0
                and inspector.session.latest.params == inspector.session.start_params, "the reset run")
     inspector.wait_idle()
 
@@ -160,7 +161,13 @@ def test_play_then_step_leaves_a_play_button(fresh_sized, inspector):
     click(page, "Play")  # the button does what it says: it starts Play again
     button(page, "Pause").wait_for()
     wait_until(lambda: len(inspector.session.history) > stopped_at, "Play to start again")
-    set_value(page, "Iteration", 0)  # moving the slider pauses too
+    set_value(page, "Iteration", 0)  # looking back is this browser's own: the run goes on
+    wait_shown(page, 0)
+    going = len(inspector.session.history)
+    wait_until(lambda: len(inspector.session.history) > going or inspector.session.finished, "Play to go on")
+    assert inspector.worker.playing or inspector.session.finished
+    assert shown_iteration(page) == 0 and button(page, "Pause").count() + inspector.session.finished == 1
+    click(page, "Reset")  # pauses too
     button(page, "Play").wait_for()
     wait_until(lambda: not inspector.worker.playing, "the worker to stop")
 
@@ -168,7 +175,7 @@ def test_play_then_step_leaves_a_play_button(fresh_sized, inspector):
 def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspector):
     page = fresh_sized
     step(inspector, page)
-    wait_until(lambda: drawn(inspector, "plots") == 1, "iteration 1 plotted")
+    wait_until(lambda: drawn(page, "plots") == 1, "iteration 1 plotted")
     open_tab(page, "Histograms")
     plots = page.locator(".js-plotly-plot")
     wait_until(lambda: plots.count() >= 2 and all(inside_viewport(page, plots.nth(i)) for i in range(2)),
@@ -179,7 +186,7 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     for name in ("Step", "Play"):
         assert inside_viewport(page, button(page, name))
     # the histogram spans the values and the target (tests/test_report.py checks the fit itself)
-    axis = inspector.ui.plots.hist_theta.figure.layout.xaxis.range
+    axis = page.viewer.ui.plots.hist_theta.figure.layout.xaxis.range
     values = inspector.session.metrics(1).d_theta
     assert axis[0] <= min(np.nanmin(values), 0.5) and max(np.nanmax(values), 0.5) <= axis[1] <= 1.0 + 1e-9
     # no two legend labels or titles overlap
@@ -256,32 +263,32 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
         reader.close()
     ARTIFACTS.mkdir(exist_ok=True)
     (ARTIFACTS / f"browser-animation-{page.size_name}.gif").write_bytes(open(files["gif"], "rb").read())
-    assert inspector.view.drawn_points("contracted") is not None
-    assert np.allclose(inspector.view.drawn_points("contracted"), inspector.session.latest.points.astype(np.float32))
+    assert page.viewer.view.drawn_points("contracted") is not None
+    assert np.allclose(page.viewer.view.drawn_points("contracted"), inspector.session.latest.points.astype(np.float32))
 
 
 def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
     page = fresh_sized
     step(inspector, page, 2)
     open_tab(page, "Compare")
-    before = inspector.pinned
+    before = inspector.presenter.pinned
     page.get_by_role("button", name=re.compile(r"^Pin this run")).click()  # "... instead" once one is pinned
-    wait_until(lambda: inspector.pinned is not None and inspector.pinned is not before, "the pinned run")
+    wait_until(lambda: inspector.presenter.pinned is not None and inspector.presenter.pinned is not before, "the pinned run")
     open_tab(page, "Parameters")
     set_value(page, "s_L", 1.5)
     wait_until(lambda: inspector.session.params.sl == 1.5, "the new s_L")
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.sl == 1.5, "the new run")
     step(inspector, page, 2)
-    wait_until(lambda: drawn(inspector, "plots") == 2, "the new run plotted")
-    names = [trace.name for trace in inspector.ui.plots.compare_convergence.figure.data]
+    wait_until(lambda: drawn(page, "plots") == 2, "the new run plotted")
+    names = [trace.name for trace in page.viewer.ui.plots.compare_convergence.figure.data]
     assert any(name.startswith("pinned:") for name in names) and any(name.startswith("current:") for name in names)
     plot = page.locator(".js-plotly-plot", has_text="pinned and current").first
     plot.wait_for()
     wait_until(lambda: "pinned:" in plot.inner_text() and "current:" in plot.inner_text(), "both runs in the legend")
     assert plot.locator(".scatterlayer .trace").count() >= 4  # two runs x two means
     for measure in ("compare_theta", "compare_kappa"):
-        assert len(getattr(inspector.ui.plots, measure).figure.data) == 2  # final histograms of both runs
+        assert len(getattr(page.viewer.ui.plots, measure).figure.data) == 2  # final histograms of both runs
     close_browser_notices(page)
     save_page(page, f"browser-compare-{page.size_name}.png")
     set_value(page, "s_L", RUN["sl"])
@@ -341,14 +348,14 @@ def test_colouring_a_50k_cloud_leaves_no_grey_points(fresh_sized, inspector):
     try:
         wait_until(lambda: inspector.session.cloud.name == "torus-50k.xyz", "the 50k cloud")
         inspector.wait_idle()
-        assert inspector.view.opacity["original"] < 1  # a dense original starts thinned
+        assert page.viewer.view.opacity["original"] < 1  # a dense original starts thinned
         step(inspector, page)
         open_tab(page, "View")
         page.get_by_label("Colour by").click()
         page.get_by_role("option", name="D_theta").click()
-        wait_until(lambda: inspector.view.coloured, "colours by D_theta")
+        wait_until(lambda: page.viewer.view.coloured, "colours by D_theta")
         inspector.wait_idle()
-        colours = inspector.view.drawn_colours("contracted")
+        colours = page.viewer.view.drawn_colours("contracted")
         assert len(colours) == inspector.session.latest.n_points > 49_000
         grey = (colours == np.asarray(LAYER_COLOURS["original"], np.uint8)).all(axis=1)
         assert not grey.any(), f"{grey.sum()} grey points"
@@ -359,7 +366,7 @@ def test_colouring_a_50k_cloud_leaves_no_grey_points(fresh_sized, inspector):
     finally:
         page.get_by_label("Colour by").click()
         page.get_by_role("option", name="plain").click()
-        wait_until(lambda: inspector.colour_by == "plain", "plain colours")
+        wait_until(lambda: inspector.presenter.colour_by == "plain", "plain colours")
         open_tab(page, "Parameters")
         inspector.open(original)
         wait_until(lambda: inspector.session.cloud.name == original.name, "the torus back")
@@ -378,13 +385,13 @@ def test_page_loads_and_canvas_renders(fresh, page):
 def test_step_advances_state_histograms_and_scene(fresh, page):
     inspector = fresh
     before_image = canvas_image(page)
-    before_figure = inspector.ui.plots.hist_theta.figure.to_json()
+    before_figure = page.viewer.ui.plots.hist_theta.figure.to_json()
     click(page, "Step")
     wait_until(lambda: len(inspector.session.history) == 2, "a second state")
-    wait_until(lambda: drawn(inspector, "plots") == 1, "iteration 1 drawn")
+    wait_until(lambda: drawn(page, "plots") == 1, "iteration 1 drawn")
     wait_shown(page, 1)
     assert inspector.session.latest.iteration == 1
-    assert inspector.ui.plots.hist_theta.figure.to_json() != before_figure
+    assert page.viewer.ui.plots.hist_theta.figure.to_json() != before_figure
     after_image = wait_until(lambda: (lambda im: im if np.abs(im.astype(int) - before_image).sum() > 0 else None)(
         canvas_image(page)), "the canvas to change")
     assert np.abs(after_image.astype(int) - before_image).max() > 50
@@ -400,7 +407,7 @@ def test_keyboard_shortcuts_step_and_scrub(fresh, page):
     wait_shown(page, 2)
     page.keyboard.press("j")
     wait_shown(page, 1)
-    assert not inspector.ui.run.follow.value  # looking back stops following the newest
+    assert not page.viewer.following  # looking back stops following the newest
     page.keyboard.press("k")
     wait_shown(page, 2)
 
@@ -411,7 +418,7 @@ def test_pending_change_and_old_view_are_told(fresh, page):
     set_value(page, "s_L", 2.5)
     page.get_by_text("Pending: sl=2.5 from iteration 3").first.wait_for()
     set_value(page, "Iteration", 0)
-    wait_until(lambda: inspector.shown == 0, "iteration 0 shown")
+    wait_until(lambda: page.viewer.shown == 0, "iteration 0 shown")
     click(page, "Step")
     page.get_by_text("Stepped from the newest iteration").first.wait_for()
     wait_shown(page, 3)
@@ -442,13 +449,13 @@ def test_method_selector_runs_glskeleton(fresh, page):
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.method == "glskeleton", "the GLSkeleton run")
     click(page, "Step")
-    wait_until(lambda: len(inspector.session.history) == 2 and drawn(inspector, "plots") == 1, "iteration 1")
+    wait_until(lambda: len(inspector.session.history) == 2 and drawn(page, "plots") == 1, "iteration 1")
     state = inspector.session.latest
     assert state.n_points < len(inspector.session.cloud.points)  # GLSkeleton merged points
-    assert len(inspector.view.drawn_points("contracted")) == state.n_points
+    assert len(page.viewer.view.drawn_points("contracted")) == state.n_points
     removed = len(inspector.session.cloud.points) - state.n_points
     page.get_by_text(f"{state.n_points:,} points retained, {removed:,} removed").first.wait_for()
-    assert len(inspector.view.drawn_points("removed")) == removed  # absorbed points drawn in their own colour
+    assert len(page.viewer.view.drawn_points("removed")) == removed  # absorbed points drawn in their own colour
     page.get_by_label("Method").click()
     page.get_by_role("option", name="lbc").click()
     click(page, "Restart with these parameters")
@@ -460,10 +467,10 @@ def test_timeline_goes_back(fresh, page):
     step(inspector, page, 2)
     wait_shown(page, 2)
     set_value(page, "Iteration", 0)
-    wait_until(lambda: inspector.shown == 0 and drawn(inspector, "plots") == 0, "iteration 0 drawn")
+    wait_until(lambda: page.viewer.shown == 0 and drawn(page, "plots") == 0, "iteration 0 drawn")
     wait_shown(page, 0)
     assert len(inspector.session.history) == 3  # looking back keeps the later states
-    assert np.allclose(inspector.view.drawn_points("contracted"), inspector.session.history[0].points.astype(np.float32))
+    assert np.allclose(page.viewer.view.drawn_points("contracted"), inspector.session.history[0].points.astype(np.float32))
 
 
 def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
@@ -471,17 +478,20 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     open_tab(page, "View")
     page.get_by_label("Show skeleton").check()
     inspector.wait_idle()
-    assert not inspector.view.skeleton_drawn  # iteration 0: nothing contracted yet
-    page.get_by_text("no skeleton yet: the cloud has not contracted").first.wait_for()
+    assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
+    page.get_by_text("no skeleton yet: the cloud is not curve-like yet").first.wait_for()
     page.get_by_label("Provisional skeleton").check()
-    wait_until(lambda: drawn(inspector, "skeleton") == 0, "the provisional skeleton")
+    wait_until(lambda: drawn(page, "skeleton") == 0, "the provisional skeleton")
     page.get_by_text("skeleton drawn provisionally").first.wait_for()
-    page.get_by_text("skeleton provisional").first.wait_for()  # the legend says so too
+    page.get_by_text("skeleton provisional: nothing contracted yet").first.wait_for()  # the legend says why
+    click(page, "Step")  # iteration 1 of this slow run: contracted a little, still a surface
+    wait_until(lambda: drawn(page, "skeleton") == 1, "the provisional skeleton of iteration 1")
+    page.get_by_text(re.compile(r"skeleton provisional: \d+% of points curve-like, 50% needed")).first.wait_for()
     page.get_by_label("Provisional skeleton").uncheck()
     page.get_by_label("Show skeleton").uncheck()
-    wait_until(lambda: not inspector.view.visible["skeleton"], "the skeleton hidden")
+    wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
     inspector.wait_idle()
-    assert not inspector.view.skeleton_drawn
+    assert not page.viewer.view.skeleton_drawn
     open_tab(page, "Parameters")
 
 
@@ -501,13 +511,13 @@ def test_run_to_end_shows_skeleton(fresh, page):
     wait_shown(page, inspector.session.latest.iteration)
     open_tab(page, "View")
     page.get_by_label("Show skeleton").check()
-    wait_until(lambda: drawn(inspector, "skeleton") == last, "the skeleton drawn")
+    wait_until(lambda: drawn(page, "skeleton") == last, "the skeleton drawn")
     skeleton = inspector.session.skeleton(last)
     assert skeleton.topology()["cycles"] == 1  # the torus keeps its loop
-    assert len(inspector.view._nodes.batched_positions) == skeleton.graph.number_of_nodes()
+    assert len(page.viewer.view._nodes.batched_positions) == skeleton.graph.number_of_nodes()
     set_value(page, "Original opacity", 0.3)
-    wait_until(lambda: inspector.view.opacity["original"] == 0.3, "the original thinned")
-    assert len(inspector.view.drawn_points("original")) == int(np.ceil(0.3 * 1500))
+    wait_until(lambda: page.viewer.view.opacity["original"] == 0.3, "the original thinned")
+    assert len(page.viewer.view.drawn_points("original")) == int(np.ceil(0.3 * 1500))
     close_browser_notices(page)
     page.wait_for_timeout(500)
     canvas_image(page, "browser-skeleton.png")
@@ -526,7 +536,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
                "the panel restored")  # the run has ended: the changes wait for the restart
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.sl == RUN["sl"] and inspector.session.start_params.wl0 == 1
-               and not inspector.view.visible["skeleton"], "the module's run")
+               and not page.viewer.view.visible["skeleton"], "the module's run")
 
 
 def test_export_bundle_downloads_a_zip(fresh, page):
@@ -551,7 +561,7 @@ def test_upload_of_a_valid_ply_replaces_the_cloud(fresh, page, tmp_path):
     try:
         upload(page, path)
         wait_until(lambda: inspector.session.cloud.name == "capsule.ply", "the uploaded cloud")
-        wait_until(lambda: drawn(inspector, "plots") == 0 and len(inspector.view.drawn_points("original")) == 1200,
+        wait_until(lambda: drawn(page, "plots") == 0 and len(page.viewer.view.drawn_points("original")) == 1200,
                    "the new cloud drawn")
         page.get_by_text("capsule.ply", exact=False).first.wait_for()
     finally:
@@ -601,12 +611,55 @@ def test_upload_with_nan_rows_offers_to_drop_them(fresh, page, tmp_path):
 
 def test_two_browsers_see_one_step(fresh, page, browser):
     inspector = fresh
-    other = open_inspector(browser, inspector.url)
+    other = open_viewer(browser, inspector, inspector.url)
     try:
         wait_shown(other, 0)
         click(other, "Step")
         wait_until(lambda: len(inspector.session.history) == 2, "the step from the second browser")
         wait_shown(other, 1)
         wait_shown(page, 1)
+    finally:
+        other.context.close()
+
+
+def test_each_browser_looks_at_its_own_iteration(fresh, page, browser):
+    """Two browsers (two contexts) on one run: one scrubs back and stays there while the other steps; each
+    one's status, histograms and points are of its own iteration; the end of the slider, or key L, follows
+    the newest again."""
+    inspector = fresh
+    history = inspector.session.history
+    step(inspector, page, 2)
+    other = open_viewer(browser, inspector, inspector.url)
+    try:
+        wait_shown(other, 2)
+        set_value(page, "Iteration", 1)
+        wait_shown(page, 1)
+        click(other, "Step")
+        wait_until(lambda: len(inspector.session.history) == 4, "the step from the other browser")
+        wait_shown(other, 3)
+        inspector.wait_idle()
+        page.wait_for_timeout(500)
+        assert shown_iteration(page) == 1 and not page.viewer.following and other.viewer.following
+        assert drawn(page, "plots") == 1 and drawn(other, "plots") == 3
+        assert np.allclose(page.viewer.view.drawn_points("contracted"), history[1].points.astype(np.float32))
+        assert np.allclose(other.viewer.view.drawn_points("contracted"), history[3].points.astype(np.float32))
+        page.get_by_text("Iteration 1 of 3 computed").first.wait_for()
+        page.get_by_text("not following the newest").first.wait_for()
+        for each, iteration in ((page, 1), (other, 3)):
+            open_tab(each, "Histograms")
+            wait_until(lambda: f"D_theta, iteration {iteration}" in each.locator(".js-plotly-plot").first.inner_text(),
+                       f"the histogram of iteration {iteration}")
+            assert each.viewer.ui.timeline.value == iteration and each.viewer.ui.timeline.max == 3
+        set_value(page, "Iteration", 3)  # the end of the slider follows the newest again
+        wait_shown(page, 3)
+        assert page.viewer.following
+        set_value(other, "Iteration", 0)
+        wait_shown(other, 0)
+        other.locator("canvas[data-engine]").first.click()
+        other.keyboard.press("l")  # follow the newest
+        wait_shown(other, 3)
+        click(page, "Step")
+        wait_shown(page, 4)
+        wait_shown(other, 4)
     finally:
         other.context.close()

@@ -243,23 +243,23 @@ def test_no_token_must_be_asked_for_and_still_warns():
 
 def test_save_names_are_sanitised_and_short_and_paths_stay_on_the_server(served, tmp_path):
     server, inspector = served
-    from app.inspector import without_paths
+    from app.messages import without_paths
 
-    inspector.save_dir = tmp_path / "saves"
+    inspector.delivery.save_dir = tmp_path / "saves"
     inspector.ui.files.save_on_server.value = True
     try:
         long_name = ("a/../b \u00e9" + "x" * 300)[:251] + ".xyz"
         inspector.open(validate(make_shape("torus", 300).points, name=long_name))
         assert inspector.wait_idle(120)
-        stem = inspector._stem()
+        stem = inspector.delivery.stem(inspector.shown)
         assert len(stem) <= 100 and re.fullmatch(r"[A-Za-z0-9._-]+", stem)
-        inspector._deliver(None, f"{stem}.png", b"png")
+        inspector.delivery.deliver(None, f"{stem}.png", b"png")
         assert (tmp_path / "saves" / f"{stem}.png").read_bytes() == b"png"
         assert not any(str(tmp_path) in line for line in inspector.session.log)
         assert without_paths(f"{tmp_path}/saves/x.png: cannot write") == "x.png: cannot write"
     finally:
         inspector.ui.files.save_on_server.value = False
-        inspector.save_dir = None
+        inspector.delivery.save_dir = None
 
 
 def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_path, monkeypatch):
@@ -270,10 +270,10 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
     from skelcore.errors import OutputError
 
     server, inspector = served
-    inspector.save_dir = tmp_path / "saves"
+    inspector.delivery.save_dir = tmp_path / "saves"
     inspector.ui.files.save_on_server.value = True
     try:
-        inspector._deliver(None, "first.png", b"first")
+        inspector.delivery.deliver(None, "first.png", b"first")
         real = os.replace
 
         def replace(source, destination):
@@ -281,13 +281,13 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
 
         monkeypatch.setattr(pipeline.os, "replace", replace)
         with pytest.raises(OutputError, match="disk is full"):
-            inspector._deliver(None, "second.png", b"second")
+            inspector.delivery.deliver(None, "second.png", b"second")
         monkeypatch.setattr(pipeline.os, "replace", real)
         assert (tmp_path / "saves" / "first.png").read_bytes() == b"first"
         assert sorted(p.name for p in (tmp_path / "saves").iterdir()) == ["first.png"]
     finally:
         inspector.ui.files.save_on_server.value = False
-        inspector.save_dir = None
+        inspector.delivery.save_dir = None
 
 
 @pytest.mark.browser
@@ -316,11 +316,11 @@ def test_a_browser_with_the_token_url_gets_the_inspector():
 
 
 def test_a_cloud_over_the_inspector_budget_is_offered_downsampled(served, monkeypatch):
-    import app.inspector
+    import app.loading
     from skelcore import memory
 
     server, inspector = served
-    monkeypatch.setattr(app.inspector, "_budget", lambda: 1000 * memory.PIPELINE_BYTES_PER_POINT)
+    monkeypatch.setattr(app.loading, "_budget", lambda: 1000 * memory.PIPELINE_BYTES_PER_POINT)
     points = make_shape("torus", 5000).points
     content = "\n".join(" ".join(map(str, p)) for p in points).encode()
     client = RawClient(server.get_port(), camera=True)
@@ -333,7 +333,7 @@ def test_a_cloud_over_the_inspector_budget_is_offered_downsampled(served, monkey
     assert any("dense.xyz" in line and "Load downsampled" in line for line in inspector.session.log)
     assert inspector.session.cloud.name != "dense.xyz"  # the session stayed as it was
     voxel, read = inspector.offer
-    inspector.worker.submit(lambda: inspector._load(lambda: read(voxel)))
+    inspector.worker.submit(lambda: inspector.loader.load(lambda: read(voxel)))
     assert inspector.wait_idle(120)
     assert inspector.session.cloud.name == "dense.xyz" and len(inspector.session.cloud.points) <= 1000
     assert not inspector.ui.files.downsample.visible and inspector.offer is None

@@ -159,6 +159,24 @@ def test_latest_runs_only_the_newest_request():
     latest.close()
 
 
+def test_latest_keeps_the_newest_request_of_each_key():
+    """One request per browser: a browser's newer request replaces its own older one, not another's."""
+    seen, gate = [], threading.Event()
+
+    def handle(item) -> None:
+        gate.wait(60)
+        seen.append(item)
+
+    latest = Latest(handle, lambda message, client: None)
+    latest.request("a0", key="a")
+    for item, key in (("a1", "a"), ("b1", "b"), ("a2", "a"), ("b2", "b")):  # arrive while a0 is being handled
+        latest.request(item, key=key)
+    gate.set()
+    assert latest.wait_idle(60)
+    assert sorted(seen[-2:]) == ["a2", "b2"] and "b1" not in seen  # b1 waited, and b2 replaced it
+    latest.close()
+
+
 @pytest.mark.parametrize("quantity, target", [("D_theta", 0.5), ("delta_kappa", 0.0)])
 def test_colour_map_target_stands_out_on_the_white_background(quantity, target):
     from app.scene import COLOUR_RANGES
@@ -267,10 +285,10 @@ def test_exports_are_saved_on_the_server_only_when_asked(cloud, tmp_path):
     inspector = Inspector(server, Session(cloud), save_dir=tmp_path / "exports")
     try:
         assert inspector.wait_idle(120)
-        inspector._deliver(None, "view.png", b"png")
+        inspector.delivery.deliver(None, "view.png", b"png")
         assert not (tmp_path / "exports").exists()
         inspector.ui.files.save_on_server.value = True
-        inspector._deliver(None, "view.png", b"png")
+        inspector.delivery.deliver(None, "view.png", b"png")
         assert (tmp_path / "exports" / "view.png").read_bytes() == b"png"
     finally:
         inspector.close()

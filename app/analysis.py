@@ -1,0 +1,119 @@
+"""What the inspector shows of one iteration besides its points: the histograms, the convergence plot and the
+verdict, the per-point colours, the curve-like share that decides whether the skeleton is provisional.
+
+Each is computed once per state of a run and kept for the few states browsers look at, so two browsers on
+the same iteration share the work, and a figure is serialised once for all of them. The engine computes;
+this only asks (app.session, skelcore.pipeline, skelcore.report, skelcore.display) and keeps.
+"""
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from skelcore import display, pipeline, report
+
+from .scene import COLOUR_RANGES, colour_values
+from .session import Run, Session
+
+KEPT = 16  # states whose plots and colours are kept (browsers look at a few iterations at a time)
+
+
+@dataclass(frozen=True)
+class Plots:
+    """The figures of one state (D_theta histogram, delta_kappa histogram, convergence) and their JSON."""
+    figures: tuple
+    json: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Colours:
+    contracted: np.ndarray | None  # (m,3) uint8, None: plain
+    original: np.ndarray | None  # colours of the original positions, when asked for
+    note: str  # what the legend says about them
+
+
+@dataclass(frozen=True)
+class Readiness:
+    """Whether a state's skeleton means something yet, and why not."""
+    share: float  # of the points, curve-like (skelcore.pipeline.state_curve_share)
+    provisional: bool
+
+    def reason(self, state) -> str:
+        """The legend's words for a provisional skeleton ("" when it is not)."""
+        if not self.provisional:
+            return ""
+        if state.iteration == 0:
+            return "nothing contracted yet (iteration 0)"
+        return f"{self.share:.0%} of points curve-like, {pipeline.provisional_target(state):.0%} needed"
+
+
+class Analyses:
+    def __init__(self, session: Session):
+        self.session = session
+        self._lock = threading.Lock()
+        self._kept: OrderedDict = OrderedDict()
+        self._run: Run | None = None  # whose results are kept: a new run drops the old one's
+
+    def _cached(self, run: Run, key, compute):
+        with self._lock:
+            if run is not self._run:
+                self._kept.clear()
+                self._run = run
+            if key in self._kept:
+                self._kept.move_to_end(key)
+                return self._kept[key]
+        value = compute()
+        with self._lock:
+            if run is not self._run or value is None:  # a new run began meanwhile
+                return value
+            self._kept[key] = value
+            while len(self._kept) > KEPT * 4:
+                self._kept.popitem(last=False)
+        return value
+
+    def readiness(self, run: Run, index: int, compute: bool = True) -> Readiness | None:
+        """compute=False: None unless already known (the status does not wait for it)."""
+        def compute() -> Readiness:
+            state = run.history[index]
+            share = pipeline.state_curve_share(state, run.cloud)
+            return Readiness(share, pipeline.skeleton_is_provisional(state, share))
+        return self._cached(run, ("readiness", index), compute if compute else lambda: None)
+
+    def plots(self, run: Run, index: int) -> Plots:
+        def compute() -> Plots:
+            state = run.history[index]
+            history = self.session.metrics_upto(index, run)
+            figures = (_compact(report.histogram_figure(history[-1], "d_theta", iteration=state.iteration, fit=True)),
+                       _compact(report.histogram_figure(history[-1], "delta_kappa", iteration=state.iteration,
+                                                        fit=True)),
+                       report.convergence_figure(history).update_layout(height=None))
+            return Plots(figures, tuple(figure.to_json() for figure in figures))
+        return self._cached(run, ("plots", index), compute)
+
+    def colours(self, run: Run, index: int, quantity: str, on_original: bool) -> Colours:
+        """Colours of one of COLOUR_RANGES' quantities, for every point (the sample's values carried to the
+        rest, which the note says)."""
+        def compute() -> Colours:
+            state = run.history[index]
+            measured = self.session.metrics(index, run)
+            values = display.values_for_all_points(measured, state.points, report.measure_key(quantity))
+            note = (f"{values.measured:,} points measured; the other {values.carried:,} show the value of their "
+                    f"nearest measured point" if values.carried else "")
+            original = None
+            if on_original:
+                per_input = np.full(len(run.cloud.points), np.nan)
+                per_input[state.point_ids] = values.values
+                original = colour_values(per_input, quantity)
+            return Colours(colour_values(values.values, quantity), original, note)
+        assert quantity in COLOUR_RANGES
+        return self._cached(run, ("colours", index, quantity, on_original), compute)
+
+
+def _compact(histogram):
+    """A histogram for the narrow plots panel: its title names the measure, so the axis title goes and the
+    legend takes its place below the ticks."""
+    return histogram.update_layout(height=None, margin=dict(l=45, r=10, t=55, b=40), xaxis_title=None,
+                                   legend=dict(y=-0.13, yanchor="top"))

@@ -1,0 +1,98 @@
+"""The Files tab's exports for one viewer: a screenshot of its view, an animation of the run, a bundle of the
+iteration it shows; each sent to its browser as a download, and also saved on the server when asked.
+
+Pictures are rendered by the asking browser, from a camera framed on the object (app.export composes
+them); the animation shows each iteration in that browser's scene in turn, then puts its view back.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Callable
+
+import viser
+
+from skelcore.errors import InputError
+from skelcore.pipeline import write_atomic
+
+from . import export
+from .layout import FileWidgets
+from .progress import Activity
+from .session import Session
+from .viewer import Viewer
+
+SAVE_NAME_LENGTH = 80  # characters of a cloud's name kept in the names of exported files
+
+
+class Delivery:
+    def __init__(self, session: Session, files: FileWidgets, activity: Activity, save_dir: Path | None,
+                 redraw: Callable[[Viewer, int], None]):
+        """redraw(viewer, index): show history[index] in a viewer again (after the animation)."""
+        self.session, self.files, self.activity, self.save_dir, self.redraw = (session, files, activity,
+                                                                               save_dir, redraw)
+
+    def _size(self) -> tuple[int, int]:
+        width, height = (int(v) for v in self.files.resolution.value.split("x"))
+        return width, height
+
+    def _render(self, viewer: Viewer, index: int) -> bytes:
+        width, height = self._size()
+        client = viewer.client
+        rgba = client.get_render(height, width, transport_format="png", timeout=120,
+                                 **export.framed_camera(self.session.cloud.points, client.camera, width, height))
+        labels = (export.caption(self.session.cloud.name, self.session.history[index],
+                                 self.session.verdict(index)["label"]) if self.files.labels.value else [])
+        return export.png_bytes(rgba, labels, bool(self.files.transparent.value))
+
+    def stem(self, index: int | None = None) -> str:
+        """The name of exported files: the cloud's, made safe for any file system and shortened, and the
+        iteration (None: the whole run)."""
+        name = re.sub(r"[^A-Za-z0-9._-]+", "_", Path(self.session.cloud.name).stem).strip("._-")
+        suffix = "run" if index is None else f"it{self.session.history[index].iteration:03d}"
+        return f"{name[:SAVE_NAME_LENGTH] or 'cloud'}-{suffix}"
+
+    def screenshot(self, viewer: Viewer) -> None:
+        index = viewer.shown
+        with self.activity.busy(viewer.client, "Screenshot", "rendering the screenshot"):
+            png = self._render(viewer, index)
+        self.deliver(viewer.client, f"{self.stem(index)}.png", png)
+
+    def bundle(self, viewer: Viewer) -> None:
+        index = viewer.shown
+        with self.activity.busy(viewer.client, "Export bundle", "rendering and writing the bundle"):
+            png = self._render(viewer, index)
+            data = export.bundle(self.session, index, png)
+        self.deliver(viewer.client, f"{self.stem(index)}.zip", data)
+
+    def animation(self, viewer: Viewer) -> None:
+        """One frame per iteration of the run so far, from one framed camera, the iteration burned in."""
+        run, shown, client = self.session.run, viewer.shown, viewer.client
+        width, height = self._size()
+        camera = export.framed_camera(run.cloud.points, client.camera, width, height)
+        frames = []
+        labels = self.files.labels.value
+        with self.activity.busy(client, "Export animation", f"rendering {len(run.history)} frames"):
+            viewer.view.clear_skeleton()
+            try:
+                for index, state in enumerate(run.history):
+                    viewer.view.show_points((run, index), state.points)
+                    viewer.view.show_removed((run, index), run.cloud.points[state.removed_ids])
+                    client.flush()
+                    rgba = client.get_render(height, width, transport_format="png", timeout=120, **camera)
+                    frames.append(export.compose(rgba, export.caption(run.cloud.name, state) if labels else []))
+            finally:
+                self.redraw(viewer, shown)
+            files = export.animation_files(frames)
+        for extension, data in files.items():
+            self.deliver(client, f"{self.stem()}.{extension}", data)
+
+    def deliver(self, client: viser.ClientHandle | None, name: str, data: bytes) -> None:
+        if client is not None:
+            client.send_file_download(name, data, save_immediately=True)
+        if self.save_dir is not None and self.files.save_on_server.value:
+            try:
+                self.save_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                raise InputError(f"cannot create the save folder ({error.strerror})") from None
+            write_atomic(self.save_dir / name, lambda path: path.write_bytes(data))  # a full disk keeps what was saved
+            self.session.note(f"saved {name} on the server")

@@ -1,0 +1,36 @@
+"""What the inspector tells browsers: notifications in our words, progress notices, and no server paths."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import viser
+
+
+class Messages:
+    def __init__(self, server: viser.ViserServer):
+        self.server = server
+
+    def notify(self, client, title: str, body: str, color: str = "red") -> None:
+        """To one browser, or every browser (client None)."""
+        clients = [client] if client is not None else list(self.server.get_clients().values())
+        for target in clients:
+            target.add_notification(title, body, color=color, auto_close_seconds=15.0)
+
+    def progress(self, client, title: str, body: str):
+        """A notification with a spinner (app.progress takes it down); None when no browser is there."""
+        target = client or next(iter(self.server.get_clients().values()), None)
+        if target is None:
+            return None
+        return target.add_notification(title, body[:1].upper() + body[1:] + "…", loading=True,
+                                       with_close_button=False)
+
+    def upload_refused(self, client_id: int, name: str, reason: str) -> None:
+        client = self.server.get_clients().get(client_id)
+        if client is not None:
+            self.notify(client, "Upload refused", f"{Path(name).name}: {reason}")
+
+
+def without_paths(message: str) -> str:
+    """`message` with every absolute path cut to its file name."""
+    return re.sub(r"(?<![\w.])/(?:[^\s/:;,'\"()]+/)+([^\s/:;,'\"()]*)", r"\1", message)

@@ -1,0 +1,204 @@
+"""What each browser sees of the shared run: its Viewer's points, status, legend, plots, colours and skeleton
+of the iteration it shows, each pushed as soon as it is ready.
+
+The points and the status go out at once, from the thread that asks (the engine worker). The plots,
+verdict and colours follow from an analysis thread, the skeleton from a skeleton thread; each thread
+works, for each viewer, on the newest thing it asked for (app.worker.Latest), and app.analysis keeps the
+results so viewers on one iteration share them. A result that lands after its viewer moved on is dropped.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+
+from skelcore import display
+
+from . import compare, export, layout, status
+from .analysis import Analyses
+from .labels import LabelPanel
+from .layout import Layout
+from .progress import Activity
+from .scene import COLOUR_RANGES
+from .session import Session
+from .viewer import Viewer
+from .worker import ErrorHandler, Latest, Worker
+
+LOG_LINES = 8  # of the session log, in the Log tab
+
+
+class Presenter:
+    def __init__(self, session: Session, ui: Layout, activity: Activity, worker: Worker, on_error: ErrorHandler):
+        self.session, self.ui, self.activity, self.worker = session, ui, activity, worker
+        self.labels: LabelPanel | None = None  # set once built (it needs the worker)
+        self.viewers: dict[int, Viewer] = {}  # by client id
+        self.colour_by = "plain"
+        self.colour_original = False
+        self.pinned: compare.Pinned | None = None
+        self.drawn: dict[str, tuple] = {}  # stage -> (run, index, perf_counter) of its last push, any viewer
+        self._drawn_changed = threading.Condition()
+        self.analyses = Analyses(session)
+        self.analyst = Latest(self._analyse, on_error)
+        self.skeletons = Latest(self._draw_skeleton, on_error)
+
+    def wait_idle(self, timeout: float | None = None) -> bool:
+        return self.analyst.wait_idle(timeout) and self.skeletons.wait_idle(timeout)
+
+    def close(self) -> None:
+        self.analyst.close()
+        self.skeletons.close()
+
+    def viewer(self, client) -> Viewer | None:
+        return None if client is None else self.viewers.get(client.client_id)
+
+    def all(self) -> list[Viewer]:
+        return list(self.viewers.values())
+
+    def view_settings(self) -> dict[str, dict]:
+        v = self.ui.view
+        return {"visible": {layer: bool(v.show[layer].value) for layer in layout.LAYERS},
+                "sizes": {layer: float(v.size[layer].value) for layer in layout.LAYERS},
+                "opacity": {layer: float(v.opacity[layer].value) for layer in layout.LAYERS}}
+
+    def set_fixed_colours(self, viewer: Viewer, run, index: int) -> None:
+        """Colours that need no metrics: plain, or by label."""
+        colours = self.labels.colours(run.history[index].point_ids) if self.colour_by == "label" else None
+        viewer.view.set_colours((run, index), colours, self.colour_by)
+
+    def show(self, viewer: Viewer, index: int, full: bool = True) -> None:
+        """Draw history[index] in one viewer: the points and the status now; plots, colours and skeleton follow
+        from the analysis threads (full=False: points only, as Run to end does on its way)."""
+        session = self.session
+        index = max(0, min(index, len(session.history) - 1))
+        run, state = session.run, session.history[index]
+        viewer.shown = index
+        client = viewer.client
+        with client.atomic():
+            viewer.view.show_points((run, index), state.points)
+            viewer.view.show_removed((run, index), session.cloud.points[state.removed_ids])
+            if self.colour_by not in COLOUR_RANGES:
+                self.set_fixed_colours(viewer, run, index)
+            if viewer.view.skeleton_drawn:
+                viewer.view.clear_skeleton()  # another iteration's skeleton would mislead
+            self.update_status(viewer)
+        client.flush()
+        self.mark("points", viewer, run, index)
+        if full:
+            self.analyst.request((viewer, run, index), client, key=viewer.id)
+            self.skeletons.request((viewer, run, index), client, key=viewer.id)
+
+    def reanalyse(self) -> None:
+        for viewer in self.all():
+            if "points" in viewer.drawn:
+                run, index = viewer.drawn["points"]
+                self.analyst.request((viewer, run, index), viewer.client, key=viewer.id)
+                self.skeletons.request((viewer, run, index), viewer.client, key=viewer.id)
+
+    # ------------------------------------------------------------------ analysis threads
+    def _analyse(self, request) -> None:
+        """Plots, verdict and colours of what a viewer shows."""
+        viewer, run, index = request
+        if not viewer.showing(run, index):
+            return
+        state, session = run.history[index], self.session
+        with self.activity.busy(None, "Measuring", f"metrics of iteration {state.iteration}", notify=False):
+            plots = self.analyses.plots(run, index)
+            self.analyses.readiness(run, index)  # the curve-like share, for the status and legend below
+            colour_by = self.colour_by
+            colours = (self.analyses.colours(run, index, colour_by, self.colour_original)
+                       if colour_by in COLOUR_RANGES else None)
+            # the skeleton's checks, when the skeleton thread has already made them
+            verdict = session.verdict(index, run, with_skeleton=(index, session.skeleton_params) in run.evidence)
+            comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run))
+                          if self.pinned is not None else None)
+        if not viewer.showing(run, index):
+            return
+        with viewer.client.atomic():
+            viewer.show_plots(plots, verdict)
+            if colours is not None:
+                viewer.view.set_colours((run, index), colours.contracted, colour_by, colours.original)
+            self.update_legend(viewer, "" if colours is None else colours.note)
+            self.update_status(viewer)  # the curve-like share is known now
+            if comparison is not None:
+                viewer.show_comparison(*comparison)
+        viewer.client.flush()
+        self.mark("plots", viewer, run, index)
+
+    def _draw_skeleton(self, request) -> None:
+        """A viewer's skeleton, when wanted (shown, and final or provisional ones asked for), then the verdict
+        with the skeleton's checks."""
+        viewer, run, index = request
+        if not viewer.showing(run, index):
+            return
+        readiness = self.analyses.readiness(run, index)
+        wanted = viewer.view.visible["skeleton"] and (not readiness.provisional or self.ui.view.provisional.value)
+        if not wanted:
+            viewer.view.clear_skeleton()
+            return
+        state = run.history[index]
+        with self.activity.busy(None, "Skeleton", f"skeleton of iteration {state.iteration}", notify=False):
+            skeleton = self.session.skeleton(index, run)
+        if viewer.showing(run, index):
+            viewer.view.show_skeleton(skeleton.nodes_array(), skeleton.edges_array(), skeleton.degrees(),
+                                      readiness.provisional)
+            viewer.client.flush()
+            self.mark("skeleton", viewer, run, index)
+        verdict = self.session.verdict(index, run, with_skeleton=index > 0)  # the skeleton's checks complete it
+        if viewer.showing(run, index):
+            viewer.show_verdict(verdict)
+            viewer.client.flush()
+
+    # ------------------------------------------------------------------ status and legend
+    def update_statuses(self) -> None:
+        for viewer in self.all():
+            self.update_status(viewer)
+        self.ui.log.content = "\n".join(f"- {line}" for line in self.session.log[-LOG_LINES:])
+
+    def update_status(self, viewer: Viewer) -> None:
+        session = self.session
+        history = session.history  # a restart may replace the run meanwhile: read it once
+        index = min(viewer.shown, len(history) - 1)
+        viewer.set_timeline(len(history), index)
+        readiness = self.analyses.readiness(session.run, index, compute=False)
+        viewer.ui.status.content = status.status_markdown(
+            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing),
+            notice=viewer.view.notice(history[index].n_points), readiness=readiness,
+            skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
+            following=viewer.following)
+
+    def update_legend(self, viewer: Viewer, note: str = "") -> None:
+        run = self.session.run
+        index = min(viewer.shown, len(run.history) - 1)
+        viewer.ui.legend.content = status.legend(
+            self.colour_by, run.history[index], self.analyses.readiness(run, index, compute=False), note=note,
+            skeleton_shown=viewer.view.visible["skeleton"], provisional_wanted=self.ui.view.provisional.value,
+            pinned=self.pinned is not None, labels_html=self.labels.legend_html())
+
+    def mark(self, stage: str, viewer: Viewer, run, index: int) -> None:
+        viewer.drawn[stage] = (run, index)
+        with self._drawn_changed:
+            self.drawn[stage] = (run, index, time.perf_counter())
+            self._drawn_changed.notify_all()
+
+    def wait_drawn(self, stage: str, after: float, index: int | None = None,
+                   timeout: float | None = None) -> tuple[int, float] | None:
+        """Block until `stage` ('points', 'plots', 'skeleton') was pushed to a viewer after perf_counter `after`
+        (for history[index], or any state); (index, time) of that push, or None after `timeout` seconds."""
+        def done() -> bool:
+            pushed = self.drawn.get(stage)
+            return pushed is not None and pushed[2] > after and index in (None, pushed[1])
+
+        with self._drawn_changed:
+            if not self._drawn_changed.wait_for(done, timeout):
+                return None
+            return self.drawn[stage][1], self.drawn[stage][2]
+
+    def fit(self, client) -> None:
+        """Frame the whole cloud in this client's view, keeping its viewing direction."""
+        if client is None:
+            return
+        camera = client.camera
+        framing = display.framing_camera(self.session.cloud.points, camera.look_at - camera.position, camera.fov,
+                                         camera.aspect or 1.0, export.FRAME_FILL, up=camera.up_direction)
+        camera.position = framing.position
+        camera.look_at = framing.look_at

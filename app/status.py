@@ -1,0 +1,64 @@
+"""The words a browser shows about the iteration it looks at: the status under the run controls and the
+legend over the 3-D view. Plain functions of what is shown; nothing here computes."""
+from __future__ import annotations
+
+from .analysis import Readiness
+from .scene import COLOUR_RANGES, legend_html
+
+
+def run_state(history, doing: str, playing: bool) -> str:
+    """What the shared run is doing, in a few words."""
+    latest = history[-1]
+    if doing:
+        return f"busy: {doing}…"
+    if latest.termination:
+        return f"ended at iteration {latest.iteration}: {latest.message}"
+    if playing:
+        return "running"
+    return "paused" if len(history) > 1 else "ready"
+
+
+def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:
+    """Why no skeleton, or only a provisional one, is drawn ("" when the skeleton is final or hidden)."""
+    if readiness is None or not readiness.provisional or not skeleton_shown:
+        return ""
+    if provisional_wanted:
+        return "skeleton drawn provisionally: the cloud is not curve-like yet"
+    return "no skeleton yet: the cloud is not curve-like yet (View: Provisional skeleton)"
+
+
+def status_markdown(session, index: int, *, run: str, notice: str, readiness: Readiness | None,
+                    skeleton: str, following: bool) -> str:
+    """The status of history[index] as one browser sees it; `readiness`: None while not measured yet."""
+    history = session.history
+    state, latest = history[index], history[-1]
+    removed = len(state.owner) - state.n_points
+    counts = (f"{state.n_points:,} points retained, {removed:,} removed" if removed
+              else f"{state.n_points:,} points")
+    cleaning = session.run.cloud.cleaning or {}
+    removed_by_cleaning = (f"cleaning removed {cleaning['outliers_removed']:,} outliers and "
+                           f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}"
+                           if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
+    share = "…" if readiness is None else f"{readiness.share:.0%}"
+    behind = "" if following or index == len(history) - 1 else " &middot; _not following the newest (key L)_"
+    return "\n\n".join(filter(None, [
+        f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {counts}{behind}",
+        notice and f"_{notice}_",
+        removed_by_cleaning,
+        f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
+        f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
+        skeleton and f"_{skeleton}_",
+        session.pending and f"**Pending:** {session.pending}",
+        f"Run {run}",
+    ]))
+
+
+def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, skeleton_shown: bool,
+           provisional_wanted: bool, pinned: bool, labels_html: str) -> str:
+    """The legend of one browser's view; it says why a skeleton is provisional, or not drawn yet."""
+    reason = ""
+    if readiness is not None and readiness.provisional and skeleton_shown:
+        reason = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
+    quantity = colour_by if colour_by in COLOUR_RANGES else None
+    return legend_html(quantity, note, provisional=reason, pinned=pinned,
+                       extra=labels_html if colour_by == "label" else "")

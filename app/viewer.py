@@ -1,0 +1,77 @@
+"""One browser's view of the shared run: the iteration it shows, whether it follows the newest, and what it
+draws of that iteration (its own 3-D scene, status, plots and legend).
+
+A viewer follows the newest iteration until its person scrubs back (slider, keys J/K); it then stays there
+while the run goes on, until the slider reaches the end again or Follow newest (key L) is ticked. The
+scene's view settings (layers shown, sizes, opacities) are the shared View tab's, copied in at connect.
+"""
+from __future__ import annotations
+
+import viser
+
+from skelcore.verdict import explanation_markdown
+
+from . import layout
+from .analysis import Plots
+from .scene import SceneView
+
+
+class Viewer:
+    def __init__(self, client: viser.ClientHandle, order: float, settings: dict[str, dict] | None = None):
+        """order: where the viewer's run widgets go (layout.RunControls.viewer_order); settings: the View
+        tab's {"visible"|"sizes"|"opacity": {layer: value}} this viewer starts with."""
+        self.client = client
+        self.ui = layout.build_viewer(client.gui, order)
+        self.view = SceneView(client.scene)
+        if settings is not None:
+            for name in ("visible", "sizes", "opacity"):
+                getattr(self.view, name).update(settings[name])
+        self.shown = 0  # index into the run's history of the iteration on screen
+        self.following = True
+        self.closed = False
+        self.drawn: dict[str, tuple] = {}  # stage -> (run, index) of its last push
+
+    @property
+    def id(self) -> int:
+        return self.client.client_id
+
+    def showing(self, run, index: int) -> bool:
+        """Whether history[index] of `run` is still what this viewer shows (an analysis may land late)."""
+        return not self.closed and self.drawn.get("points", (None, None)) == (run, index)
+
+    def look_at(self, index: int, newest: int) -> None:
+        """Take the person's choice of iteration: the newest follows the run, an earlier one stays."""
+        self.follow(index >= newest)
+
+    def follow(self, following: bool) -> None:
+        self.following = following
+        self.ui.follow.value = following
+
+    def set_timeline(self, count: int, index: int) -> None:
+        timeline = self.ui.timeline
+        timeline.max = max(1, count - 1)
+        timeline.value = index
+        timeline.disabled = count < 2
+
+    def show_plots(self, plots: Plots, verdict: dict) -> None:
+        """The histograms and the convergence plot (serialised once, shared by every viewer), the verdict."""
+        handles = (self.ui.plots.hist_theta, self.ui.plots.hist_kappa, self.ui.plots.convergence)
+        for handle, figure, text in zip(handles, plots.figures, plots.json):
+            handle._figure = figure
+            handle._plotly_json_str = text  # viser's figure setter would serialise it again for each viewer
+        self.show_verdict(verdict)
+
+    def show_verdict(self, verdict: dict) -> None:
+        """The explanation table in the Verdict tab, its headline above the histograms."""
+        table = explanation_markdown(verdict)
+        self.ui.plots.verdict.content = table
+        self.ui.plots.verdict_line.content = f"{table.splitlines()[0] if table else ''} _(criteria: Verdict tab)_"
+
+    def show_comparison(self, note: str, convergence, theta, kappa) -> None:
+        plots = self.ui.plots
+        plots.compare_note.content = note
+        plots.compare_convergence.figure, plots.compare_theta.figure, plots.compare_kappa.figure = (
+            convergence, theta, kappa)
+
+    def close(self) -> None:
+        self.closed = True
