@@ -29,7 +29,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .errors import ParameterError
 from .io import Cloud
-from .neighbours import knn, pca_frames
+from .neighbours import CHUNK, knn, pca_frames
 
 
 @dataclass(frozen=True)
@@ -155,10 +155,14 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
         _, index = knn(points, neighbours)
     elif (index[:, 0] < 0).any():
         index = _requeried(points, index, neighbours)
-    _, frames = pca_frames(points, index)
-    normal = frames[:, :, 0]
-    offset = np.einsum("ij,ij->i", points - points[index].mean(axis=1), normal)
-    return points - offset[:, None] * normal
+    projected = np.empty_like(points)
+    for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
+        rows = slice(start, start + CHUNK)
+        _, frames = pca_frames(points, index[rows])
+        normal = frames[:, :, 0]
+        offset = np.einsum("ij,ij->i", points[rows] - points[index[rows]].mean(axis=1), normal)
+        projected[rows] = points[rows] - offset[:, None] * normal
+    return projected
 
 
 def _kept_neighbours(report: CleaningReport, k: int) -> np.ndarray | None:
