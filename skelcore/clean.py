@@ -176,9 +176,11 @@ def _kept_neighbours(report: CleaningReport, k: int) -> np.ndarray | None:
     new_id[kept] = np.arange(len(kept))
     rows = new_id[report.neighbours[kept]]
     present = rows >= 0
-    first = np.argsort(~present, axis=1, kind="stable")[:, :k]  # kept entries first, in distance order
-    rows = np.take_along_axis(rows, first, axis=1)
-    rows[present.sum(axis=1) < k] = -1
+    lost = np.flatnonzero(~present[:, :k].all(axis=1))  # the few rows with a removed point among the first k
+    shifted = np.argsort(~present[lost], axis=1, kind="stable")  # kept entries first, in distance order
+    rows[lost] = np.take_along_axis(rows[lost], shifted, axis=1)
+    rows = rows[:, :k]
+    rows[lost[present[lost].sum(axis=1) < k]] = -1
     return rows
 
 
