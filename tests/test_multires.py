@@ -68,3 +68,12 @@ def test_carried_points_are_convex_combinations_of_their_ring():
     # each carried point lies within the bounding box of the contracted cloud
     low, high = states[-1].points.min(axis=0), states[-1].points.max(axis=0)
     assert ((lifted.points >= low - 1e-9) & (lifted.points <= high + 1e-9)).all()
+
+
+def test_voxels_numbered_without_a_sort_as_with_one(monkeypatch):
+    """The occupancy-array numbering of small grids is np.unique's (key order)."""
+    points = make_shape("torus", 20_000, seed=0, noise=0.01).points
+    low = points.min(axis=0)
+    dense = multires._voxels(points, low, 0.05)
+    monkeypatch.setattr(multires, "DENSE_GRID", 0)
+    assert np.array_equal(dense[0], multires._voxels(points, low, 0.05)[0]) and dense[1] == dense[0].max() + 1
