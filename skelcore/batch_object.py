@@ -135,4 +135,5 @@ def one_line(error: BaseException) -> str:
 
 
 def write_text_atomic(path: Path, text: str) -> None:
+    """Write `text` to `path` through a temporary file renamed into place (skelcore.pipeline.write_atomic)."""
     write_atomic(path, lambda temporary: temporary.write_text(text))
