@@ -19,7 +19,7 @@ from typing import Callable, Generator
 
 import numpy as np
 
-from . import io, pipeline
+from . import io, multires, pipeline
 from .clean import CleaningParams
 from .contraction import IterationState
 from .contraction import contract as _contract
@@ -57,6 +57,7 @@ class Result:
     weights: np.ndarray | None = None  # the per-point contraction weights (None: all 1)
     elapsed: float | None = None  # seconds the run took (None: not timed)
     input_path: str | None = None  # the file it came from, if any
+    reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
 
     @property
     def graph(self):
@@ -99,7 +100,8 @@ class Result:
         """Write the files of `skelcore run` into `out_dir` (created if needed): skeleton.json, skeleton.ply,
         contracted.ply, metrics.json, params.json. Returns the folder."""
         pipeline.write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
-                               input_path=self.input_path, elapsed=self.elapsed, weights=self.weights)
+                               input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
+                               reduction=self.reduction)
         return Path(out_dir)
 
     def report(self, path) -> Path:
@@ -173,7 +175,7 @@ def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *,
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
-                  time.perf_counter() - started, input_path)
+                  time.perf_counter() - started, input_path, computed.reduction)
 
 
 def cleaning_params(cleaning: CleaningParams | bool) -> CleaningParams:

@@ -26,11 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from .errors import ParameterError
 from .io import Cloud
-from .neighbours import pca_frames
+from .neighbours import CHUNK, knn, pca_frames
 
 
 @dataclass(frozen=True)
@@ -68,6 +67,8 @@ class CleaningReport:
     input_points: int
     outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # removed ids, input order
     stray: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    # (n, neighbours + 1) kNN of every input point (itself first), which the denoising reuses (None: not queried)
+    neighbours: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def kept(self) -> np.ndarray:
@@ -98,8 +99,7 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     report = CleaningReport(n)
     if n <= max(MIN_KEPT, params.neighbours + 1) or not (params.remove_outliers or params.remove_stray):
         return report
-    tree = cKDTree(points)
-    distance, index = tree.query(points, k=params.neighbours + 1, workers=-1)
+    distance, index = knn(points, params.neighbours + 1)
     spacing = distance[:, 1:].mean(axis=1)
     keep = np.ones(n, dtype=bool)
     if params.remove_outliers:
@@ -120,7 +120,8 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
         keep &= ~stray
     report.outliers = np.flatnonzero(~keep & ~np.isin(np.arange(n), report.stray))
     if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
-        return CleaningReport(n)
+        return CleaningReport(n, neighbours=index)
+    report.neighbours = index
     return report
 
 
@@ -138,17 +139,57 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    points = denoised(cloud.points[kept], params.neighbours) if params.denoise else cloud.points[kept]
+    points = cloud.points[kept]
+    if params.denoise:
+        points = denoised(points, params.neighbours, _kept_neighbours(report, params.neighbours))
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
 
-def denoised(points: np.ndarray, neighbours: int) -> np.ndarray:
-    """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included)."""
+def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None) -> np.ndarray:
+    """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included).
+    `index`: those neighbours when known, (n, neighbours) rows into `points`, -1 where a row must be queried."""
     if len(points) <= neighbours:
         return points
-    _, index = cKDTree(points).query(points, k=neighbours, workers=-1)
-    _, frames = pca_frames(points, index)
-    normal = frames[:, :, 0]
-    offset = np.einsum("ij,ij->i", points - points[index].mean(axis=1), normal)
-    return points - offset[:, None] * normal
+    if index is None:
+        _, index = knn(points, neighbours)
+    elif (index[:, 0] < 0).any():
+        index = _requeried(points, index, neighbours)
+    projected = np.empty_like(points)
+    for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
+        rows = slice(start, start + CHUNK)
+        _, frames = pca_frames(points, index[rows])
+        normal = frames[:, :, 0]
+        offset = np.einsum("ij,ij->i", points[rows] - points[index[rows]].mean(axis=1), normal)
+        projected[rows] = points[rows] - offset[:, None] * normal
+    return projected
+
+
+def _kept_neighbours(report: CleaningReport, k: int) -> np.ndarray | None:
+    """The `k` nearest kept points of every kept point (itself first) as rows into the kept points, read from
+    cleaning's kNN: a row holding at least k kept points among its neighbours + 1 nearest has them in its
+    first k kept entries. The other rows are -1, to be queried (None: cleaning queried no kNN)."""
+    if report.neighbours is None:
+        return None
+    kept = report.kept
+    new_id = np.full(report.input_points, -1, dtype=np.int64)
+    new_id[kept] = np.arange(len(kept))
+    rows = new_id[report.neighbours[kept]]
+    present = rows >= 0
+    lost = np.flatnonzero(~present[:, :k].all(axis=1))  # the few rows with a removed point among the first k
+    shifted = np.argsort(~present[lost], axis=1, kind="stable")  # kept entries first, in distance order
+    rows[lost] = np.take_along_axis(rows[lost], shifted, axis=1)
+    rows = rows[:, :k]
+    rows[lost[present[lost].sum(axis=1) < k]] = -1
+    return rows
+
+
+def _requeried(points: np.ndarray, index: np.ndarray, k: int) -> np.ndarray:
+    """`index` with its rows of -1 filled by a kNN query among `points`."""
+    from scipy.spatial import cKDTree
+
+    missing = np.flatnonzero(index[:, 0] < 0)
+    _, found = cKDTree(points).query(points[missing], k=k, workers=-1)
+    index = index.copy()
+    index[missing] = found.reshape(len(missing), k)
+    return index

@@ -100,9 +100,13 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
+        laplacian_start = time.perf_counter()
+        values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
+        laplacian_time = time.perf_counter() - laplacian_start
         candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
                                                               first_step=iteration == 1, stages=stages,
-                                                              row_weights=row_weights)
+                                                              row_weights=row_weights, laplacian_values=values)
+        timings["laplacian"] += laplacian_time
         if stages:
             yield None
         if failure is not None:
@@ -122,7 +126,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
         reduce_start = time.perf_counter()
         if reducing:
-            gamma = builder.laplacian(current) @ current
+            gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
             merging = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,

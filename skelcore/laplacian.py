@@ -58,16 +58,18 @@ class LaplacianSystem:
         values[self._diagonal_slots] -= row_sum * scale
         return values
 
-    def laplacian(self, points: np.ndarray) -> sp.csr_matrix:
-        """L (eq. 1) at `points` as a CSR matrix."""
-        return sp.csr_matrix((self.laplacian_values(points), self._l_indices, self._l_indptr), shape=(self.n, self.n))
+    def laplacian(self, points: np.ndarray, values: np.ndarray | None = None) -> sp.csr_matrix:
+        """L (eq. 1) at `points` as a CSR matrix (`values`: laplacian_values(points), when known)."""
+        values = self.laplacian_values(points) if values is None else values
+        return sp.csr_matrix((values, self._l_indices, self._l_indptr), shape=(self.n, self.n))
 
-    def normal_matrix(self, points: np.ndarray, wl: float, wh: np.ndarray,
-                      row_weights: np.ndarray | None = None) -> sp.csr_matrix:
+    def normal_matrix(self, points: np.ndarray, wl: float, wh: np.ndarray, row_weights: np.ndarray | None = None,
+                      values: np.ndarray | None = None) -> sp.csr_matrix:
         """W_L^2 L^T L + W_H^2, the matrix of the normal equations of eq. 2. `row_weights` (n,): per-point
         contraction weights w, the system's Laplacian rows become W_L w_i L_i (semantic LBC: w_i multiplies
-        point i's contraction weight), so the first term is W_L^2 L^T diag(w^2) L."""
-        values = self.laplacian_values(points)
+        point i's contraction weight), so the first term is W_L^2 L^T diag(w^2) L. `values`:
+        laplacian_values(points), when known."""
+        values = self.laplacian_values(points) if values is None else values
         if row_weights is not None:
             values = values * row_weights[self._l_rows]
         laplacian = sp.csr_matrix((values, self._l_indices, self._l_indptr), shape=(self.n, self.n))

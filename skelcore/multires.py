@@ -30,6 +30,7 @@ BUDGET_BAND = (0.8, 1.0)  # accepted share of the budget for the reduced cloud
 WEIGHT_FLOOR = 0.05  # in voxel sizes: the distance below which every weight is the same
 CARRIERS = 4  # an input point moves with this many of its nearest candidates (its centroid and that one's ring)
 CHUNK = 131_072  # input points per block while the weights are set
+DENSE_GRID = 1 << 25  # voxel grids of up to this many cells are numbered through an occupancy array (no sort)
 
 
 @dataclass(frozen=True)
@@ -143,5 +144,11 @@ def _voxels(points: np.ndarray, low: np.ndarray, size: float) -> tuple[np.ndarra
     cells = ((points - low) / size).astype(np.int64)
     span = cells.max(axis=0) + 1
     keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
-    _, voxel_of = np.unique(keys, return_inverse=True)
-    return voxel_of.ravel(), int(voxel_of.max()) + 1
+    if int(np.prod(span)) > DENSE_GRID:
+        _, voxel_of = np.unique(keys, return_inverse=True)
+        return voxel_of.ravel(), int(voxel_of.max()) + 1
+    # The same numbering without a sort: mark the occupied cells of the whole grid, rank them in key order.
+    occupied = np.zeros(int(np.prod(span)), dtype=bool)
+    occupied[keys] = True
+    rank = np.cumsum(occupied, dtype=np.int64) - 1
+    return rank[keys], int(rank[-1]) + 1

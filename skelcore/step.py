@@ -108,8 +108,8 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
 
 def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
                  wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool,
-                 stages: bool = False, row_weights: np.ndarray | None = None
-                 ) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
+                 stages: bool = False, row_weights: np.ndarray | None = None,
+                 laplacian_values: np.ndarray | None = None) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
     past params.bbox_growth of the original extent0 (robust extents: a few points flung out by degenerate
     rings do not end the contraction of the rest), and collapse: once a cloud is a thin curve its rings
@@ -118,12 +118,13 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
     contraction to show (and judge), not a degenerate one.
 
-    row_weights: per-point contraction weights of the present points (None: all 1).
+    row_weights: per-point contraction weights of the present points (None: all 1). laplacian_values: the
+    values of L at `current` (LaplacianSystem.laplacian_values), when the caller has them already.
 
     A generator for `yield from`: with `stages` it yields None between the Laplacian and the solve; its
     value is (candidate, failure as (reason, detail) or None, timings of 'laplacian' and 'solve')."""
     laplacian_start = time.perf_counter()
-    system = system_builder.normal_matrix(current, wl, wh, row_weights)
+    system = system_builder.normal_matrix(current, wl, wh, row_weights, laplacian_values)
     laplacian_end = time.perf_counter()
     if stages:  # a pause may land here, between the Laplacian and its solve
         yield None

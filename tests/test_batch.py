@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from skelcore import batch
+from skelcore import batch, batch_dask, batch_object
 from skelcore.cli import main
 from skelcore.errors import InputError, SkelError
 from skelcore.pipeline import RESULT_FILES
@@ -84,14 +84,14 @@ def test_bad_objects_are_recorded_and_do_not_stop_the_batch(shapes_dir, tmp_path
     data = tmp_path / "data"
     shutil.copytree(shapes_dir, data)
     (data / "broken.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 5\nend_header\nnot numbers\n")
-    real = batch.run_pipeline
+    real = batch_object.run_pipeline
 
     def flaky(input_path, *args, **kwargs):  # an engine bug in one object
         if Path(input_path).stem == "torus":
             raise RuntimeError("unexpected failure\n  with a second line")
         return real(input_path, *args, **kwargs)
 
-    monkeypatch.setattr(batch, "run_pipeline", flaky)
+    monkeypatch.setattr(batch_object, "run_pipeline", flaky)
     out = tmp_path / "out"
     assert main(["batch", str(data), "--out", str(out), *FLAGS]) == 1
     rows = {row["name"]: row for row in summary(out)}
@@ -109,7 +109,7 @@ def test_bad_objects_are_recorded_and_do_not_stop_the_batch(shapes_dir, tmp_path
     assert all(html.escape(rows[name]["error"]) in table for name in ("broken", "torus"))
     assert "Comparison across objects" in page and "id='torus'" not in page
     # a rerun tries the failed ones again and reuses the others
-    monkeypatch.setattr(batch, "run_pipeline", real)
+    monkeypatch.setattr(batch_object, "run_pipeline", real)
     assert main(["batch", str(data), "--out", str(out), *FLAGS]) == 1
     rows = {row["name"]: row for row in summary(out)}
     assert rows["torus"]["status"] == "ok" and not rows["torus"]["reused"]
@@ -255,6 +255,6 @@ def wait_for_address(scheduler_file: Path, process: subprocess.Popen) -> str:
 
 def test_unreachable_scheduler_is_one_line(shapes_dir, tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    monkeypatch.setattr(batch, "CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr(batch_dask, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(SkelError, match=r"^--scheduler tcp://127.0.0.1:9: cannot connect"):
         batch.run_batch([str(shapes_dir)], tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)

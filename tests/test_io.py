@@ -190,3 +190,13 @@ def test_nonfinite_rows_are_refused_or_dropped_on_request(tmp_path):
     cloud = io.load_bytes(path.read_bytes(), "holes.xyz", drop_nonfinite=True)
     assert len(cloud.points) == 98 and any("dropped 2 points" in note for note in cloud.notes)
 
+
+
+def test_duplicate_check_by_hash_agrees_with_unique():
+    """The hash sort says 'no repeats' only when np.unique over rows finds none (-0.0 and 0.0 go to np.unique)."""
+    points = sphere(500)
+    assert not io._may_repeat(points)
+    assert io._may_repeat(np.concatenate([points, points[7:8]]))
+    signed = np.concatenate([points, [[0.0, 2.0, 3.0], [-0.0, 2.0, 3.0]]])
+    assert io._may_repeat(signed)
+    assert len(io.validate(signed).points) == len(np.unique(signed, axis=0))

@@ -68,3 +68,24 @@ def test_carried_points_are_convex_combinations_of_their_ring():
     # each carried point lies within the bounding box of the contracted cloud
     low, high = states[-1].points.min(axis=0), states[-1].points.max(axis=0)
     assert ((lifted.points >= low - 1e-9) & (lifted.points <= high + 1e-9)).all()
+
+
+def test_voxels_numbered_without_a_sort_as_with_one(monkeypatch):
+    """The occupancy-array numbering of small grids is np.unique's (key order)."""
+    points = make_shape("torus", 20_000, seed=0, noise=0.01).points
+    low = points.min(axis=0)
+    dense = multires._voxels(points, low, 0.05)
+    monkeypatch.setattr(multires, "DENSE_GRID", 0)
+    assert np.array_equal(dense[0], multires._voxels(points, low, 0.05)[0]) and dense[1] == dense[0].max() + 1
+
+
+def test_cli_run_says_in_metrics_json_that_it_reduced(tmp_path):
+    """`skelcore run` (skelcore.api.run then Result.save) writes the reduction into metrics.json too."""
+    from skelcore.cli import main
+
+    path = tmp_path / "torus.ply"
+    write_points_ply(path, make_shape("torus", 3000, seed=0).points)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--point-budget", "1000"]) == 0
+    written = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert written["multiresolution"]["input_points"] == written["n_points"]
+    assert written["multiresolution"]["contracted_points"] <= 1000
