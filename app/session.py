@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from skelcore import contraction, pipeline
+from skelcore import contraction, multires, pipeline
 from skelcore.clean import clean, cleaned
 from skelcore.api import Result
 from skelcore.contraction import IterationState, record
@@ -42,6 +42,11 @@ class Run:
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
     weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
     label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any
+    # Above the point budget the voxel-reduced cloud is contracted (skelcore.multires) and `history` holds its
+    # states carried to every input point; `reduced` holds its own states, of which skeletons are made.
+    reduction: multires.Reduction | None = None
+    reduced: list[IterationState] = field(default_factory=list)
+    carrier: object = None  # (n, m) sparse weights carrying the reduced cloud's points to the input's
 
 
 class Session:
@@ -51,8 +56,9 @@ class Session:
 
     def __init__(self, cloud: Cloud, params: ContractionParams = ContractionParams(),
                  sample_radius: float = pipeline.RunOptions.sample_radius, *, label_weights=None, weights=None,
-                 history: list[IterationState] | None = None):
+                 history: list[IterationState] | None = None, point_budget: int | None = multires.POINT_BUDGET):
         self.sample_radius = sample_radius
+        self.point_budget = point_budget  # larger clouds contract at reduced resolution (None or 0: never)
         self.log: list[str] = []
         self._lock = threading.Lock()
         self.label_weights = check_label_weights(label_weights)
@@ -130,14 +136,23 @@ class Session:
             if history[-1].termination is None:
                 raise ParameterError("a run to open must have ended (its last state carries a termination)")
             generator, states = None, list(history)
+            reduction = None
         else:
-            generator = contraction.contract(cloud.points, params, weights, stages=True)
+            reduction = multires.reduce_cloud(cloud.points, self.point_budget)
+            source = cloud if reduction is None else Cloud(points=reduction.points, name=cloud.name)
+            reduced_weights = weights if reduction is None or weights is None else reduction.mean(weights)
+            generator = contraction.contract(source.points, params, reduced_weights, stages=True)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
         self._generator, self._pending, self._within_step = generator, None, False
         self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
         self.run = Run(cloud, params, states, weights=weights,
                        label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
                        else {})
+        if reduction is not None:
+            self.run.reduction, self.run.reduced = reduction, states
+            self.run.carrier = reduction.carrier(states[0].rings)
+            self.run.history = [reduction.lift(states[0], self.run.carrier)]
+            self.note(reduction.note())
         weighted = "" if weights is None else f", weights in [{weights.min():g}, {weights.max():g}]"
         self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}{weighted}")
 
@@ -184,7 +199,11 @@ class Session:
             state = next(self._generator)
         self._within_step = False
         self._live_note = ""
-        record(self.run.history, state)
+        run = self.run
+        if run.reduction is not None:
+            record(run.reduced, state)
+            state = run.reduction.lift(state, run.carrier)
+        record(run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
         return state
@@ -209,7 +228,11 @@ class Session:
         run = run or self.run
         key = (index, self.run_options(run).skeleton_params())
         if key not in run.skeletons:
-            run.skeletons[key] = pipeline.skeleton_of_state(run.history[index], run.cloud.points, key[1])
+            if run.reduction is None:
+                run.skeletons[key] = pipeline.skeleton_of_state(run.history[index], run.cloud.points, key[1])
+            else:
+                run.skeletons[key] = run.reduction.skeleton_for_input(
+                    pipeline.skeleton_of_state(run.reduced[index], run.reduction.points, key[1]))
         return run.skeletons[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
@@ -241,7 +264,7 @@ class Session:
         run = self.run
         cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name)  # never the server's paths
         Result(cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
-               self.run_options(run), run.weights).save(out_dir)
+               self.run_options(run), run.weights, reduction=run.reduction).save(out_dir)
 
     def note(self, line: str) -> None:
         self.log.append(line)

@@ -39,12 +39,16 @@ def status_markdown(session, index: int, *, run: str, notice: str, readiness: Re
     removed_by_cleaning = (f"cleaning removed {cleaning['outliers_removed']:,} outliers and "
                            f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}"
                            if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
+    reduction = session.run.reduction
+    reduced = (f"contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
+               f"along (skel-inspect --full-resolution turns it off)" if reduction is not None else "")
     share = "…" if readiness is None else f"{readiness.share:.0%}"
     behind = "" if following or index == len(history) - 1 else " &middot; _not following the newest (key L)_"
     return "\n\n".join(filter(None, [
         f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {counts}{behind}",
         notice and f"_{notice}_",
         removed_by_cleaning,
+        reduced,
         f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
         f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
         skeleton and f"_{skeleton}_",

@@ -84,3 +84,19 @@ def test_an_input_over_the_inspector_budget_names_the_voxel_size(capsys, tmp_pat
     assert err.count("\n") == 1 and "dense.ply" in err and "--voxel-size" in err
     voxel = float(err.rsplit("--voxel-size ", 1)[1].split(")")[0])
     assert np.isfinite(voxel) and voxel > 0
+
+
+def test_full_resolution_reaches_the_session(monkeypatch):
+    """--full-resolution turns the multi-resolution path off; without it the session keeps the budget."""
+    import app.main as app_main
+
+    seen = []
+
+    def fake_serve(cloud, host, port, **options):
+        seen.append(options.get("point_budget", "default"))
+        raise OSError("stop here")
+
+    monkeypatch.setattr(app_main, "serve", fake_serve)
+    assert main(["--port", "0", "--full-resolution"]) == 2
+    assert main(["--port", "0"]) == 2
+    assert seen == [None, "default"]

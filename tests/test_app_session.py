@@ -372,3 +372,32 @@ def test_every_point_gets_a_value_when_metrics_are_sampled():
     own = metrics.per_point("d_theta")
     measured = np.isfinite(own)
     assert np.array_equal(result.values[measured], own[measured])
+
+
+def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(tmp_path):
+    """As `skelcore run` does: the voxel-reduced cloud is contracted, every input point is carried along, the
+    skeleton is made from the reduced states with every input point's node, and the export names the reduction."""
+    import json
+
+    from app.status import status_markdown
+
+    cloud = validate(make_shape("torus", 3000, seed=0).points, name="torus.xyz")
+    session = Session(cloud, point_budget=1500)
+    reduction = session.run.reduction
+    assert reduction is not None and len(reduction.points) <= 1500
+    assert any(line.startswith("multi-resolution: 3,000 points") for line in session.log)
+    while session.step() is not None:
+        pass
+    history, reduced = session.history, session.run.reduced
+    assert len(history) == len(reduced) > 2
+    assert all(state.n_points == 3000 and state.points.shape == (3000, 3) for state in history)
+    assert [s.iteration for s in history] == [s.iteration for s in reduced]
+    last = len(history) - 1
+    skeleton = session.skeleton(last)
+    assert skeleton.correspondence.shape == (3000,)
+    assert skeleton.topology()["cycles"] == 1 and skeleton.topology()["components"] == 1
+    status = status_markdown(session, last, run="ended", notice="", readiness=None, skeleton="", following=True)
+    assert f"{len(reduction.points):,} voxel centroids" in status
+    session.write_results(last, tmp_path / "out")
+    assert json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]["input_points"] == 3000
+    assert Session(cloud, point_budget=None).run.reduction is None  # --full-resolution
