@@ -234,7 +234,9 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
 
     Returns an `app.handle.InspectorHandle`: `.url`, `.stop()`; in Jupyter, a cell that ends with the handle
     shows the inspector inline (an iframe). A Result opens at its last iteration, with its parameters and
-    weights; an array starts at iteration 0. port: None or 0 takes a free port. **params: contraction
+    weights (one contracted at reduced resolution runs again from iteration 0, reduced the same way: its
+    states carry every input point, but skeletons are made from the reduced cloud's); an array starts at
+    iteration 0. port: None or 0 takes a free port. **params: contraction
     parameters, as in `skeletonize`. The server runs in background threads until `.stop()`.
     """
     # The only place skelcore reaches the app (imported here, on demand: `import skelcore` stays light).
@@ -245,7 +247,9 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
             raise ParameterError("inspect: a Result opens with its own parameters and weights")
         result = points_or_result
         return open_inspector(result.cloud, result.options.params, host=host, port=port or 0,
-                              label_weights=dict(result.options.label_weights), history=result.states,
+                              label_weights=dict(result.options.label_weights),
+                              history=None if result.reduction is not None else result.states,
+                              point_budget=result.options.point_budget,
                               weights=None if result.options.label_weights else result.weights)
     params = contraction_params(params.pop("method", "lbc"), params)
     if isinstance(points_or_result, (str, Path)):

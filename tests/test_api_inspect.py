@@ -69,3 +69,24 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             browser.close()
     finally:
         handle.stop()
+
+
+def test_inspect_a_result_contracted_at_reduced_resolution_runs_it_again_reduced():
+    """Its states carry every input point but not the reduced rings skeletons are made from, so the inspector
+    contracts it again, reduced as the run was (its budget), from iteration 0."""
+    from skelcore.api import Result
+    from skelcore.io import validate
+    from skelcore.pipeline import RunOptions, compute
+
+    options = RunOptions(point_budget=1500)
+    computed = compute(validate(make_shape("torus", 3000, seed=0).points, name="torus"), options)
+    assert computed.reduction is not None
+    result = Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options,
+                    reduction=computed.reduction)
+    with skelcore.inspect(result) as handle:
+        session = handle.session
+        assert len(session.history) == 1 and session.run.reduction is not None
+        assert len(session.run.reduction.points) == len(computed.reduction.points)
+        while session.step() is not None:
+            pass
+        assert session.skeleton(len(session.history) - 1).topology()["cycles"] == 1
