@@ -25,8 +25,9 @@ behaviour. Reference normals for the boundedness test are always MST-oriented (H
 A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
 of the statistics (counted in "n_undefined"); a tracked normal carries the previous one forward.
 
-Curve-likeness: the median over the evaluated points of the linearity (l3 - l2) / l3 of their
-neighbourhood's covariance eigenvalues l1 <= l2 <= l3 (Demantke et al. 2011): 1 on a line, 0 on a plane.
+Curve-likeness: the share of the cloud that is curve-like at the skeleton's scale
+(skelcore.curveness.skeleton_scale_share, radius a fraction of the input's diagonal), the same figure the
+contraction's stop rule and the inspector's status read.
 
 Points that disappear (GLSkeleton): the caller passes `point_ids`, ids into the input cloud of the
 points present, and every quantity compares them with iteration 0 at those ids.
@@ -57,6 +58,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 from scipy.spatial import cKDTree
 
+from .curveness import skeleton_scale_share
 from .errors import InputError, ParameterError
 from .multires import POINT_BUDGET, reduce_cloud
 from .io import as_points
@@ -101,15 +103,6 @@ def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None
     normals[undefined] = np.nan
     kappa[undefined] = np.nan
     return normals, kappa, idx
-
-
-def linearity(points: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """(l3 - l2) / l3 of each neighbourhood idx (rows of kNN indices into `points`), l1 <= l2 <= l3 the
-    eigenvalues of its covariance: 1 on a line, 0 on a plane or a ball; NaN where the neighbourhood collapsed."""
-    smallest, largest, trace = _eigenvalues(*_covariances(points, idx))
-    middle = trace - smallest - largest
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(largest > 0, (largest - middle) / largest, np.nan)
 
 
 def _covariances(points: np.ndarray, idx: np.ndarray, anchors: np.ndarray | None = None):
@@ -293,7 +286,7 @@ class IterationMetrics:
     d_theta_stats: dict
     delta_kappa_stats: dict
     boundedness: dict
-    curve: dict  # {"linearity": median local linearity of the evaluated points (curve-likeness)}
+    curve: dict  # {"curve_share": share of all present points curve-like at the skeleton's scale}
     verdict: dict  # skelcore.verdict.judge of this iteration (label None at iteration 0)
 
     def per_point(self, quantity: str) -> np.ndarray:
@@ -409,8 +402,8 @@ class MetricsReference:
         else:
             raise InputError("point_ids: none of the present points is among the evaluated ones")
         outward = self.convention == "outward"
-        normals, kappa, idx = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
-        curve = {"linearity": _median(linearity(points, idx))}
+        normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
+        curve = {"curve_share": skeleton_scale_share(points, self.diagonal)}
         everything, points = points, (points if rows is None else points[rows])
         undefined = ~np.isfinite(normals).all(axis=1)
         if outward:
@@ -457,11 +450,6 @@ def _away_from_centroid(points: np.ndarray, normals: np.ndarray, centroid: np.nd
     """Normals flipped to point away from the cloud's centroid (the "outward" convention)."""
     centroid = points.mean(axis=0) if centroid is None else centroid
     return np.where((np.einsum("ij,ij->i", normals, points - centroid) < 0)[:, None], -normals, normals)
-
-
-def _median(values: np.ndarray) -> float | None:
-    finite = values[np.isfinite(values)]
-    return float(np.median(finite)) if len(finite) else None
 
 
 def _spread(points: np.ndarray) -> float:

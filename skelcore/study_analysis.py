@@ -32,7 +32,8 @@ CANDIDATES = {
     "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
     "shrink_tolerance": [0.01, 0.03, 0.1],
     "min_spread_ratio": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
-    "min_linearity": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
+    "min_curve_share": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9],
+    "min_steps": [2, 3, 4, 5],  # never 1: a run stopped after one step must never be stable (the goal)
     "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
 }
 # Not calibrated: piece_gap and loop_birth stay at 2 sample radii, the widest gap the skeleton's ball cover
@@ -40,13 +41,14 @@ CANDIDATES = {
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
 PERMISSIVE = {"max_peaks": 100, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
               "min_inside_share": 0.0, "max_step_shrink": 1.0, "shrink_tolerance": 1.0, "min_spread_ratio": 0.0,
-              "min_linearity": 0.0}
+              "min_curve_share": 0.0, "min_steps": 1}
 CRITERIA_GROUPS = {  # name in the tables -> thresholds switched off (or "skeleton": no skeleton checks)
     "histogram peaks (paper)": ["max_peaks"], "histogram symmetry (paper)": ["min_symmetry"],
     "mean D_theta (paper)": ["d_theta_tolerance"], "mean delta_kappa (paper)": ["delta_kappa_tolerance"],
     "inside the original (paper)": ["min_inside_share"],
     "shrinking, no one-step collapse (paper's X_k+1 <= X_k)": ["max_step_shrink", "shrink_tolerance"],
-    "size against the original (added)": ["min_spread_ratio"], "curve-likeness (added)": ["min_linearity"],
+    "size against the original (added)": ["min_spread_ratio"], "curve-likeness (added)": ["min_curve_share"],
+    "steps taken (added)": ["min_steps"],
     "skeleton nodes, pieces and loops (added)": "skeleton",
 }
 
@@ -166,7 +168,8 @@ def statistic_table(record: dict, convention: str) -> dict:
         row[f"{key}_gap"] = None if stats["mean"] is None else abs(stats["mean"] - target)
         row[f"{key}_peaks"] = stats["peaks"]["count"]
     row.update({name: last["boundedness"][name] for name in ("inside_share", "spread_ratio", "growth")})
-    row["linearity"] = last["curve"]["linearity"]
+    row["curve_share"] = last["curve"].get("curve_share")
+    row["steps"] = record["iterations"]
     return row
 
 

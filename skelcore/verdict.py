@@ -13,7 +13,12 @@ ones in `skelcore study` (its report gives the figures):
 - size: a cloud pulled to a small share of its spread in total (W_L0 x100) has histograms like a good
   finished run; only its size shows it;
 - curve-likeness: the paper judges the change of the surface, not whether the cloud has become a curve; a
-  run stopped early has bell-shaped histograms but a surface-like cloud;
+  run stopped early has bell-shaped histograms but a surface-like cloud. It is the share of the cloud that
+  is curve-like at the skeleton's scale (skelcore.curveness.skeleton_scale_share), the figure the
+  contraction's stop rule reads;
+- steps taken: the paper's stability is a trend over iterations (means moving to 0.5 and 0, X_{k+1} <= X_k),
+  which one step cannot show: after a single step X_1 <= X_0 is all there is, and a cloud that was thin from
+  the start (a ring of wire) is curve-like and small after any one step, whatever the settings;
 - skeleton pieces and loops: most wrong skeletons are made in the graph step, which the contraction's
   statistics cannot see: a skeleton must hold as many pieces as the input and the contracted cloud, as many
   loops as the contracted cloud, and more than a couple of nodes.
@@ -51,7 +56,8 @@ class StabilityThresholds:
     shrink_tolerance: float = 0.01  # study: relative growth of the RMS spread per iteration that still counts as shrinking
     max_step_shrink: float = 0.3  # study: a larger fall of the spread in one iteration is a collapse: unstable
     min_spread_ratio: float = 0.3  # study: spread below this share of the original's: collapsed, unstable
-    min_linearity: float = 0.6  # study: median local linearity below this: not yet a curve, not yet converged
+    min_curve_share: float = 0.6  # study: curve-like share below this: not yet a curve, not yet converged
+    min_steps: int = 2  # contraction steps before a verdict can be "stable": a trend needs two (module docstring)
     min_skeleton_nodes: int = 3  # fewer skeleton nodes: a collapsed skeleton, unstable
     piece_gap: float = 2.0  # pieces of a cloud are apart when a gap wider than this many radii parts them (the
     # widest gap the skeleton's ball cover bridges; stray pieces under 1% of the points are none)
@@ -64,9 +70,11 @@ class StabilityThresholds:
             if not np.isfinite(value) or value < 0:
                 raise ParameterError(f"thresholds.{name}={value}: must be a finite number >= 0")
         if (not 0 < self.peak_drop < 1 or not 0 <= self.min_inside_share <= 1 or self.max_peaks < 1
-                or self.max_step_shrink > 1 or self.min_spread_ratio > 1 or self.min_linearity > 1):
+                or self.max_step_shrink > 1 or self.min_spread_ratio > 1 or self.min_curve_share > 1
+                or self.min_steps < 1):
             raise ParameterError("thresholds: need 0 < peak_drop < 1, 0 <= min_inside_share <= 1, max_peaks >= 1, "
-                                 "max_step_shrink <= 1, min_spread_ratio <= 1, min_linearity <= 1")
+                                 "max_step_shrink <= 1, min_spread_ratio <= 1, min_curve_share <= 1, "
+                                 "min_steps >= 1")
         return self
 
 
@@ -90,7 +98,7 @@ def features(entry: dict, skeleton: dict | None = None) -> dict:
                   "delta_kappa_mean": k["mean"], "delta_kappa_peaks": k["peaks"]["count"],
                   "delta_kappa_symmetry": k["symmetry"], "inside_share": bounded["inside_share"],
                   "growth": bounded["growth"], "spread_ratio": bounded["spread_ratio"],
-                  "linearity": entry.get("curve", {}).get("linearity")}
+                  "curve_share": (entry.get("curve") or {}).get("curve_share")}
     except (KeyError, TypeError):
         raise InputError("metrics entry: lacks the d_theta, delta_kappa or boundedness statistics") from None
     if skeleton is not None:
@@ -121,7 +129,7 @@ def judge(values: dict, iteration: int, thresholds: StabilityThresholds = Stabil
     if iteration == 0:
         return {"label": None, "iteration": 0, "criteria": [],
                 "reasons": ["iteration 0 is the input: nothing has happened yet, so there is no verdict"]}
-    criteria = [c for c in _criteria(values, thresholds) if c is not None]
+    criteria = [c for c in _criteria(values, thresholds, int(iteration)) if c is not None]
     failed = [c for c in criteria if c["passed"] is False]
     if any(c["severity"] == "unstable" for c in failed):
         label = "unstable"
@@ -139,7 +147,9 @@ def _criterion(name: str, passed: bool | None, severity: str, value: str, thresh
             "text": f"{name}: {value} ({threshold}): {verdict}"}
 
 
-def _criteria(v: dict, t: StabilityThresholds):
+def _criteria(v: dict, t: StabilityThresholds, steps: int):
+    yield _criterion("contraction steps taken", steps >= t.min_steps, "not yet converged", f"{steps}",
+                     f"at least {t.min_steps}: one step shows no trend")
     for label, key in (("D_theta", "d_theta"), ("delta_kappa", "delta_kappa")):
         peaks = v[f"{key}_peaks"]
         yield _criterion(f"{label} peaks", peaks <= t.max_peaks, "unstable", f"{peaks}",
@@ -162,9 +172,9 @@ def _criteria(v: dict, t: StabilityThresholds):
                      f"{100 * growth:+.1f}%", f"between -{100 * t.max_step_shrink:g}% and +{100 * t.shrink_tolerance:g}%")
     yield _criterion("spread against the original", v["spread_ratio"] >= t.min_spread_ratio, "unstable",
                      f"{100 * v['spread_ratio']:.0f}%", f"at least {100 * t.min_spread_ratio:g}%")
-    if v.get("linearity") is not None:
-        yield _criterion("curve-likeness (median local linearity)", v["linearity"] >= t.min_linearity,
-                         "not yet converged", f"{v['linearity']:.2f}", f"at least {t.min_linearity:g}")
+    if v.get("curve_share") is not None:
+        yield _criterion("curve-like share of the cloud", v["curve_share"] >= t.min_curve_share, "not yet converged",
+                         f"{100 * v['curve_share']:.0f}%", f"at least {100 * t.min_curve_share:g}%")
     if "skeleton_nodes" not in v:
         return
     nodes = v["skeleton_nodes"]
