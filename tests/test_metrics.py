@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from skelcore.errors import InputError, ParameterError
-from skelcore.metrics import (D_THETA_RANGE, IterationMetrics, MetricsReference, distribution_stats,
-                              orient_outward, pca_features, significant_peaks, _eigenvalues, _eigenvector)
+from skelcore.histogram_stats import distribution_stats, significant_peaks
+from skelcore.metrics import D_THETA_RANGE, IterationMetrics, MetricsReference
+from skelcore.normals import orient_outward, pca_features, _eigenvalues, _eigenvector
 from skelcore.verdict import StabilityThresholds, run_verdict
 
 
