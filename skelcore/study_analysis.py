@@ -5,7 +5,8 @@ every goal is reported on the held-out half. A run is right when its skeleton's 
 a centreline exists, its Chamfer distance is at most 1% of the diagonal (skelcore.study.CHAMFER_RIGHT).
 Calibration is a coordinate search over CANDIDATES: it maximises the right runs labelled stable less
 FALSE_STABLE_COST per wrong one (the break-even precision is GOAL_PRECISION),
-with no bad setting, collapsed or disconnected skeleton stable. Writes OUT/study.csv (one row per run), OUT/study.json (the figures and
+with no bad setting, collapsed or disconnected skeleton stable; of equally good thresholds it keeps the
+loosest (see looseness). Writes OUT/study.csv (one row per run), OUT/study.json (the figures and
 thresholds), OUT/thresholds.json and OUT/study.html.
 """
 from __future__ import annotations
@@ -30,7 +31,7 @@ CANDIDATES = {
     "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
     "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
     "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
-    "shrink_tolerance": [0.01, 0.03, 0.1],
+    "shrink_tolerance": [0.01, 0.02, 0.03, 0.05, 0.1],
     "min_spread_ratio": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
     "min_curve_share": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9],
     "min_steps": [2, 3, 4, 5],  # never 1: a run stopped after one step must never be stable (the issue's goal)
@@ -94,6 +95,20 @@ def _objective(result: dict) -> float:
     return true_stable - FALSE_STABLE_COST * false_stable - 100.0 * FALSE_STABLE_COST * forbidden
 
 
+def looseness(thresholds: StabilityThresholds) -> float:
+    """How far each calibrated threshold lies toward its PERMISSIVE end, summed (each 0 strictest to 1 loosest).
+    The search adds a thousandth of it to the objective (whose steps are whole runs), so of thresholds that
+    label the calibration half alike it keeps the loosest: no stricter than the data demand."""
+    total = 0.0
+    for name, values in CANDIDATES.items():
+        if name not in PERMISSIVE:
+            continue
+        ordered = sorted(values, reverse=PERMISSIVE[name] <= min(values))  # strictest first
+        total += ordered.index(getattr(thresholds, name)) / (len(ordered) - 1) \
+            if getattr(thresholds, name) in ordered else 0.0
+    return total
+
+
 def calibrate(records: list[dict], convention: str, passes: int = 4, restarts: int = 10) -> StabilityThresholds:
     """Coordinate search over CANDIDATES on `records` (the calibration half) from several starts: the paper's
     thresholds, every criterion switched off, and `restarts` random picks (fixed seed); the best end is then
@@ -103,7 +118,8 @@ def calibrate(records: list[dict], convention: str, passes: int = 4, restarts: i
     starts += [dataclasses.replace(StabilityThresholds(), **{name: values[rng.integers(len(values))]
                                                               for name, values in CANDIDATES.items()})
                for _ in range(restarts)]
-    score_of = lambda thresholds: _objective(goals(records, label_runs(records, convention, thresholds)))
+    score_of = lambda thresholds: (_objective(goals(records, label_runs(records, convention, thresholds)))
+                                   + 1e-3 * looseness(thresholds))
     ends = []
     for best in starts:
         best_score = score_of(best)

@@ -224,8 +224,23 @@ def run_verdict(iterations, skeleton: dict | None = None,
     return verdict
 
 
+# Why each criterion beyond the paper's is there (module docstring), shown under the table when it fails.
+WHY = {
+    "contraction steps taken": "the paper's stability is a trend over iterations; after one step a cloud that was "
+                               "thin from the start looks finished whatever the settings",
+    "spread against the original": "a cloud pulled to a small share of its size (e.g. W_L0 x100) has histograms "
+                                   "like a good finished run",
+    "curve-like share of the cloud": "a skeleton needs a curve; a run stopped early has bell-shaped histograms "
+                                     "but a surface",
+    "skeleton nodes": "a skeleton of one or two nodes has collapsed",
+    "skeleton pieces": "the graph step can split or join pieces, which the contraction's statistics cannot see",
+    "skeleton loops": "the graph step can lose or invent loops, which the contraction's statistics cannot see",
+}
+
+
 def explanation_markdown(verdict: dict) -> str:
-    """A markdown table of a verdict: each criterion, its threshold, this iteration's value, pass or fail."""
+    """A markdown table of a verdict: each criterion, its threshold, this iteration's value, pass or fail; then
+    why each failed criterion beyond the paper's matters."""
     if verdict.get("label") is None:
         return "**No verdict.** " + " ".join(verdict.get("reasons", []))
     lines = [f"**Iteration {verdict['iteration']}: {verdict['label']}**", "",
@@ -233,7 +248,9 @@ def explanation_markdown(verdict: dict) -> str:
     for c in verdict.get("criteria", []):
         result = "n/a" if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
         lines.append(f"| {c['name']} | {c['value']} | {c['threshold']} | {result} |")
-    return "\n".join(lines)
+    why = [f"- *{c['name']}*: {WHY[c['name']]}" for c in verdict.get("criteria", [])
+           if c["passed"] is False and c["name"] in WHY]
+    return "\n".join(lines + (["", "Why:"] + why if why else []))
 
 
 def entries_of(iterations) -> list[dict]:

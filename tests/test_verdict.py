@@ -59,6 +59,7 @@ def test_one_step_is_never_stable():
     assert verdict["reasons"] == ["contraction steps taken: 1 (at least 2: one step shows no trend): fail"]
     assert "| contraction steps taken | 1 | at least 2: one step shows no trend | **fail** (not yet converged) |" \
         in explanation_markdown(verdict)
+    assert "- *contraction steps taken*: the paper's stability is a trend" in explanation_markdown(verdict)
     assert judge(features(entry(), evidence()), 2, T)["label"] == "stable"
     assert judge(features(entry(), evidence()), 2, StabilityThresholds(**{**T.__dict__, "min_steps": 3}))["label"] \
         == "not yet converged"
