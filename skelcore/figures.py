@@ -310,6 +310,8 @@ def per_point_values(metrics: IterationMetrics, measure: str) -> np.ndarray:
 
 
 def entry_problem(entry) -> str | None:
+    """What makes `entry` unusable as one iteration of metrics.json (its histograms, statistics, boundedness
+    and verdict), or None."""
     if not isinstance(entry, dict):
         return "is not an object"
     for key in ("d_theta", "delta_kappa"):
@@ -370,6 +372,7 @@ def _by_verdict(runs) -> dict[str, list[dict]]:
 
 
 def verdict_colour(label: str) -> str:
+    """The colour of a verdict label (grey for none or unknown)."""
     return LABEL_COLOURS.get(label, "#555555")
 
 

@@ -184,7 +184,17 @@ def predictive_power_html(power: dict = PREDICTIVE_POWER) -> str:
             f"{power['bad_settings_stable']}; collapsed or disconnected skeletons judged stable: "
             f"{power['collapsed_or_disconnected_stable']}. \"Not yet converged\" and \"unstable\" are not proof of a "
             f"wrong skeleton. Alone, no statistic of the contraction separates right from wrong skeletons well "
-            f"(ROC AUC: {best}); the skeleton checks carry most of the verdict's power.</p>")
+            f"(ROC AUC: {best}); the skeleton checks carry most of the verdict's power.</p>" + _added_html(power))
+
+
+def _added_html(power: dict) -> str:
+    """The criteria added to the paper's: why each is there, and what it did on the held-out shapes."""
+    added = power.get("added_criteria") or []
+    if not added:
+        return ""
+    items = "".join(f"<li><b>{html.escape(name)}</b>: {html.escape(why)} {html.escape(effect)}</li>"
+                    for name, why, effect in added)
+    return f"<p>Criteria added to the paper's, and what switching each off did on the held-out shapes:</p><ul>{items}</ul>"
 
 
 def _run_section(run: dict) -> str:
