@@ -149,7 +149,7 @@ def _criterion(name: str, passed: bool | None, severity: str, value: str, thresh
 
 def _criteria(v: dict, t: StabilityThresholds, steps: int):
     yield _criterion("contraction steps taken", steps >= t.min_steps, "not yet converged", f"{steps}",
-                     f"at least {t.min_steps}: one step shows no trend")
+                     f"at least {t.min_steps}")
     for label, key in (("D_theta", "d_theta"), ("delta_kappa", "delta_kappa")):
         peaks = v[f"{key}_peaks"]
         yield _criterion(f"{label} peaks", peaks <= t.max_peaks, "unstable", f"{peaks}",
