@@ -32,7 +32,10 @@ CANDIDATES = {
     "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
     "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
     "shrink_tolerance": [0.01, 0.02, 0.03, 0.05, 0.1],
-    "min_spread_ratio": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
+    # Never below 0.2: W_L0 x100 leaves 4-12% of the spread on the calibration shapes (most stop after one step,
+    # which min_steps already catches) and every right run of another setting over 35%; the floor keeps the size
+    # rule for the runs that go on.
+    "min_spread_ratio": [0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
     "min_curve_share": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9],
     "min_steps": [2, 3, 4, 5],  # never 1: a run stopped after one step must never be stable (the goal)
     "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
