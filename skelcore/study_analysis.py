@@ -103,21 +103,25 @@ def looseness(thresholds: StabilityThresholds) -> float:
     The search adds a thousandth of it to the objective (whose steps are whole runs), so of thresholds that
     label the calibration half alike it keeps the loosest: no stricter than the data demand."""
     total = 0.0
-    for name, values in CANDIDATES.items():
-        if name not in PERMISSIVE:
-            continue
-        ordered = sorted(values, reverse=PERMISSIVE[name] <= min(values))  # strictest first
+    for name in CANDIDATES.keys() & PERMISSIVE.keys():
+        ordered = _strict_to_loose(name)
         total += ordered.index(getattr(thresholds, name)) / (len(ordered) - 1) \
             if getattr(thresholds, name) in ordered else 0.0
     return total
 
 
+def _strict_to_loose(name: str) -> list:
+    """CANDIDATES[name] from the strictest to the loosest (the end nearest PERMISSIVE[name])."""
+    return sorted(CANDIDATES[name], reverse=PERMISSIVE[name] <= min(CANDIDATES[name]))
+
+
 def calibrate(records: list[dict], convention: str, passes: int = 4, restarts: int = 10) -> StabilityThresholds:
-    """Coordinate search over CANDIDATES on `records` (the calibration half) from several starts: the paper's
-    thresholds, every criterion switched off, and `restarts` random picks (fixed seed); the best end is then
-    refined by moves of two thresholds at once."""
+    """Coordinate search over CANDIDATES on `records` (the calibration half) from several starts: the shipped
+    thresholds, the loosest candidates, and `restarts` random picks (fixed seed); the best end is then
+    refined by moves of two thresholds at once. Every threshold it returns is one of its CANDIDATES."""
     rng = np.random.default_rng(0)
-    starts = [StabilityThresholds(), dataclasses.replace(StabilityThresholds(), **PERMISSIVE)]
+    loosest = {name: _strict_to_loose(name)[-1] for name in CANDIDATES.keys() & PERMISSIVE.keys()}
+    starts = [StabilityThresholds(), dataclasses.replace(StabilityThresholds(), **loosest)]
     starts += [dataclasses.replace(StabilityThresholds(), **{name: values[rng.integers(len(values))]
                                                               for name, values in CANDIDATES.items()})
                for _ in range(restarts)]
