@@ -58,10 +58,8 @@ from .inside import InsideTest, mesh_surface
 from .io import as_points
 from .multires import POINT_BUDGET, reduce_cloud
 from .normals import away_from_centroid, orient_outward, pca_features
-from .verdict import StabilityThresholds, features, judge
+from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
 
-D_THETA_RANGE = (0.0, 1.0)
-DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
 _COLLAPSED = 1e-6  # a neighbourhood smaller than this fraction of the original diagonal has no frame
 _SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of the surface normals of the inside test
 NORMAL_CONVENTIONS = ("outward", "tracked")

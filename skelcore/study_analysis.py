@@ -20,12 +20,12 @@ import numpy as np
 
 from .metrics import NORMAL_CONVENTIONS
 from .study import BAD_SETTINGS
-from .verdict import LABELS, StabilityThresholds, count_loops, count_pieces, features, judge
+from .verdict import LABELS, MANY_PEAKS, StabilityThresholds, count_loops, count_pieces, features, judge
 
 GOAL_PRECISION = 0.9  # "stable" must be right in this share of the runs it labels, on held-out shapes
 FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" costs 9 right ones
 CANDIDATES = {
-    "max_peaks": [1, 2, 3, 100],
+    "max_peaks": [1, 2, 3, MANY_PEAKS],
     "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
     "d_theta_tolerance": [0.05, 0.1, 0.15, 0.2, 0.3, 0.5],
     "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
@@ -43,7 +43,7 @@ CANDIDATES = {
 # Not calibrated: piece_gap and loop_birth stay at 2 sample radii, the widest gap the skeleton's ball cover
 # (samples r apart, each covering r) bridges, so pieces and loops are counted at the skeleton's own scale.
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
-PERMISSIVE = {"max_peaks": 100, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
+PERMISSIVE = {"max_peaks": MANY_PEAKS, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
               "min_inside_share": 0.0, "max_step_shrink": 1.0, "shrink_tolerance": 1.0, "min_spread_ratio": 0.0,
               "min_curve_share": 0.0, "min_steps": 1}
 CRITERIA_GROUPS = {  # name in the tables -> thresholds switched off (or "skeleton": no skeleton checks)

@@ -32,6 +32,10 @@ import numpy as np
 from .errors import InputError, ParameterError
 
 LABELS = ("stable", "not yet converged", "unstable")
+D_THETA_RANGE = (0.0, 1.0)
+DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
+MANY_PEAKS = 100  # max_peaks at least this: the peak criterion is off (no histogram the metrics draw holds so many)
+_OFF = "off (adds nothing in the study)"
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,12 @@ def judge(values: dict, iteration: int, thresholds: StabilityThresholds = Stabil
     return {"label": label, "iteration": int(iteration), "criteria": criteria, "reasons": reasons}
 
 
-def _criterion(name: str, passed: bool | None, severity: str, value: str, threshold: str) -> dict:
+def _criterion(name: str, passed: bool | None, severity: str, value: str, threshold: str,
+               off: str | None = None) -> dict:
+    """One criterion's row. off: the threshold's text when the threshold is at its loosest, where the criterion
+    cannot fail (the study switched it off): the row then shows the value, that text, and n/a."""
+    if off is not None:
+        passed, threshold = None, off
     verdict = "n/a" if passed is None else ("pass" if passed else "fail")
     return {"name": name, "value": value, "threshold": threshold, "passed": passed, "severity": severity,
             "text": f"{name}: {value} ({threshold}): {verdict}"}
@@ -166,28 +175,35 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
     for label, key in (("D_theta", "d_theta"), ("delta_kappa", "delta_kappa")):
         peaks = v[f"{key}_peaks"]
         yield _criterion(f"{label} peaks", peaks <= t.max_peaks, "unstable", f"{peaks}",
-                         f"at most {t.max_peaks} ({100 * t.peak_drop:g}% rule)")
-    for label, key, target, tolerance in (("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance),
-                                          ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance)):
+                         f"at most {t.max_peaks} ({100 * t.peak_drop:g}% rule)",
+                         off=_OFF if t.max_peaks >= MANY_PEAKS else None)
+    for label, key, target, tolerance, (low, high) in (
+            ("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance, D_THETA_RANGE),
+            ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance, DELTA_KAPPA_RANGE)):
         mean, symmetry = v[f"{key}_mean"], v[f"{key}_symmetry"]
         if mean is None:
             yield _criterion(f"mean {label}", False, "not yet converged", "undefined at every point",
                              f"target {target:g}")
             continue
         yield _criterion(f"mean {label}", abs(mean - target) <= tolerance, "not yet converged", f"{mean:.2f}",
-                         f"target {target:g} within {tolerance:g}")
+                         f"target {target:g} within {tolerance:g}",
+                         off=f"target {target:g}; {_OFF}" if tolerance >= max(target - low, high - target) else None)
         yield _criterion(f"{label} symmetry", symmetry >= t.min_symmetry, "not yet converged", f"{symmetry:.2f}",
-                         f"at least {t.min_symmetry:g}")
+                         f"at least {t.min_symmetry:g}", off=_OFF if t.min_symmetry <= 0 else None)
     yield _criterion("points inside the original", v["inside_share"] >= t.min_inside_share, "unstable",
-                     f"{100 * v['inside_share']:.1f}%", f"at least {100 * t.min_inside_share:g}%")
-    growth = v["growth"]
+                     f"{100 * v['inside_share']:.1f}%", f"at least {100 * t.min_inside_share:g}%",
+                     off=_OFF if t.min_inside_share <= 0 else None)
+    growth, falls = v["growth"], t.max_step_shrink < 1  # a fall of the whole spread cannot happen: that bound is off
     yield _criterion("spread change this step", -t.max_step_shrink <= growth <= t.shrink_tolerance, "unstable",
-                     f"{100 * growth:+.1f}%", f"between -{100 * t.max_step_shrink:g}% and +{100 * t.shrink_tolerance:g}%")
+                     f"{100 * growth:+.1f}%", (f"between -{100 * t.max_step_shrink:g}% and " if falls else "at most ")
+                     + f"+{100 * t.shrink_tolerance:g}%", off=_OFF if not falls and t.shrink_tolerance >= 1 else None)
     yield _criterion("spread against the original", v["spread_ratio"] >= t.min_spread_ratio, "unstable",
-                     f"{100 * v['spread_ratio']:.0f}%", f"at least {100 * t.min_spread_ratio:g}%")
+                     f"{100 * v['spread_ratio']:.0f}%", f"at least {100 * t.min_spread_ratio:g}%",
+                     off=_OFF if t.min_spread_ratio <= 0 else None)
     if v.get("curve_share") is not None:
         yield _criterion("curve-like share of the cloud", v["curve_share"] >= t.min_curve_share, "not yet converged",
-                         f"{100 * v['curve_share']:.0f}%", f"at least {100 * t.min_curve_share:g}%")
+                         f"{100 * v['curve_share']:.0f}%", f"at least {100 * t.min_curve_share:g}%",
+                         off=_OFF if t.min_curve_share <= 0 else None)
     if "skeleton_nodes" not in v:
         return
     nodes = v["skeleton_nodes"]

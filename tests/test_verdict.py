@@ -113,3 +113,17 @@ def test_thresholds_are_checked():
         StabilityThresholds(min_spread_ratio=1.5).validated()
     with pytest.raises(ParameterError):
         StabilityThresholds(piece_gap=np.nan).validated()
+
+
+def test_a_criterion_at_its_loosest_is_shown_off_and_decides_nothing():
+    loose = StabilityThresholds(**{**T.__dict__, "d_theta_tolerance": 0.5, "min_symmetry": 0.0, "max_step_shrink": 1.0})
+    verdict = judge(features(entry(d_mean=0.04, symmetry=0.1, growth=-0.99)), 4, loose)
+    rows = {c["name"]: c for c in verdict["criteria"]}
+    assert rows["mean D_theta"]["passed"] is None and rows["mean D_theta"]["value"] == "0.04"
+    assert rows["mean D_theta"]["threshold"] == "target 0.5; off (adds nothing in the study)"
+    assert rows["D_theta symmetry"]["passed"] is None
+    assert rows["spread change this step"]["threshold"] == "at most +1%" and rows["spread change this step"]["passed"]
+    assert "| mean D_theta | 0.04 | target 0.5; off (adds nothing in the study) | n/a |" in explanation_markdown(verdict)
+    assert verdict["label"] == "stable"  # what would fail is off
+    assert judge(features(entry(d_mean=0.04, growth=0.05)), 4, loose)["reasons"] == [
+        "spread change this step: +5.0% (at most +1%): fail"]
