@@ -45,7 +45,7 @@ class StabilityThresholds:
 
     Calibrated by `skelcore study --out study --points 3000 --jobs 2` (375 runs: 7 synthetic and 18 benchmark
     shapes, clean and 3 scan-like variants, 9 settings from good to bad; "outward" normals) on the code of
-    2026-12-01 18:00: the values marked "study" were chosen on the 13 calibration shapes to label as many right
+    2026-12-01 18:27: the values marked "study" were chosen on the 13 calibration shapes to label as many right
     runs stable as possible at 90% break-even precision, with no bad setting, collapsed or disconnected skeleton
     stable, and of equally good values the loosest. On the 12 held-out shapes "stable" was right in 59 of 59
     runs and labelled 59 of 128 right runs (README, "The stability verdict"). A loose value ("off") means the
