@@ -6,11 +6,16 @@ CURVE_RATIO times the spread along it (sqrt of the largest). At that ratio a bal
 sees a cross-section under about a quarter of its diameter, thin enough that one skeleton sample covers
 it. The share of curve-like points tells whether a contraction has reached curves (share near 1) or
 stopped at a sheet.
+
+`skeleton_scale_share` is the one curve-likeness every figure reports (metrics.json, the verdict, the
+inspector): the share at the skeleton's default sample radius, a fraction of the INPUT cloud's diagonal.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+from .skeleton import SkeletonParams
 
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
 PROBES = 2000  # points whose neighbourhoods are measured (a fixed random subset; all when fewer)
@@ -45,3 +50,9 @@ def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
     to be judged counts as not curve-like."""
     _, ratio = curve_likeness(points, radius, seed)
     return float((ratio <= CURVE_RATIO).mean()) if len(ratio) else 0.0
+
+
+def skeleton_scale_share(points: np.ndarray, diagonal: float, seed: int = 0) -> float:
+    """curve_share of `points` at the skeleton's default sample radius, taken as that fraction of `diagonal`,
+    the input cloud's bounding-box diagonal: the scale at which the skeleton samples the contracted cloud."""
+    return curve_share(points, SkeletonParams.sample_radius * diagonal, seed)

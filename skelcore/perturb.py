@@ -120,7 +120,7 @@ def _largest_patches(points: np.ndarray, piece_of: np.ndarray, radius: float) ->
 
 def estimate_normals(points: np.ndarray, k: int = NORMAL_K) -> np.ndarray:
     """PCA normals oriented consistently and outward (the paper's eq. 6 normals and skelcore's orientation)."""
-    from .metrics import orient_outward, pca_features
+    from .normals import orient_outward, pca_features
 
     normals, _, idx = pca_features(points, k=k)
     return orient_outward(points, normals, idx)

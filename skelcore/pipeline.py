@@ -18,7 +18,7 @@ import numpy as np
 
 from . import __version__, io, multires
 from .clean import CleaningParams, clean, cleaned
-from .curveness import curve_share
+from .curveness import skeleton_scale_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError, OutputError, ParameterError, SkelError
 from .labels import check_weights, weights_from_labels
@@ -256,8 +256,8 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
 def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
     radius, a fraction of the input cloud's bounding-box diagonal (the skeleton's own scale, which the
-    contraction's stop rule, skelcore.step.goes_on, also uses)."""
-    return curve_share(state.points, SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(cloud.points, axis=0))))
+    contraction's stop rule, skelcore.step.goes_on, and the verdict also use)."""
+    return skeleton_scale_share(state.points, float(np.linalg.norm(np.ptp(cloud.points, axis=0))))
 
 
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],
@@ -269,7 +269,7 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
         iterations.append({
             "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
             "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
-            "ring_ratio": state.ring_ratio, "curve_share": state_curve_share(state, cloud),
+            "ring_ratio": state.ring_ratio, "curve_share": measured.curve["curve_share"],
             "timings": state.timings, **measured.to_dict(),
         })
     final = states[-1]

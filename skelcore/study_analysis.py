@@ -5,7 +5,8 @@ every goal is reported on the held-out half. A run is right when its skeleton's 
 a centreline exists, its Chamfer distance is at most 1% of the diagonal (skelcore.study.CHAMFER_RIGHT).
 Calibration is a coordinate search over CANDIDATES: it maximises the right runs labelled stable less
 FALSE_STABLE_COST per wrong one (the break-even precision is GOAL_PRECISION),
-with no bad setting, collapsed or disconnected skeleton stable. Writes OUT/study.csv (one row per run), OUT/study.json (the figures and
+with no bad setting, collapsed or disconnected skeleton stable; of equally good thresholds it keeps the
+loosest (see looseness). Writes OUT/study.csv (one row per run), OUT/study.json (the figures and
 thresholds), OUT/thresholds.json and OUT/study.html.
 """
 from __future__ import annotations
@@ -19,34 +20,39 @@ import numpy as np
 
 from .metrics import NORMAL_CONVENTIONS
 from .study import BAD_SETTINGS
-from .verdict import LABELS, StabilityThresholds, count_loops, count_pieces, features, judge
+from .verdict import LABELS, MANY_PEAKS, StabilityThresholds, count_loops, count_pieces, features, judge
 
 GOAL_PRECISION = 0.9  # "stable" must be right in this share of the runs it labels, on held-out shapes
 FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" costs 9 right ones
 CANDIDATES = {
-    "max_peaks": [1, 2, 3, 100],
+    "max_peaks": [1, 2, 3, MANY_PEAKS],
     "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
     "d_theta_tolerance": [0.05, 0.1, 0.15, 0.2, 0.3, 0.5],
     "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
     "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
     "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
-    "shrink_tolerance": [0.01, 0.03, 0.1],
-    "min_spread_ratio": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
-    "min_linearity": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
+    "shrink_tolerance": [0.01, 0.02, 0.03, 0.05, 0.1],
+    # Never below 0.2: W_L0 x100 leaves 4-12% of the spread on the calibration shapes (most stop after one step,
+    # which min_steps already catches) and every right run of another setting over 35%; the floor keeps the size
+    # rule for the runs that go on.
+    "min_spread_ratio": [0.2, 0.3, 0.4, 0.5, 0.6, 0.7],
+    "min_curve_share": [0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9],
+    "min_steps": [2, 3, 4, 5],  # never 1: a run stopped after one step must never be stable (the issue's goal)
     "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
 }
 # Not calibrated: piece_gap and loop_birth stay at 2 sample radii, the widest gap the skeleton's ball cover
 # (samples r apart, each covering r) bridges, so pieces and loops are counted at the skeleton's own scale.
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
-PERMISSIVE = {"max_peaks": 100, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
+PERMISSIVE = {"max_peaks": MANY_PEAKS, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
               "min_inside_share": 0.0, "max_step_shrink": 1.0, "shrink_tolerance": 1.0, "min_spread_ratio": 0.0,
-              "min_linearity": 0.0}
+              "min_curve_share": 0.0, "min_steps": 1}
 CRITERIA_GROUPS = {  # name in the tables -> thresholds switched off (or "skeleton": no skeleton checks)
     "histogram peaks (paper)": ["max_peaks"], "histogram symmetry (paper)": ["min_symmetry"],
     "mean D_theta (paper)": ["d_theta_tolerance"], "mean delta_kappa (paper)": ["delta_kappa_tolerance"],
     "inside the original (paper)": ["min_inside_share"],
     "shrinking, no one-step collapse (paper's X_k+1 <= X_k)": ["max_step_shrink", "shrink_tolerance"],
-    "size against the original (added)": ["min_spread_ratio"], "curve-likeness (added)": ["min_linearity"],
+    "size against the original (added)": ["min_spread_ratio"], "curve-likeness (added)": ["min_curve_share"],
+    "steps taken (added)": ["min_steps"],
     "skeleton nodes, pieces and loops (added)": "skeleton",
 }
 
@@ -92,16 +98,35 @@ def _objective(result: dict) -> float:
     return true_stable - FALSE_STABLE_COST * false_stable - 100.0 * FALSE_STABLE_COST * forbidden
 
 
+def looseness(thresholds: StabilityThresholds) -> float:
+    """How far each calibrated threshold lies toward its PERMISSIVE end, summed (each 0 strictest to 1 loosest).
+    The search adds a thousandth of it to the objective (whose steps are whole runs), so of thresholds that
+    label the calibration half alike it keeps the loosest: no stricter than the data demand."""
+    total = 0.0
+    for name in CANDIDATES.keys() & PERMISSIVE.keys():
+        ordered = _strict_to_loose(name)
+        total += ordered.index(getattr(thresholds, name)) / (len(ordered) - 1) \
+            if getattr(thresholds, name) in ordered else 0.0
+    return total
+
+
+def _strict_to_loose(name: str) -> list:
+    """CANDIDATES[name] from the strictest to the loosest (the end nearest PERMISSIVE[name])."""
+    return sorted(CANDIDATES[name], reverse=PERMISSIVE[name] <= min(CANDIDATES[name]))
+
+
 def calibrate(records: list[dict], convention: str, passes: int = 4, restarts: int = 10) -> StabilityThresholds:
-    """Coordinate search over CANDIDATES on `records` (the calibration half) from several starts: the paper's
-    thresholds, every criterion switched off, and `restarts` random picks (fixed seed); the best end is then
-    refined by moves of two thresholds at once."""
+    """Coordinate search over CANDIDATES on `records` (the calibration half) from several starts: the shipped
+    thresholds, the loosest candidates, and `restarts` random picks (fixed seed); the best end is then
+    refined by moves of two thresholds at once. Every threshold it returns is one of its CANDIDATES."""
     rng = np.random.default_rng(0)
-    starts = [StabilityThresholds(), dataclasses.replace(StabilityThresholds(), **PERMISSIVE)]
+    loosest = {name: _strict_to_loose(name)[-1] for name in CANDIDATES.keys() & PERMISSIVE.keys()}
+    starts = [StabilityThresholds(), dataclasses.replace(StabilityThresholds(), **loosest)]
     starts += [dataclasses.replace(StabilityThresholds(), **{name: values[rng.integers(len(values))]
                                                               for name, values in CANDIDATES.items()})
                for _ in range(restarts)]
-    score_of = lambda thresholds: _objective(goals(records, label_runs(records, convention, thresholds)))
+    score_of = lambda thresholds: (_objective(goals(records, label_runs(records, convention, thresholds)))
+                                   + 1e-3 * looseness(thresholds))
     ends = []
     for best in starts:
         best_score = score_of(best)
@@ -166,7 +191,8 @@ def statistic_table(record: dict, convention: str) -> dict:
         row[f"{key}_gap"] = None if stats["mean"] is None else abs(stats["mean"] - target)
         row[f"{key}_peaks"] = stats["peaks"]["count"]
     row.update({name: last["boundedness"][name] for name in ("inside_share", "spread_ratio", "growth")})
-    row["linearity"] = last["curve"]["linearity"]
+    row["curve_share"] = last["curve"].get("curve_share")
+    row["steps"] = record["iterations"]
     return row
 
 

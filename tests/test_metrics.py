@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from skelcore.errors import InputError, ParameterError
-from skelcore.metrics import (D_THETA_RANGE, IterationMetrics, MetricsReference, distribution_stats, linearity,
-                              orient_outward, pca_features, significant_peaks, _eigenvalues, _eigenvector)
+from skelcore.histogram_stats import distribution_stats, significant_peaks
+from skelcore.metrics import D_THETA_RANGE, IterationMetrics, MetricsReference
+from skelcore.normals import orient_outward, pca_features, _eigenvalues, _eigenvector
 from skelcore.verdict import StabilityThresholds, run_verdict
 
 
@@ -91,13 +92,19 @@ def test_outward_convention_centres_on_the_anchor_and_points_away_from_the_centr
         MetricsReference.from_points(points, convention="sideways")
 
 
-def test_linearity_of_line_plane_and_blob():
-    rng = np.random.default_rng(1)
-    line = np.column_stack([np.linspace(0, 1, 200), 1e-4 * rng.normal(size=(200, 2))])
-    _, _, idx = pca_features(line, 20)
-    assert np.median(linearity(line, idx)) > 0.95
-    _, _, idx = pca_features(flat_patch(), 20)
-    assert np.median(linearity(flat_patch(), idx)) < 0.5
+def test_curve_share_is_the_stop_rules_measure_at_the_inputs_scale():
+    from skelcore.curveness import curve_share
+    from skelcore.skeleton import SkeletonParams
+
+    points, _, core = torus(1500)
+    reference = MetricsReference.from_points(points)
+    surface = reference.evaluate(points, iteration=0)
+    shrunk = reference.evaluate(core + 0.02 * (points - core), previous=surface)
+    # One definition: skelcore.curveness at the skeleton's radius, a fraction of the INPUT's diagonal.
+    diagonal = float(np.linalg.norm(np.ptp(points, axis=0)))
+    assert shrunk.curve["curve_share"] == curve_share(core + 0.02 * (points - core),
+                                                      SkeletonParams.sample_radius * diagonal)
+    assert surface.curve["curve_share"] < 0.2 < 0.9 < shrunk.curve["curve_share"]
 
 
 def test_closed_form_eigen_matches_lapack():

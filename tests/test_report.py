@@ -208,7 +208,10 @@ def test_report_states_the_measured_predictive_power():
              "best_statistics": [["inside_share", 0.63]]}
     text = report.predictive_power_html(power)
     assert "right in 95% of the 40 runs it labelled" in text and "labelled 54% of the right runs" in text
-    assert "inside_share 0.63" in text
+    assert "inside_share 0.63" in text and "Criteria added" not in text
+    power["added_criteria"] = [["contraction steps taken", "one step shows no trend.", "Off: 2 bad settings stable."]]
+    text = report.predictive_power_html(power)
+    assert "<li><b>contraction steps taken</b>: one step shows no trend. Off: 2 bad settings stable.</li>" in text
 
 
 def test_fitted_histogram_spans_the_values_and_the_target(history):

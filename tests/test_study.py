@@ -67,3 +67,26 @@ def test_goals_count_forbidden_stable_runs():
     assert result["precision"] == 0.5 and result["recall"] == 0.5
     assert result["bad_settings_stable"] == 1 and result["collapsed_or_disconnected_stable"] == 1
     assert json.dumps(result)
+
+
+def _run(setting, iterations, right, d_mean=0.5):
+    """A study record with the figures the verdict reads (a ring whose skeleton agrees with its cloud)."""
+    stats = lambda mean: {"mean": mean, "peaks": {"count": 1}, "symmetry": 0.9}
+    last = {"d_theta": stats(d_mean), "delta_kappa": stats(0.0), "curve": {"curve_share": 0.8},
+            "boundedness": {"inside_share": 1.0, "growth": -0.05, "spread_ratio": 0.8}}
+    evidence = {"nodes": 30, "components": 1, "cycles": 1, "cloud_pieces": {"2": 1}, "input_pieces": {"2": 1},
+                "cloud_loops": [[0.5, 20.0]]}
+    return {"setting": setting, "iterations": iterations, "conventions": {"outward": [last]}, "evidence": evidence,
+            "truth": {"right": right, "collapsed": False, "disconnected": False}}
+
+
+def test_calibration_keeps_the_floors_and_is_no_stricter_than_the_data_demand():
+    from skelcore.study_analysis import calibrate
+
+    records = [_run("default", 4, True) for _ in range(5)]
+    records += [_run("stop after 1", 1, False), _run("default", 4, False, d_mean=0.1)]
+    fitted = calibrate(records, "outward", passes=2, restarts=2)
+    assert fitted.min_steps == 2  # the one-step run kept out, at the floor
+    assert fitted.d_theta_tolerance == 0.3  # the loosest that keeps the mean of 0.1 out
+    assert fitted.max_peaks == 100 and fitted.min_curve_share == 0.0  # criteria the data do not need: off
+    assert fitted.min_spread_ratio == 0.2  # the size rule's floor, never off

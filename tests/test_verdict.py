@@ -9,7 +9,7 @@ from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, ex
 
 # Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
 T = StabilityThresholds(max_peaks=1, min_symmetry=0.8, d_theta_tolerance=0.1, delta_kappa_tolerance=0.05, min_inside_share=0.9,
-                        shrink_tolerance=0.01, max_step_shrink=0.5, min_spread_ratio=0.5, min_linearity=0.8,
+                        shrink_tolerance=0.01, max_step_shrink=0.5, min_spread_ratio=0.5, min_curve_share=0.8,
                         loop_death=4.0)
 
 
@@ -18,7 +18,7 @@ def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.
     stats = lambda mean: {"mean": mean, "peaks": {"count": peaks}, "symmetry": symmetry}
     return {"iteration": iteration, "d_theta": stats(d_mean), "delta_kappa": stats(k_mean),
             "boundedness": {"inside_share": inside, "growth": growth, "spread_ratio": spread},
-            "curve": {"linearity": linear}, "verdict": {"label": "stable"}}
+            "curve": {"curve_share": linear}, "verdict": {"label": "stable"}}
 
 
 def evidence(nodes=40, components=1, cycles=1, loops=((0.3, 25.0),), cloud_pieces=1, input_pieces=1):
@@ -49,7 +49,27 @@ def test_values_are_stated_plainly():
     ({"symmetry": 0.3}, "not yet converged"), ({"k_mean": 0.3}, "not yet converged"),
 ])
 def test_each_criterion_decides(change, label):
-    assert judge(features(entry(**change)), 1, T)["label"] == label
+    assert judge(features(entry(**change)), 2, T)["label"] == label
+
+
+def test_one_step_is_never_stable():
+    # A thin ring is curve-like and small after any single step: everything else passes, the steps do not.
+    verdict = judge(features(entry(), evidence()), 1, T)
+    assert verdict["label"] == "not yet converged"
+    assert verdict["reasons"] == ["contraction steps taken: 1 (at least 2): fail"]
+    assert "| contraction steps taken | 1 | at least 2 | **fail** (not yet converged) |" \
+        in explanation_markdown(verdict)
+    assert "- *contraction steps taken*: the paper's stability is a trend" in explanation_markdown(verdict)
+    assert judge(features(entry(), evidence()), 2, T)["label"] == "stable"
+    assert judge(features(entry(), evidence()), 2, StabilityThresholds(**{**T.__dict__, "min_steps": 3}))["label"] \
+        == "not yet converged"
+    with pytest.raises(ParameterError, match="min_steps"):
+        StabilityThresholds(min_steps=0).validated()
+
+
+def test_curve_share_is_stated_as_a_share():
+    verdict = judge(features(entry(linear=0.3)), 4, T)
+    assert "curve-like share of the cloud: 30% (at least 80%): fail" in verdict["reasons"]
 
 
 @pytest.mark.parametrize("change", [
@@ -93,3 +113,17 @@ def test_thresholds_are_checked():
         StabilityThresholds(min_spread_ratio=1.5).validated()
     with pytest.raises(ParameterError):
         StabilityThresholds(piece_gap=np.nan).validated()
+
+
+def test_a_criterion_at_its_loosest_is_shown_off_and_decides_nothing():
+    loose = StabilityThresholds(**{**T.__dict__, "d_theta_tolerance": 0.5, "min_symmetry": 0.0, "max_step_shrink": 1.0})
+    verdict = judge(features(entry(d_mean=0.04, symmetry=0.1, growth=-0.99)), 4, loose)
+    rows = {c["name"]: c for c in verdict["criteria"]}
+    assert rows["mean D_theta"]["passed"] is None and rows["mean D_theta"]["value"] == "0.04"
+    assert rows["mean D_theta"]["threshold"] == "target 0.5; off (adds nothing in the study)"
+    assert rows["D_theta symmetry"]["passed"] is None
+    assert rows["spread change this step"]["threshold"] == "at most +1%" and rows["spread change this step"]["passed"]
+    assert "| mean D_theta | 0.04 | target 0.5; off (adds nothing in the study) | n/a |" in explanation_markdown(verdict)
+    assert verdict["label"] == "stable"  # what would fail is off
+    assert judge(features(entry(d_mean=0.04, growth=0.05)), 4, loose)["reasons"] == [
+        "spread change this step: +5.0% (at most +1%): fail"]
