@@ -20,7 +20,7 @@ EXIT_INTERNAL = 3
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
-    """The contraction and skeleton flags shared by `run`, `batch` and `bench` (DESIGN.md section 4)."""
+    """The contraction and skeleton flags shared by `run`, `batch` and `bench`."""
     defaults = ContractionParams()
     group = parser.add_argument_group("contraction parameters")
     group.add_argument("--method", choices=["lbc", "glskeleton"], default=defaults.method,

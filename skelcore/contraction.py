@@ -67,7 +67,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             # shrink, a cloud not yet curve-like (a sheet) goes on contracting, as long as each such step
             # leaves it more curve-like (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params, run.curve_radius)):
+            if iteration > 1 and drop < params.termination and not (
+                    drop >= 0 and goes_on(current, candidate, params, run.curve_radius)):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             yield stopped(state, *failure, notes)

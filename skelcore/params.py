@@ -1,4 +1,4 @@
-"""Parameters of the contraction, one validated dataclass (cloudcontr defaults, DESIGN.md section 3)."""
+"""Parameters of the contraction, one validated dataclass (cloudcontr's defaults)."""
 from __future__ import annotations
 
 import dataclasses

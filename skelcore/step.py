@@ -109,7 +109,8 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
 def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
                  wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool,
                  stages: bool = False, row_weights: np.ndarray | None = None,
-                 laplacian_values: np.ndarray | None = None) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
+                 laplacian_values: np.ndarray | None = None
+                 ) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
     past params.bbox_growth of the original extent0 (robust extents: a few points flung out by degenerate
     rings do not end the contraction of the rest), and collapse: once a cloud is a thin curve its rings
