@@ -68,7 +68,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             # leaves it more curve-like (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
             if iteration > 1 and drop < params.termination and not (
-                    drop >= 0 and goes_on(current, candidate, params, run.curve_radius)):
+                    drop >= 0 and goes_on(current, candidate, params, run.diagonal)):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             yield stopped(state, *failure, notes)

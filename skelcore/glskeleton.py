@@ -118,7 +118,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params,
-                                                                                        run.curve_radius)):
+                                                                                        run.diagonal)):
             yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
                           notes)
             return
@@ -153,7 +153,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # so the rule alone stops on a sheet: it waits until the cloud is curve-like; till then the rings
         # (the ring-ratio rule above) tell when the contraction has stalled
         if iteration >= COVARIANCE_FROM and change < params.gl_covariance and curve_like(candidate, params,
-                                                                                          run.curve_radius):
+                                                                                          run.diagonal):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
         elif iteration >= params.max_iterations:
             termination = "max_iterations"

@@ -19,10 +19,9 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import curve_share
+from .curveness import skeleton_scale_share
 from .normalise import Normalisation, robust_extent
 from .params import ContractionParams, default_k
-from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
 TERMINATION_MESSAGES = {
@@ -76,7 +75,7 @@ class RunStart:
     sizes0: np.ndarray  # s^0, the input's ring sizes
     auto_wl0: float  # 1 / (5 * mean one-ring edge length), cloudcontr's W_L0
     extent0: np.ndarray  # robust extent of the input, for the growth check
-    curve_radius: float  # the skeleton's default sample radius in the run's frame, for curve-likeness
+    diagonal: float  # the input's bounding-box diagonal in the run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
 
 
@@ -94,9 +93,9 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
                            params=params, timings={"rings": rings_time})
-    curve_radius = SkeletonParams.sample_radius * float(np.linalg.norm(np.ptp(unit, axis=0)))
+    diagonal = float(np.linalg.norm(np.ptp(unit, axis=0)))
     return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, robust_extent(unit),
-                    curve_radius, state)
+                    diagonal, state)
 
 
 def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,
@@ -148,18 +147,19 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     return candidate, failure, timings
 
 
-def curve_like(points: np.ndarray, params: ContractionParams, radius: float) -> bool:
-    """Whether at least params.curve_share of the points are curve-like at `radius` (always, with share 0)."""
-    return params.curve_share <= 0 or curve_share(points, radius) >= params.curve_share
+def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
+    """Whether at least params.curve_share of the points are curve-like at the skeleton's scale of `diagonal`
+    (skelcore.curveness.skeleton_scale_share; always, with share 0)."""
+    return params.curve_share <= 0 or skeleton_scale_share(points, diagonal) >= params.curve_share
 
 
-def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, radius: float) -> bool:
+def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
     """Whether a step past the ring-ratio stall is taken: the candidate is less than params.curve_share
-    curve-like at `radius` (RunStart.curve_radius, the skeleton's sample radius) and more so than the current."""
+    curve-like at the skeleton's scale of `diagonal` (RunStart.diagonal) and more so than the current."""
     if params.curve_share <= 0:
         return False
-    after = curve_share(candidate, radius)
-    return after < params.curve_share and after > curve_share(current, radius)
+    after = skeleton_scale_share(candidate, diagonal)
+    return after < params.curve_share and after > skeleton_scale_share(current, diagonal)
 
 
 def stopped(state: IterationState, reason: str, detail: str, notes: list[str]) -> IterationState:

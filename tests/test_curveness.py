@@ -19,8 +19,8 @@ def test_a_step_past_the_stall_is_taken_only_towards_curves():
     rng = np.random.default_rng(1)
     sheet = np.column_stack([rng.uniform(-1, 1, 3000), rng.uniform(-0.3, 0.3, 3000), np.zeros(3000)])
     thinner = sheet * np.where(sheet[:, :1] < -0.3, [1, 0.02, 1], [1, 1, 1])  # a third of it now a curve
-    params, radius = ContractionParams(), 0.04
-    assert 0 < curve_share(thinner, radius) < params.curve_share
-    assert goes_on(sheet, thinner, params, radius)  # a sheet narrowing towards its medial curve goes on
-    assert not goes_on(thinner, sheet, params, radius)  # a step that leaves it less curve-like does not
-    assert not goes_on(sheet, thinner, params.replace(curve_share=0), radius)  # cloudcontr's rule alone
+    params, diagonal = ContractionParams(), 2.0  # the skeleton's scale: radius 0.02 x 2 = 0.04
+    assert 0 < curve_share(thinner, 0.04) < params.curve_share
+    assert goes_on(sheet, thinner, params, diagonal)  # a sheet narrowing towards its medial curve goes on
+    assert not goes_on(thinner, sheet, params, diagonal)  # a step that leaves it less curve-like does not
+    assert not goes_on(sheet, thinner, params.replace(curve_share=0), diagonal)  # cloudcontr's rule alone
