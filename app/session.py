@@ -139,9 +139,9 @@ class Session:
             reduction = None
         else:
             reduction = multires.reduce_cloud(cloud.points, self.point_budget)
-            source = cloud if reduction is None else Cloud(points=reduction.points, name=cloud.name)
+            points = cloud.points if reduction is None else reduction.points
             reduced_weights = weights if reduction is None or weights is None else reduction.mean(weights)
-            generator = contraction.contract(source.points, params, reduced_weights, stages=True)
+            generator = contraction.contract(points, params, reduced_weights, stages=True)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
         self._generator, self._pending, self._within_step = generator, None, False
         self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
@@ -228,11 +228,8 @@ class Session:
         run = run or self.run
         key = (index, self.run_options(run).skeleton_params())
         if key not in run.skeletons:
-            if run.reduction is None:
-                run.skeletons[key] = pipeline.skeleton_of_state(run.history[index], run.cloud.points, key[1])
-            else:
-                run.skeletons[key] = run.reduction.skeleton_for_input(
-                    pipeline.skeleton_of_state(run.reduced[index], run.reduction.points, key[1]))
+            state = run.history[index] if run.reduction is None else run.reduced[index]
+            run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction)
         return run.skeletons[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:

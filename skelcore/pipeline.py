@@ -104,8 +104,13 @@ def skeleton_is_provisional(state: IterationState, share: float) -> bool:
     return state.termination is None and share < provisional_target(state)
 
 
-def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams) -> Skeleton:
-    """Curve skeleton of a state; every input point takes the position of the point that represents it."""
+def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams,
+                      reduction: multires.Reduction | None = None) -> Skeleton:
+    """Curve skeleton of a state; every input point takes the position of the point that represents it.
+    With a multi-resolution `reduction`, `state` is the reduced cloud's (its rings name voxel centroids) and
+    every input point of `original` gets its voxel's node."""
+    if reduction is not None:
+        return reduction.skeleton_for_input(skeleton_of_state(state, reduction.points, params))
     return extract_skeleton(state.points[state.owner], original, state.point_ids[state.rings.triangles], params)
 
 
@@ -225,8 +230,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
                                  None if weights is None else reduction.mean(weights))
             clock.mark("contract")
-            skeleton = reduction.skeleton_for_input(skeleton_of_state(reduced[-1], reduction.points,
-                                                                      options.skeleton_params()))
+            skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction)
             clock.mark("skeleton")
             carrier = reduction.carrier(reduced[0].rings)
             states = [reduction.lift(state, carrier) for state in reduced]
