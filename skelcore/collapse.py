@@ -154,13 +154,17 @@ class SampleComplex:
 def collapse_to_graph(cx: SampleComplex) -> None:
     """Reduce `cx` to a graph (no triangle left) by elementary collapses and link-condition contractions.
 
-    A lazy heap: after a change every edge whose key may have changed is pushed again; an entry whose key
-    no longer matches is stale and skipped (its fresh copy is in the heap)."""
+    A lazy heap of (key, u, v) entries, smallest first. After a change, the edges (u, v), u < v, whose end u
+    is a changed node or one of its neighbours are pushed with their current key (an edge whose key changed
+    at its larger end only keeps its old entry until it is pushed again); an entry whose key is no longer
+    its edge's is stale and skipped. `keys` holds every edge's current key: after a change only the edges
+    whose key it can change are recomputed (_incident, _touched_by_contraction). The heap holds each entry
+    once: a second copy of an entry would pop right after the first and find its edge gone."""
     def length(u: int, v: int) -> float:
         return math.dist(cx.xyz[u], cx.xyz[v])
 
     def key(u: int, v: int) -> tuple | None:
-        apexes = cx.apex.get(_edge(u, v))
+        apexes = cx.apex.get((u, v))
         if not apexes:
             return None
         span = length(u, v)
@@ -172,36 +176,69 @@ def collapse_to_graph(cx: SampleComplex) -> None:
             return 1, (len(cx.nbr[u]) + len(cx.nbr[v])) / 2, span
         return None
 
+    def recompute(edges) -> None:
+        for edge in edges:
+            keys[edge] = key(*edge)
+
     def push_around(nodes) -> None:
-        near = set()
+        near = set(nodes)
         for node in nodes:
-            if node in cx.nbr:
-                near.add(node)
-                near.update(cx.nbr[node])
+            near.update(cx.nbr[node])
         for u in near:
             for v in cx.nbr[u]:
-                if u < v and (k := key(u, v)) is not None:
-                    heapq.heappush(heap, (k, u, v))
+                if u < v and (k := keys[(u, v)]) is not None and (entry := (*k, u, v)) not in queued:
+                    queued.add(entry)
+                    heapq.heappush(heap, entry)
 
     cx.drop_cavity_triangles()
     heap: list = []
+    queued: set[tuple] = set()  # the entries in the heap
+    keys: dict[tuple[int, int], tuple | None] = {}
+    recompute(_incident(cx, cx.nbr))
     push_around(list(cx.nbr))
     while True:
         while heap:
-            stored, u, v = heapq.heappop(heap)
-            if u not in cx.nbr or v not in cx.nbr[u] or key(u, v) != stored:
+            entry = heapq.heappop(heap)
+            queued.discard(entry)
+            *stored, u, v = entry
+            if keys.get((u, v)) != tuple(stored):
                 continue
             if stored[0] == 0:
-                (c,) = cx.apex[_edge(u, v)]
+                (c,) = cx.apex[(u, v)]
                 cx.remove_triangle(u, v, c)
                 cx.remove_edge(u, v)
+                del keys[(u, v)]
+                recompute(_incident(cx, (u, v, c)))
                 push_around((u, v, c))
             else:
+                moved = cx.nbr[v] - {u}
+                for x in cx.nbr[v]:
+                    del keys[_edge(v, x)]
                 cx.contract(u, v, [(a + b) / 2 for a, b in zip(cx.xyz[u], cx.xyz[v])])
+                recompute(_touched_by_contraction(cx, u, moved))
                 push_around((u,))
         if not _open_stuck_cavity(cx):
             return
+        keys.clear()
+        recompute(_incident(cx, cx.nbr))
         push_around(list(cx.nbr))
+
+
+def _incident(cx: SampleComplex, nodes) -> set[tuple[int, int]]:
+    """The edges at `nodes`. An elementary collapse of triangle uvc changes the neighbours of u and v and the
+    triangles on uv, uc and vc: the keys of the edges at u, v and c only (a key reads the neighbours of its
+    ends, the triangles on its edge and those on the edges from its ends to its apexes)."""
+    return {_edge(x, y) for x in nodes for y in cx.nbr[x]}
+
+
+def _touched_by_contraction(cx: SampleComplex, keep: int, moved: set[int]) -> set[tuple[int, int]]:
+    """The edges whose key a contraction into `keep` can change: those at `keep`, those at the nodes `moved`
+    from the merged node to `keep` (their neighbours changed), and those between two neighbours of `keep`
+    (`keep`, whose position and triangles changed, can be their apex)."""
+    around = cx.nbr[keep]
+    edges = _incident(cx, (keep, *moved))
+    edges.update(_edge(x, y) for x in around for y in cx.nbr[x] & around)
+    return edges
 
 
 def _open_stuck_cavity(cx: SampleComplex) -> bool:
