@@ -49,6 +49,15 @@ def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
     return np.column_stack([a[row], b[row], c])[found]
 
 
+def _unique_rows(rows: np.ndarray) -> np.ndarray:
+    """np.unique(rows, axis=0) of an integer array, faster: a lexicographic sort, then the rows that differ
+    from the one before."""
+    rows = rows[np.lexsort(rows.T[::-1])]
+    keep = np.ones(len(rows), dtype=bool)
+    keep[1:] = (rows[1:] != rows[:-1]).any(axis=1)
+    return rows[keep]
+
+
 def _edge(u: int, v: int) -> tuple[int, int]:
     return (u, v) if u < v else (v, u)
 
@@ -77,12 +86,17 @@ class SampleComplex:
         with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved (the
         fans of a surface leave tiny gaps where neighbouring fans disagree, which a stretched part of the
         contraction can spread over three samples)."""
-        pairs = np.sort(owner[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
-        pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
-        corners = np.sort(owner[triangles], axis=1) if len(triangles) else np.zeros((0, 3), dtype=np.int64)
-        distinct = (corners[:, 0] != corners[:, 1]) & (corners[:, 1] != corners[:, 2])
-        corners = np.concatenate([corners[distinct], surface_triangles(pairs, len(xyz))])
-        return cls(xyz, pairs, np.unique(corners, axis=0))
+        m = len(xyz)
+        ends = owner[edges].reshape(-1, 2)
+        low, high = ends.min(axis=1), ends.max(axis=1)
+        codes = np.unique(low[low != high] * m + high[low != high])  # in the order of (low, high)
+        pairs = np.column_stack([codes // m, codes % m])
+        corners = owner[triangles].reshape(-1, 3)
+        first, last = corners.min(axis=1), corners.max(axis=1)
+        middle = corners.sum(axis=1) - first - last
+        distinct = (first != middle) & (middle != last)
+        corners = np.concatenate([np.column_stack([first, middle, last])[distinct], surface_triangles(pairs, m)])
+        return cls(xyz, pairs, _unique_rows(corners))
 
     def triangles(self) -> list[tuple[int, int, int]]:
         """Every triangle once, as (u, v, w) with u < v < w."""
