@@ -131,7 +131,7 @@ class SampleComplex:
         apexes = self.apex.get(_edge(u, v), set())
         if self.nbr[u] & self.nbr[v] != apexes:
             return False
-        return not any(w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
+        return len(apexes) < 2 or not any(w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
                        for c in apexes for w in apexes if c < w)
 
     def contract(self, keep: int, gone: int, at) -> None:
@@ -174,20 +174,19 @@ def collapse_to_graph(cx: SampleComplex) -> None:
     its edge's is stale and skipped. `keys` holds every edge's current key: after a change only the edges
     whose key it can change are recomputed (_incident, _touched_by_contraction). The heap holds each entry
     once: a second copy of an entry would pop right after the first and find its edge gone."""
-    def length(u: int, v: int) -> float:
-        return math.dist(cx.xyz[u], cx.xyz[v])
+    xyz, nbr, apex, dist = cx.xyz, cx.nbr, cx.apex, math.dist
 
     def key(u: int, v: int) -> tuple | None:
-        apexes = cx.apex.get((u, v))
+        apexes = apex.get((u, v))
         if not apexes:
             return None
-        span = length(u, v)
+        span = dist(xyz[u], xyz[v])
         if len(apexes) == 1:
             (c,) = apexes
-            if length(u, c) ** 2 + length(c, v) ** 2 < span ** 2:
+            if dist(xyz[u], xyz[c]) ** 2 + dist(xyz[c], xyz[v]) ** 2 < span ** 2:
                 return 0, -span, 0.0
         if cx.link_condition(u, v):
-            return 1, (len(cx.nbr[u]) + len(cx.nbr[v])) / 2, span
+            return 1, (len(nbr[u]) + len(nbr[v])) / 2, span
         return None
 
     def recompute(edges) -> None:
@@ -225,11 +224,11 @@ def collapse_to_graph(cx: SampleComplex) -> None:
                 recompute(_incident(cx, (u, v, c)))
                 push_around((u, v, c))
             else:
-                moved = cx.nbr[v] - {u}
-                for x in cx.nbr[v]:
+                common = nbr[u] & nbr[v]
+                for x in nbr[v]:
                     del keys[_edge(v, x)]
-                cx.contract(u, v, [(a + b) / 2 for a, b in zip(cx.xyz[u], cx.xyz[v])])
-                recompute(_touched_by_contraction(cx, u, moved))
+                cx.contract(u, v, [(a + b) / 2 for a, b in zip(xyz[u], xyz[v])])
+                recompute(_touched_by_contraction(cx, u, common))
                 push_around((u,))
         if not _open_stuck_cavity(cx):
             return
@@ -245,12 +244,14 @@ def _incident(cx: SampleComplex, nodes) -> set[tuple[int, int]]:
     return {_edge(x, y) for x in nodes for y in cx.nbr[x]}
 
 
-def _touched_by_contraction(cx: SampleComplex, keep: int, moved: set[int]) -> set[tuple[int, int]]:
-    """The edges whose key a contraction into `keep` can change: those at `keep`, those at the nodes `moved`
-    from the merged node to `keep` (their neighbours changed), and those between two neighbours of `keep`
-    (`keep`, whose position and triangles changed, can be their apex)."""
+def _touched_by_contraction(cx: SampleComplex, keep: int, common: set[int]) -> set[tuple[int, int]]:
+    """The edges whose key a contraction into `keep` can change: those at `keep` and at the `common`
+    neighbours of the two merged nodes (their degree fell), and those between two neighbours of `keep` (their
+    common neighbours and the triangles at their ends changed, and `keep`, which moved, can be their apex).
+    A neighbour that moved from the merged node to `keep` keeps its degree and, towards the rest of the
+    complex, its triangles."""
     around = cx.nbr[keep]
-    edges = _incident(cx, (keep, *moved))
+    edges = _incident(cx, (keep, *common))
     edges.update(_edge(x, y) for x in around for y in cx.nbr[x] & around)
     return edges
 
