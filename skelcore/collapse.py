@@ -131,8 +131,9 @@ class SampleComplex:
         apexes = self.apex.get(_edge(u, v), set())
         if self.nbr[u] & self.nbr[v] != apexes:
             return False
-        return len(apexes) < 2 or not any(w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
-                       for c in apexes for w in apexes if c < w)
+        return len(apexes) < 2 or not any(
+            w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
+            for c in apexes for w in apexes if c < w)
 
     def contract(self, keep: int, gone: int, at) -> None:
         """Merge `gone` into `keep` at `at`: triangles on the edge vanish, the others follow `gone`."""
