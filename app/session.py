@@ -24,6 +24,7 @@ from skelcore.errors import ParameterError
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
+from skelcore.persistence import persistence_summary
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
@@ -39,6 +40,7 @@ class Run:
     history: list[IterationState]
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
     evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
+    input_topology: dict[float, dict] = field(default_factory=dict)  # the input's, by skeleton radius: one per run
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
     weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
     label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any
@@ -250,8 +252,11 @@ class Session:
         if with_skeleton:
             key = (index, self.skeleton_params)
             if key not in run.evidence:
-                run.evidence[key] = pipeline.skeleton_evidence(self.skeleton(index, run), run.history[index],
-                                                               run.cloud.points)
+                skeleton = self.skeleton(index, run)
+                if skeleton.radius not in run.input_topology:  # the same at every iteration: computed once
+                    run.input_topology[skeleton.radius] = persistence_summary(run.cloud.points, skeleton.radius)
+                run.evidence[key] = pipeline.skeleton_evidence(skeleton, run.history[index], run.cloud.points,
+                                                               run.input_topology[skeleton.radius])
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 

@@ -49,6 +49,15 @@ def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
     return np.column_stack([a[row], b[row], c])[found]
 
 
+def _unique_rows(rows: np.ndarray) -> np.ndarray:
+    """np.unique(rows, axis=0) of an integer array, faster: a lexicographic sort, then the rows that differ
+    from the one before."""
+    rows = rows[np.lexsort(rows.T[::-1])]
+    keep = np.ones(len(rows), dtype=bool)
+    keep[1:] = (rows[1:] != rows[:-1]).any(axis=1)
+    return rows[keep]
+
+
 def _edge(u: int, v: int) -> tuple[int, int]:
     return (u, v) if u < v else (v, u)
 
@@ -77,12 +86,17 @@ class SampleComplex:
         with every 3-cycle of its graph filled: a loop must pass at least four samples to be resolved (the
         fans of a surface leave tiny gaps where neighbouring fans disagree, which a stretched part of the
         contraction can spread over three samples)."""
-        pairs = np.sort(owner[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
-        pairs = np.unique(pairs[pairs[:, 0] != pairs[:, 1]], axis=0)
-        corners = np.sort(owner[triangles], axis=1) if len(triangles) else np.zeros((0, 3), dtype=np.int64)
-        distinct = (corners[:, 0] != corners[:, 1]) & (corners[:, 1] != corners[:, 2])
-        corners = np.concatenate([corners[distinct], surface_triangles(pairs, len(xyz))])
-        return cls(xyz, pairs, np.unique(corners, axis=0))
+        m = len(xyz)
+        ends = owner[edges].reshape(-1, 2)
+        low, high = ends.min(axis=1), ends.max(axis=1)
+        codes = np.unique(low[low != high] * m + high[low != high])  # in the order of (low, high)
+        pairs = np.column_stack([codes // m, codes % m])
+        corners = owner[triangles].reshape(-1, 3)
+        first, last = corners.min(axis=1), corners.max(axis=1)
+        middle = corners.sum(axis=1) - first - last
+        distinct = (first != middle) & (middle != last)
+        corners = np.concatenate([np.column_stack([first, middle, last])[distinct], surface_triangles(pairs, m)])
+        return cls(xyz, pairs, _unique_rows(corners))
 
     def triangles(self) -> list[tuple[int, int, int]]:
         """Every triangle once, as (u, v, w) with u < v < w."""
@@ -117,8 +131,9 @@ class SampleComplex:
         apexes = self.apex.get(_edge(u, v), set())
         if self.nbr[u] & self.nbr[v] != apexes:
             return False
-        return not any(w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
-                       for c in apexes for w in apexes if c < w)
+        return len(apexes) < 2 or not any(
+            w in self.apex.get(_edge(u, c), ()) and w in self.apex.get(_edge(v, c), ())
+            for c in apexes for w in apexes if c < w)
 
     def contract(self, keep: int, gone: int, at) -> None:
         """Merge `gone` into `keep` at `at`: triangles on the edge vanish, the others follow `gone`."""
@@ -154,54 +169,92 @@ class SampleComplex:
 def collapse_to_graph(cx: SampleComplex) -> None:
     """Reduce `cx` to a graph (no triangle left) by elementary collapses and link-condition contractions.
 
-    A lazy heap: after a change every edge whose key may have changed is pushed again; an entry whose key
-    no longer matches is stale and skipped (its fresh copy is in the heap)."""
-    def length(u: int, v: int) -> float:
-        return math.dist(cx.xyz[u], cx.xyz[v])
+    A lazy heap of (key, u, v) entries, smallest first. After a change, the edges (u, v), u < v, whose end u
+    is a changed node or one of its neighbours are pushed with their current key (an edge whose key changed
+    at its larger end only keeps its old entry until it is pushed again); an entry whose key is no longer
+    its edge's is stale and skipped. `keys` holds every edge's current key: after a change only the edges
+    whose key it can change are recomputed (_incident, _touched_by_contraction). The heap holds each entry
+    once: a second copy of an entry would pop right after the first and find its edge gone."""
+    xyz, nbr, apex, dist = cx.xyz, cx.nbr, cx.apex, math.dist
 
     def key(u: int, v: int) -> tuple | None:
-        apexes = cx.apex.get(_edge(u, v))
+        apexes = apex.get((u, v))
         if not apexes:
             return None
-        span = length(u, v)
+        span = dist(xyz[u], xyz[v])
         if len(apexes) == 1:
             (c,) = apexes
-            if length(u, c) ** 2 + length(c, v) ** 2 < span ** 2:
+            if dist(xyz[u], xyz[c]) ** 2 + dist(xyz[c], xyz[v]) ** 2 < span ** 2:
                 return 0, -span, 0.0
         if cx.link_condition(u, v):
-            return 1, (len(cx.nbr[u]) + len(cx.nbr[v])) / 2, span
+            return 1, (len(nbr[u]) + len(nbr[v])) / 2, span
         return None
 
+    def recompute(edges) -> None:
+        for edge in edges:
+            keys[edge] = key(*edge)
+
     def push_around(nodes) -> None:
-        near = set()
+        near = set(nodes)
         for node in nodes:
-            if node in cx.nbr:
-                near.add(node)
-                near.update(cx.nbr[node])
+            near.update(cx.nbr[node])
         for u in near:
             for v in cx.nbr[u]:
-                if u < v and (k := key(u, v)) is not None:
-                    heapq.heappush(heap, (k, u, v))
+                if u < v and (k := keys[(u, v)]) is not None and (entry := (*k, u, v)) not in queued:
+                    queued.add(entry)
+                    heapq.heappush(heap, entry)
 
     cx.drop_cavity_triangles()
     heap: list = []
+    queued: set[tuple] = set()  # the entries in the heap
+    keys: dict[tuple[int, int], tuple | None] = {}
+    recompute(_incident(cx, cx.nbr))
     push_around(list(cx.nbr))
     while True:
         while heap:
-            stored, u, v = heapq.heappop(heap)
-            if u not in cx.nbr or v not in cx.nbr[u] or key(u, v) != stored:
+            entry = heapq.heappop(heap)
+            queued.discard(entry)
+            *stored, u, v = entry
+            if keys.get((u, v)) != tuple(stored):
                 continue
             if stored[0] == 0:
-                (c,) = cx.apex[_edge(u, v)]
+                (c,) = cx.apex[(u, v)]
                 cx.remove_triangle(u, v, c)
                 cx.remove_edge(u, v)
+                del keys[(u, v)]
+                recompute(_incident(cx, (u, v, c)))
                 push_around((u, v, c))
             else:
-                cx.contract(u, v, [(a + b) / 2 for a, b in zip(cx.xyz[u], cx.xyz[v])])
+                common = nbr[u] & nbr[v]
+                for x in nbr[v]:
+                    del keys[_edge(v, x)]
+                cx.contract(u, v, [(a + b) / 2 for a, b in zip(xyz[u], xyz[v])])
+                recompute(_touched_by_contraction(cx, u, common))
                 push_around((u,))
         if not _open_stuck_cavity(cx):
             return
+        keys.clear()
+        recompute(_incident(cx, cx.nbr))
         push_around(list(cx.nbr))
+
+
+def _incident(cx: SampleComplex, nodes) -> set[tuple[int, int]]:
+    """The edges at `nodes`. An elementary collapse of triangle uvc changes the neighbours of u and v and the
+    triangles on uv, uc and vc: the keys of the edges at u, v and c only (a key reads the neighbours of its
+    ends, the triangles on its edge and those on the edges from its ends to its apexes)."""
+    return {_edge(x, y) for x in nodes for y in cx.nbr[x]}
+
+
+def _touched_by_contraction(cx: SampleComplex, keep: int, common: set[int]) -> set[tuple[int, int]]:
+    """The edges whose key a contraction into `keep` can change: those at `keep` and at the `common`
+    neighbours of the two merged nodes (their degree fell), and those between two neighbours of `keep` (their
+    common neighbours and the triangles at their ends changed, and `keep`, which moved, can be their apex).
+    A neighbour that moved from the merged node to `keep` keeps its degree and, towards the rest of the
+    complex, its triangles."""
+    around = cx.nbr[keep]
+    edges = _incident(cx, (keep, *common))
+    edges.update(_edge(x, y) for x in around for y in cx.nbr[x] & around)
+    return edges
 
 
 def _open_stuck_cavity(cx: SampleComplex) -> bool:

@@ -39,6 +39,7 @@ class SurfaceProbe:
         self.points = original
         self.tree = cKDTree(original)
         self.spacing = spacing
+        self._scale = float(np.abs(original).max(initial=0.0)) + spacing  # of the rounding in crossings
         self._normals: dict[int, np.ndarray] = {}
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
@@ -62,7 +63,15 @@ class SurfaceProbe:
             triangle = np.array([centre, a, b])
             middle = triangle.mean(axis=0)
             reach = np.linalg.norm(triangle - middle, axis=1).max() + self.spacing
-            ids = np.asarray(self.tree.query_ball_point(middle, reach), dtype=np.int64)
+            ids = np.asarray(self.tree.query_ball_point(middle, reach, return_sorted=False), dtype=np.int64)
+            # A point is at least as far from the triangle as from its plane: only those in a slab can be near.
+            # The slack covers rounding, of the coordinates and of the plane of a thin triangle.
+            plane = np.cross(a - centre, b - centre)
+            area2 = float(np.linalg.norm(plane))
+            if area2 == 0 or not len(ids):
+                continue
+            slack = 1e-9 * (self._scale + reach * np.linalg.norm(a - centre) * np.linalg.norm(b - centre) / area2)
+            ids = ids[np.abs((self.points[ids] - centre) @ (plane / area2)) <= self.spacing + slack]
             if len(ids):
                 near = _triangle_distance(self.points[ids], triangle) <= self.spacing
                 found.update(ids[near].tolist())
@@ -110,11 +119,11 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
                     probe: SurfaceProbe) -> int:
     """Cut every cycle of `adj` that is no loop of the shape (see the module's rule) at its weakest edge,
     shortest cycles first, until every cycle left is a loop. Returns the number of cuts."""
-    support: dict[tuple[int, int], int] = {}
-    pairs = np.sort(node_of_point[edges], axis=1) if len(edges) else np.zeros((0, 2), dtype=np.int64)
-    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    for (u, v), count in zip(*np.unique(pairs, axis=0, return_counts=True)):
-        support[(int(u), int(v))] = int(count)
+    ends = node_of_point[edges].reshape(-1, 2)
+    low, high = ends.min(axis=1), ends.max(axis=1)
+    m = len(xyz)
+    codes, counts = np.unique(low[low != high] * m + high[low != high], return_counts=True)
+    support = {(u, v): count for u, v, count in zip((codes // m).tolist(), (codes % m).tolist(), counts.tolist())}
     judged: dict[frozenset, bool] = {}
     cuts = 0
     while True:

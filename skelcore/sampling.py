@@ -24,7 +24,7 @@ def ball_cover_sampling(points: np.ndarray, radius: float) -> tuple[np.ndarray, 
         reach = nearest[far]
         if reach <= radius:
             break
-        ball = np.asarray(tree.query_ball_point(points[far], reach), dtype=np.int64)
+        ball = np.asarray(tree.query_ball_point(points[far], reach, return_sorted=False), dtype=np.int64)
         dist = np.linalg.norm(points[ball] - points[far], axis=1)
         closer = dist < nearest[ball]
         nearest[ball[closer]] = dist[closer]

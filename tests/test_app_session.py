@@ -98,6 +98,25 @@ def test_metrics_and_skeletons_are_computed_once(session):
     assert coarser is not skeleton and coarser.radius > skeleton.radius
 
 
+def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
+    """The verdict's skeleton checks read the input's pieces and loops: the same at every iteration."""
+    import app.session as session_module
+    from skelcore import pipeline
+
+    inputs = []
+    real = session_module.persistence_summary
+    monkeypatch.setattr(session_module, "persistence_summary",
+                        lambda points, unit: inputs.append(points) or real(points, unit))
+    for _ in range(3):
+        session.step()
+    verdicts = [session.verdict(index, with_skeleton=True) for index in (1, 2, 3)]
+    assert len(inputs) == 1 and inputs[0] is session.cloud.points
+    skeleton = session.skeleton(3)
+    fresh = pipeline.skeleton_evidence(skeleton, session.history[3], session.cloud.points)
+    assert session.run.evidence[(3, session.skeleton_params)] == fresh
+    assert verdicts[-1] == session.verdict(3, with_skeleton=True)
+
+
 def test_bad_upload_leaves_the_session_alone(session):
     before = session.run
     with pytest.raises(InputError, match="garbage.ply"):
