@@ -33,7 +33,7 @@ points present, and every quantity compares them with iteration 0 at those ids.
 
 Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original shape, judged by the
 side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
-times the original bounding-box diagonal (points on the surface count as inside; skelcore.inside). A
+times the original object diagonal (skelcore.normalise.object_box; points on the surface count as inside; skelcore.inside). A
 point cloud is its own sample with MST-oriented PCA normals of 10 neighbours (orientation edges that cross
 a thin part are left out); a mesh is sampled densely with its face normals. The size X of a cloud is its RMS
 distance to its centroid (it follows the collapse of every cross-section; a bounding box only sees the
@@ -57,6 +57,7 @@ from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
 from .multires import POINT_BUDGET, reduce_cloud
+from .normalise import object_diagonal
 from .normals import away_from_centroid, orient_outward, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
 
@@ -141,7 +142,7 @@ class MetricsReference:
         if convention not in NORMAL_CONVENTIONS:
             raise ParameterError(f"convention={convention!r}: must be one of {', '.join(NORMAL_CONVENTIONS)}")
         thresholds = (thresholds or StabilityThresholds()).validated()
-        diagonal = float(np.linalg.norm(np.ptp(points0, axis=0)))
+        diagonal = object_diagonal(points0)
         if diagonal <= 0:
             raise InputError("points0: all points coincide")
         k = int(min(k, len(points0)))
@@ -191,7 +192,7 @@ class MetricsReference:
             iteration = previous.iteration + 1 if previous is not None else 1
         n_present = len(points)
         spread, spread0 = _spread(points), _spread(self.points[ids])
-        bbox = float(np.linalg.norm(np.ptp(points, axis=0)))
+        bbox = object_diagonal(points)
         rows = np.flatnonzero(self.evaluated[ids])
         if len(rows) == len(ids):
             rows = None

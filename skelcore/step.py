@@ -20,7 +20,7 @@ from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
 from .curveness import skeleton_scale_share
-from .normalise import Normalisation, robust_extent
+from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .solver import CholeskySolver
 
@@ -75,7 +75,7 @@ class RunStart:
     sizes0: np.ndarray  # s^0, the input's ring sizes
     auto_wl0: float  # 1 / (5 * mean one-ring edge length), cloudcontr's W_L0
     extent0: np.ndarray  # robust extent of the input, for the growth check
-    diagonal: float  # the input's bounding-box diagonal in the run's frame: the scale of curve-likeness
+    diagonal: float  # the input's object diagonal (normalise.object_box) in the run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
 
 
@@ -93,7 +93,7 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
                            params=params, timings={"rings": rings_time})
-    diagonal = float(np.linalg.norm(np.ptp(unit, axis=0)))
+    diagonal = object_diagonal(unit)
     return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, robust_extent(unit),
                     diagonal, state)
 
