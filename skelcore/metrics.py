@@ -87,6 +87,8 @@ class IterationMetrics:
     boundedness: dict
     curve: dict  # {"curve_share": share of all present points curve-like at the skeleton's scale}
     verdict: dict  # skelcore.verdict.judge of this iteration (label None at iteration 0)
+    present_ids: np.ndarray = field(repr=False, default=None)  # (n_present,) input ids of all the points present
+    positions: np.ndarray = field(repr=False, default=None)  # (n_present,3) their positions (the state's array)
 
     def per_point(self, quantity: str) -> np.ndarray:
         """(n_present,) values of "d_theta" or "delta_kappa" for every row of the evaluated points, NaN
@@ -192,6 +194,8 @@ class MetricsReference:
             iteration = previous.iteration + 1 if previous is not None else 1
         n_present = len(points)
         spread, spread0 = _spread(points), _spread(self.points[ids])
+        spread_before = spread0 if previous is None else _spread_before(previous, ids, n)
+        present = ids
         bbox = object_diagonal(points)
         rows = np.flatnonzero(self.evaluated[ids])
         if len(rows) == len(ids):
@@ -226,23 +230,33 @@ class MetricsReference:
         t = self.thresholds
         d_stats = distribution_stats(d_theta, D_THETA_RANGE, self.bins, t.peak_drop)
         k_stats = distribution_stats(delta_kappa, DELTA_KAPPA_RANGE, self.bins, t.peak_drop)
-        bounded = self._boundedness(points, spread, spread0, bbox, previous)
+        bounded = self._boundedness(points, spread, spread0, bbox, spread_before)
         verdict = judge(features({"d_theta": d_stats, "delta_kappa": k_stats, "boundedness": bounded,
                                   "curve": curve}), int(iteration), t)
         return IterationMetrics(int(iteration), ids, np.arange(n_present) if rows is None else rows, n_present,
                                 d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, curve,
-                                verdict)
+                                verdict, present, everything)
 
-    def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float,
-                     previous: IterationMetrics | None) -> dict:
-        """Inside share of the evaluated points; spread and bounding box of all the points present."""
+    def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float, before: float) -> dict:
+        """Inside share of the evaluated points; spread and bounding box of all the points present; `before` their
+        spread one iteration earlier."""
         inside = self.inside.contains(points)
-        before = previous.spread if previous is not None else spread0
         growth = spread / before - 1.0 if before > 0 else 0.0
         return {"inside_share": float(inside.mean()), "n_outside": int((~inside).sum()),
                 "spread_ratio": float(spread / spread0) if spread0 > 0 else 1.0,
                 "bbox_ratio": bbox / self.diagonal,
                 "growth": float(growth), "shrinking": bool(growth <= self.thresholds.shrink_tolerance)}
+
+
+def _spread_before(previous: IterationMetrics, ids: np.ndarray, n: int) -> float:
+    """The spread one iteration earlier of the points present now: X_{k+1} <= X_k compares one cloud, and when
+    points merge away (GLSkeleton) the spread of the ones left differs from that of all the earlier ones."""
+    if previous.positions is None:
+        return previous.spread
+    row_of = np.full(n, -1)
+    row_of[previous.present_ids] = np.arange(len(previous.present_ids))
+    rows = row_of[ids]
+    return previous.spread if (rows < 0).any() else _spread(previous.positions[rows])
 
 
 def _spread(points: np.ndarray) -> float:
