@@ -45,6 +45,17 @@ def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np
     return probes, ratio
 
 
+def curve_like_points(points: np.ndarray, radius: float, seed: int = 0) -> np.ndarray:
+    """(n,) whether each point is curve-like: the judgement of its nearest probe (the probes are an even
+    random subset, so a point's nearest probe lies within a probe spacing and sees the same neighbourhood)."""
+    probes, ratio = curve_likeness(points, radius, seed)
+    curve = ratio <= CURVE_RATIO
+    if len(probes) == len(points):
+        return curve
+    _, nearest = cKDTree(points[probes]).query(points, workers=-1)
+    return curve[nearest]
+
+
 def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
     """The share of measured points whose neighbourhood is curve-like (see the module); a point too isolated
     to be judged counts as not curve-like."""

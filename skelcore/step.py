@@ -19,9 +19,10 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import skeleton_scale_share
+from .curveness import curve_like_points, skeleton_scale_share
 from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
+from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
 TERMINATION_MESSAGES = {
@@ -145,6 +146,28 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
         if longest < params.collapse * before:
             failure = ("collapse", f"longest extent {longest / before:.0%} of the step before")
     return candidate, failure, timings
+
+
+def hold_curves(held: np.ndarray, wl: float, points: np.ndarray, params: ContractionParams,
+                diagonal: float) -> np.ndarray:
+    """W_L at which each point became curve-like at the skeleton's scale (inf while it is not), after a step
+    with `wl` that left the points at `points`. A curve-like point has reached the skeleton: more contraction
+    there only shortens the curve (curve-shortening flow), which pulls limbs' ends in and shrinks small loops
+    to points while a bulky part beside them is still contracting; so its W_L stays where it was. With
+    params.hold_curves off (the default) nothing is held, and a run retuned to off lets go."""
+    if not params.hold_curves:
+        return np.full_like(held, np.inf)
+    now = curve_like_points(points, SkeletonParams.sample_radius * diagonal)
+    return np.where(np.isinf(held) & now, wl, held)
+
+
+def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None) -> np.ndarray | None:
+    """Per-point factors on the Laplacian rows of eq. 2: the per-point contraction weights times W_L held / W_L
+    (hold_curves); None when all are 1."""
+    if not np.isfinite(held).any():
+        return weights
+    factors = np.minimum(wl, held) / wl
+    return factors if weights is None else weights * factors
 
 
 def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
