@@ -18,7 +18,7 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, contraction_rows, goes_on, hold_curves,
-                   record, retune, schedule, solve_stages, start_run, stopped)
+                   record, retune, rings_stalled, schedule, solve_stages, start_run, stopped)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "contract", "goes_on", "record", "retune",
            "run_contraction"]
@@ -64,12 +64,11 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         if failure is None:
             new_sizes = run.rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
-            # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold; while the rings still
-            # shrink, a cloud not yet curve-like (a sheet) goes on contracting, as long as each such step
-            # leaves it more curve-like (thin parts pulled into a blob would not)
+            # cloudcontr: stop once a_{t-1} - a_t < threshold; while the rings still shrink, a cloud not yet
+            # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
+            # (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            if iteration > 1 and drop < params.termination and not (
-                    drop >= 0 and goes_on(current, candidate, params, run.diagonal)):
+            if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             yield stopped(state, *failure, notes)

@@ -64,8 +64,8 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, contraction_rows, curve_like, goes_on, hold_curves, retune,
-                   schedule, solve_stages, start_run, stopped)
+from .step import (TERMINATION_MESSAGES, IterationState, contraction_rows, curve_like, hold_curves, retune,
+                   rings_stalled, schedule, solve_stages, start_run, stopped)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -119,8 +119,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params,
-                                                                                        run.diagonal)):
+        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
                           notes)
             return

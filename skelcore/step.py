@@ -176,6 +176,15 @@ def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -
     return params.curve_share <= 0 or skeleton_scale_share(points, diagonal) >= params.curve_share
 
 
+def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: np.ndarray, params: ContractionParams,
+                  diagonal: float) -> bool:
+    """cloudcontr's stop rule, from the second step on: the step shrank the rings' total size by `drop` (a
+    share of the input's), less than params.termination; except that while the rings still shrink, a step
+    that goes_on is taken."""
+    return iteration > 1 and drop < params.termination and not (
+        drop >= 0 and goes_on(current, candidate, params, diagonal))
+
+
 def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
     """Whether a step past the ring-ratio stall is taken: the candidate is less than params.curve_share
     curve-like at the skeleton's scale of `diagonal` (RunStart.diagonal) and more so than the current."""
