@@ -39,7 +39,7 @@ class Normalisation:
 ROBUST_SHARE = 0.01  # the share of points each side that a robust extent ignores
 # How far past the middle 98% a point may lie, in robust extents, and still belong to the object: a fence in
 # the manner of Tukey's. The object's own extremities (a tail, a branch tip, a noisy or partial scan's rim)
-# reach at most 0.25 on the 18 benchmark shapes and their scan-like variants; strays beyond are not the object.
+# reach at most 0.25 on the 20 benchmark shapes and their scan-like variants; strays beyond are not the object.
 OBJECT_FENCE = 0.5
 
 
