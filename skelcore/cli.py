@@ -53,7 +53,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="glskeleton: the largest share of points that may be absorbed in one step (1: the "
                             "authors' unlimited rule) (default: %(default)s)")
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
-                       help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays left out (default: %(default)s)")
+                       help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
+                            "left out (default: %(default)s)")
     group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")

@@ -65,5 +65,6 @@ def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
 
 def skeleton_scale_share(points: np.ndarray, diagonal: float, seed: int = 0) -> float:
     """curve_share of `points` at the skeleton's default sample radius, taken as that fraction of `diagonal`,
-    the input cloud's object diagonal (skelcore.normalise.object_diagonal): the scale at which the skeleton samples the contracted cloud."""
+    the input cloud's object diagonal (skelcore.normalise.object_diagonal): the scale at which the skeleton
+    samples the contracted cloud."""
     return curve_share(points, SkeletonParams.sample_radius * diagonal, seed)

@@ -33,12 +33,12 @@ points present, and every quantity compares them with iteration 0 at those ids.
 
 Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original shape, judged by the
 side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
-times the original object diagonal (skelcore.normalise.object_box; points on the surface count as inside; skelcore.inside). A
-point cloud is its own sample with MST-oriented PCA normals of 10 neighbours (orientation edges that cross
-a thin part are left out); a mesh is sampled densely with its face normals. The size X of a cloud is its RMS
+times the original object diagonal (skelcore.normalise.object_box; points on the surface count as inside;
+skelcore.inside). A point cloud is its own sample with MST-oriented PCA normals of 10 neighbours
+(orientation edges that cross a thin part are left out); a mesh is sampled densely with its face normals. The size X of a cloud is its RMS
 distance to its centroid (it follows the collapse of every cross-section; a bounding box only sees the
 extreme tips and stays put while a tube collapses): shrinking means X_k <= (1 + shrink_tolerance) X_{k-1},
-X_0 taken over the same ids; a fall of more than max_step_shrink in one iteration is a collapse.
+X_0 and X_{k-1} taken over the same ids (GLSkeleton merges points away); a fall of more than max_step_shrink in one iteration is a collapse.
 
 The verdict of an iteration is skelcore.verdict.judge over these figures.
 
@@ -195,7 +195,7 @@ class MetricsReference:
         n_present = len(points)
         spread, spread0 = _spread(points), _spread(self.points[ids])
         spread_before = spread0 if previous is None else _spread_before(previous, ids, n)
-        present = ids
+        present_ids = ids
         bbox = object_diagonal(points)
         rows = np.flatnonzero(self.evaluated[ids])
         if len(rows) == len(ids):
@@ -235,7 +235,7 @@ class MetricsReference:
                                   "curve": curve}), int(iteration), t)
         return IterationMetrics(int(iteration), ids, np.arange(n_present) if rows is None else rows, n_present,
                                 d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, curve,
-                                verdict, present, everything)
+                                verdict, present_ids, everything)
 
     def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float, before: float) -> dict:
         """Inside share of the evaluated points; spread and bounding box of all the points present; `before` their

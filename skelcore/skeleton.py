@@ -2,8 +2,8 @@
 
 After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topological core:
 1. ball-cover farthest point sampling of the contracted points, radius r = sample_radius * diagonal of the
-   ORIGINAL points' object box (skelcore.normalise.object_box: far strays left out), within each connected piece of the original surface; every point maps to
-   its nearest sample of its piece (skelcore.sampling);
+   ORIGINAL points' object box (skelcore.normalise.object_box: far strays left out), within each connected
+   piece of the original surface; every point maps to its nearest sample of its piece (skelcore.sampling);
 2. the ORIGINAL surface (its ring edges and the triangles among them) mapped through that map is a
    2-complex on the samples with the loops of the shape; it is reduced to a graph by elementary collapses
    and link-condition edge contractions, which keep its loops exactly (skelcore.collapse);

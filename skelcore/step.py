@@ -76,7 +76,7 @@ class RunStart:
     sizes0: np.ndarray  # s^0, the input's ring sizes
     auto_wl0: float  # 1 / (5 * mean one-ring edge length), cloudcontr's W_L0
     extent0: np.ndarray  # robust extent of the input, for the growth check
-    diagonal: float  # the input's object diagonal (normalise.object_box) in the run's frame: the scale of curve-likeness
+    diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
 
 
