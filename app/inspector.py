@@ -202,7 +202,8 @@ class Inspector:
         return self.session.params.replace(
             method=p.method.value, k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
             wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
-            max_iterations=int(p.max_iterations.value), termination=float(p.termination.value))
+            max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
+            hold_curves=bool(p.hold_curves.value))
 
     def _show_params(self, params) -> None:
         """Put a run's parameters into the panel (no client: the callbacks ignore it)."""
@@ -212,6 +213,7 @@ class Inspector:
         p.wh0.value, p.sl.value, p.wl_max.value = params.wh0, params.sl, params.wl_max
         p.k.value = params.k or 0
         p.max_iterations.value, p.termination.value = params.max_iterations, params.termination
+        p.hold_curves.value = params.hold_curves
 
     # ------------------------------------------------------------------ jobs (worker thread only)
     def _step(self, viewer: Viewer | None, client) -> None:

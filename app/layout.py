@@ -67,11 +67,13 @@ class ParameterWidgets:
     k: viser.GuiNumberHandle
     max_iterations: viser.GuiNumberHandle
     termination: viser.GuiNumberHandle
+    hold_curves: viser.GuiCheckboxHandle
     radius: viser.GuiSliderHandle
     restart: viser.GuiButtonHandle
 
     def contraction_handles(self) -> tuple:
-        return (self.method, self.wl0, self.wh0, self.sl, self.wl_max, self.k, self.max_iterations, self.termination)
+        return (self.method, self.wl0, self.wh0, self.sl, self.wl_max, self.k, self.max_iterations, self.termination,
+                self.hold_curves)
 
 
 @dataclass
@@ -190,10 +192,13 @@ def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius
     max_iterations = _number(gui, "Max iterations", "max_iterations", params.max_iterations, 1)
     termination = _number(gui, "Termination", "termination", params.termination, 0.0001,
                           hint="stop when the ring-size ratio falls by less")
+    hold_curves = gui.add_checkbox("Hold curves", params.hold_curves,
+                                   hint="a point keeps its W_L once curve-like: small handles and limb ends survive")
     radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
                             hint="skeleton ball radius, fraction of the bounding-box diagonal")
     restart = gui.add_button("Restart with these parameters")
-    return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, radius, restart)
+    return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, radius,
+                            restart)
 
 
 def build_view(gui: viser.GuiApi) -> ViewWidgets:

@@ -149,7 +149,8 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       CleaningParams says. `result.cloud` holds the points contracted
       (its `notes` say what was removed); the skeleton's correspondence, the states and `result.weights`
       follow those points.
-    sample_radius: the skeleton's ball radius, a fraction of the bounding-box diagonal.
+    sample_radius: the skeleton's ball radius, a fraction of the object's bounding-box diagonal
+        (points far outside the bulk of the cloud left out).
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.
     progress: called with one line per iteration (e.g. print).

@@ -39,6 +39,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--curve-share", type=float, default=defaults.curve_share,
                        help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
                             "(0: cloudcontr's rule alone) (default: %(default)s)")
+    group.add_argument("--hold-curves", action="store_true",
+                       help="each point keeps the W_L it had when it became curve-like, so curves neither shorten "
+                            "nor shrink their loops while bulkier parts contract: small handles on a body survive "
+                            "(default: W_L rises everywhere, as in cloudcontr)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
@@ -49,7 +53,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="glskeleton: the largest share of points that may be absorbed in one step (1: the "
                             "authors' unlimited rule) (default: %(default)s)")
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
-                       help="skeleton sample radius, a fraction of the bounding-box diagonal (default: %(default)s)")
+                       help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
+                            "left out (default: %(default)s)")
     group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
@@ -83,7 +88,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
     """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
-                             gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
+                             hold_curves=args.hold_curves, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
 
 

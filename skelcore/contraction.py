@@ -17,8 +17,8 @@ from . import glskeleton
 from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, goes_on, record, retune, schedule,
-                   solve_stages, start_run, stopped)
+from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, contraction_rows, goes_on, hold_curves,
+                   record, retune, rings_stalled, schedule, solve_stages, start_run, stopped)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "contract", "goes_on", "record", "retune",
            "run_contraction"]
@@ -51,29 +51,30 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
     state, ids, sizes0 = run.state, run.state.point_ids, run.sizes0
     current, sizes, ratio = run.unit, sizes0, 1.0
     solver = CholeskySolver()
+    held = np.full(len(points), np.inf)  # W_L held by curve-like points (step.hold_curves)
     for iteration in itertools.count(1):
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
-                                                              run.extent0, first_step=iteration == 1,
-                                                              stages=stages, row_weights=weights)
+                                                              run.extent0, first_step=iteration == 1, stages=stages,
+                                                              row_weights=contraction_rows(held, wl, weights))
         if stages:
             yield None
         if failure is None:
             new_sizes = run.rings.sizes(candidate)
             new_ratio = float(new_sizes.sum() / sizes0.sum())
-            # cloudcontr: from the second step on, stop once a_{t-1} - a_t < threshold; while the rings still
-            # shrink, a cloud not yet curve-like (a sheet) goes on contracting, as long as each such step
-            # leaves it more curve-like (thin parts pulled into a blob would not)
+            # cloudcontr: stop once a_{t-1} - a_t < threshold; while the rings still shrink, a cloud not yet
+            # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
+            # (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            if iteration > 1 and drop < params.termination and not (
-                    drop >= 0 and goes_on(current, candidate, params, run.diagonal)):
+            if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
             yield stopped(state, *failure, notes)
             return
         current, sizes, ratio = candidate, new_sizes, new_ratio
+        held = hold_curves(held, wl, current, params, run.diagonal)
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]

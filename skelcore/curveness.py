@@ -45,6 +45,17 @@ def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np
     return probes, ratio
 
 
+def curve_like_points(points: np.ndarray, radius: float, seed: int = 0) -> np.ndarray:
+    """(n,) whether each point is curve-like: the judgement of its nearest probe (the probes are an even
+    random subset, so a point's nearest probe lies within a probe spacing and sees the same neighbourhood)."""
+    probes, ratio = curve_likeness(points, radius, seed)
+    curve = ratio <= CURVE_RATIO
+    if len(probes) == len(points):
+        return curve
+    _, nearest = cKDTree(points[probes]).query(points, workers=-1)
+    return curve[nearest]
+
+
 def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
     """The share of measured points whose neighbourhood is curve-like (see the module); a point too isolated
     to be judged counts as not curve-like."""
@@ -54,5 +65,6 @@ def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
 
 def skeleton_scale_share(points: np.ndarray, diagonal: float, seed: int = 0) -> float:
     """curve_share of `points` at the skeleton's default sample radius, taken as that fraction of `diagonal`,
-    the input cloud's bounding-box diagonal: the scale at which the skeleton samples the contracted cloud."""
+    the input cloud's object diagonal (skelcore.normalise.object_diagonal): the scale at which the skeleton
+    samples the contracted cloud."""
     return curve_share(points, SkeletonParams.sample_radius * diagonal, seed)

@@ -64,8 +64,8 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, curve_like, goes_on, retune, schedule, solve_stages,
-                   start_run, stopped)
+from .step import (TERMINATION_MESSAGES, IterationState, contraction_rows, curve_like, hold_curves, retune,
+                   rings_stalled, schedule, solve_stages, start_run, stopped)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -89,6 +89,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     current, sizes, start_sizes, ratio = unit, sizes0, sizes0, 1.0
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
+    held = np.full(n, np.inf)  # W_L held by curve-like points (step.hold_curves)
     for iteration in itertools.count(1):
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
@@ -100,6 +101,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
+        row_weights = contraction_rows(held, wl, row_weights)
         laplacian_start = time.perf_counter()
         values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
         laplacian_time = time.perf_counter() - laplacian_start
@@ -117,8 +119,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        if iteration > 1 and drop < params.termination and not (drop >= 0 and goes_on(current, candidate, params,
-                                                                                        run.diagonal)):
+        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
                           notes)
             return
@@ -143,6 +144,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         timings["rings"] = time.perf_counter() - reduce_start
 
         current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
+        held = hold_curves(held[keep], wl, current, params, run.diagonal)
         start_sizes = rings.sizes(current) if len(current) < len(keep) else sizes
         share_removed = (len(ids) - len(current)) / n
         ids, owner, ratio = ids[keep], new_row[owner], new_ratio

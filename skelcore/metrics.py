@@ -33,12 +33,13 @@ points present, and every quantity compares them with iteration 0 at those ids.
 
 Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original shape, judged by the
 side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
-times the original bounding-box diagonal (points on the surface count as inside; skelcore.inside). A
-point cloud is its own sample with MST-oriented PCA normals of 10 neighbours (orientation edges that cross
-a thin part are left out); a mesh is sampled densely with its face normals. The size X of a cloud is its RMS
-distance to its centroid (it follows the collapse of every cross-section; a bounding box only sees the
-extreme tips and stays put while a tube collapses): shrinking means X_k <= (1 + shrink_tolerance) X_{k-1},
-X_0 taken over the same ids; a fall of more than max_step_shrink in one iteration is a collapse.
+times the original object diagonal (skelcore.normalise.object_box; points on the surface count as inside;
+skelcore.inside). A point cloud is its own sample with MST-oriented PCA normals of 10 neighbours
+(orientation edges that cross a thin part are left out); a mesh is sampled densely with its face normals.
+The size X of a cloud is its RMS distance to its centroid (it follows the collapse of every cross-section; a
+bounding box only sees the extreme tips and stays put while a tube collapses): shrinking means
+X_k <= (1 + shrink_tolerance) X_{k-1}, X_0 and X_{k-1} taken over the same ids (GLSkeleton merges points
+away); a fall of more than max_step_shrink in one iteration is a collapse.
 
 The verdict of an iteration is skelcore.verdict.judge over these figures.
 
@@ -57,6 +58,7 @@ from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
 from .multires import POINT_BUDGET, reduce_cloud
+from .normalise import object_diagonal
 from .normals import away_from_centroid, orient_outward, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
 
@@ -86,6 +88,8 @@ class IterationMetrics:
     boundedness: dict
     curve: dict  # {"curve_share": share of all present points curve-like at the skeleton's scale}
     verdict: dict  # skelcore.verdict.judge of this iteration (label None at iteration 0)
+    present_ids: np.ndarray = field(repr=False, default=None)  # (n_present,) input ids of all the points present
+    positions: np.ndarray = field(repr=False, default=None)  # (n_present,3) their positions (the state's array)
 
     def per_point(self, quantity: str) -> np.ndarray:
         """(n_present,) values of "d_theta" or "delta_kappa" for every row of the evaluated points, NaN
@@ -141,7 +145,7 @@ class MetricsReference:
         if convention not in NORMAL_CONVENTIONS:
             raise ParameterError(f"convention={convention!r}: must be one of {', '.join(NORMAL_CONVENTIONS)}")
         thresholds = (thresholds or StabilityThresholds()).validated()
-        diagonal = float(np.linalg.norm(np.ptp(points0, axis=0)))
+        diagonal = object_diagonal(points0)
         if diagonal <= 0:
             raise InputError("points0: all points coincide")
         k = int(min(k, len(points0)))
@@ -191,7 +195,9 @@ class MetricsReference:
             iteration = previous.iteration + 1 if previous is not None else 1
         n_present = len(points)
         spread, spread0 = _spread(points), _spread(self.points[ids])
-        bbox = float(np.linalg.norm(np.ptp(points, axis=0)))
+        spread_before = spread0 if previous is None else _spread_before(previous, ids, n)
+        present_ids = ids
+        bbox = object_diagonal(points)
         rows = np.flatnonzero(self.evaluated[ids])
         if len(rows) == len(ids):
             rows = None
@@ -225,23 +231,33 @@ class MetricsReference:
         t = self.thresholds
         d_stats = distribution_stats(d_theta, D_THETA_RANGE, self.bins, t.peak_drop)
         k_stats = distribution_stats(delta_kappa, DELTA_KAPPA_RANGE, self.bins, t.peak_drop)
-        bounded = self._boundedness(points, spread, spread0, bbox, previous)
+        bounded = self._boundedness(points, spread, spread0, bbox, spread_before)
         verdict = judge(features({"d_theta": d_stats, "delta_kappa": k_stats, "boundedness": bounded,
                                   "curve": curve}), int(iteration), t)
         return IterationMetrics(int(iteration), ids, np.arange(n_present) if rows is None else rows, n_present,
                                 d_theta, delta_kappa, normals, kappa, spread, d_stats, k_stats, bounded, curve,
-                                verdict)
+                                verdict, present_ids, everything)
 
-    def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float,
-                     previous: IterationMetrics | None) -> dict:
-        """Inside share of the evaluated points; spread and bounding box of all the points present."""
+    def _boundedness(self, points: np.ndarray, spread: float, spread0: float, bbox: float, before: float) -> dict:
+        """Inside share of the evaluated points; spread and bounding box of all the points present; `before` their
+        spread one iteration earlier."""
         inside = self.inside.contains(points)
-        before = previous.spread if previous is not None else spread0
         growth = spread / before - 1.0 if before > 0 else 0.0
         return {"inside_share": float(inside.mean()), "n_outside": int((~inside).sum()),
                 "spread_ratio": float(spread / spread0) if spread0 > 0 else 1.0,
                 "bbox_ratio": bbox / self.diagonal,
                 "growth": float(growth), "shrinking": bool(growth <= self.thresholds.shrink_tolerance)}
+
+
+def _spread_before(previous: IterationMetrics, ids: np.ndarray, n: int) -> float:
+    """The spread one iteration earlier of the points present now: X_{k+1} <= X_k compares one cloud, and when
+    points merge away (GLSkeleton) the spread of the ones left differs from that of all the earlier ones."""
+    if previous.positions is None:
+        return previous.spread
+    row_of = np.full(n, -1)
+    row_of[previous.present_ids] = np.arange(len(previous.present_ids))
+    rows = row_of[ids]
+    return previous.spread if (rows < 0).any() else _spread(previous.positions[rows])
 
 
 def _spread(points: np.ndarray) -> float:

@@ -23,6 +23,7 @@ from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError, OutputError, ParameterError, SkelError
 from .labels import check_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
+from .normalise import object_diagonal
 from .params import ContractionParams, default_k
 from .persistence import persistence_summary
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
@@ -40,7 +41,7 @@ EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds t
 class RunOptions:
     """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
     params: ContractionParams = ContractionParams()
-    sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the bounding-box diagonal
+    sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the object's diagonal
     seed: int = 0
     sample: int | None = None  # mesh input: points sampled evenly over the surface
     voxel_size: float | None = None
@@ -259,9 +260,9 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
 
 def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
-    radius, a fraction of the input cloud's bounding-box diagonal (the skeleton's own scale, which the
+    radius, a fraction of the input cloud's object diagonal (the skeleton's own scale, which the
     contraction's stop rule, skelcore.step.goes_on, and the verdict also use)."""
-    return skeleton_scale_share(state.points, float(np.linalg.norm(np.ptp(cloud.points, axis=0))))
+    return skeleton_scale_share(state.points, object_diagonal(cloud.points))
 
 
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],

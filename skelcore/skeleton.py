@@ -2,8 +2,8 @@
 
 After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topological core:
 1. ball-cover farthest point sampling of the contracted points, radius r = sample_radius * diagonal of the
-   ORIGINAL points' bounding box, within each connected piece of the original surface; every point maps to
-   its nearest sample of its piece (skelcore.sampling);
+   ORIGINAL points' object box (skelcore.normalise.object_box: far strays left out), within each connected
+   piece of the original surface; every point maps to its nearest sample of its piece (skelcore.sampling);
 2. the ORIGINAL surface (its ring edges and the triangles among them) mapped through that map is a
    2-complex on the samples with the loops of the shape; it is reduced to a graph by elementary collapses
    and link-condition edge contractions, which keep its loops exactly (skelcore.collapse);
@@ -28,6 +28,7 @@ import numpy as np
 from .collapse import SampleComplex, collapse_to_graph, surface_triangles
 from .errors import InputError, ParameterError
 from .io import as_points
+from .normalise import object_diagonal
 from .loops import SurfaceProbe, cut_false_loops
 from .recentre import recentre
 from .refine import drop_collinear, merge_junctions, prune_spurs
@@ -37,7 +38,7 @@ from .sampling import ball_cover_by_piece
 @dataclass(frozen=True)
 class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
-    sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' bounding-box diagonal
+    sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
@@ -114,7 +115,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     fans cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles."""
     params = (params or SkeletonParams()).validated()
     contracted, original, edges, triangles = _checked(contracted, original, surface)
-    radius = params.sample_radius * float(np.linalg.norm(original.max(axis=0) - original.min(axis=0)))
+    radius = params.sample_radius * object_diagonal(original)
 
     samples, owner = ball_cover_by_piece(contracted, radius, edges)
     xyz = [tuple(p) for p in contracted[samples].tolist()]

@@ -133,6 +133,44 @@ def chain(links: int = 3):
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 
+def handled_ball(handles: int = 3):
+    """A ball of radius 1 with `handles` small ring handles (ring radius 0.3, tube 0.07) standing on it, half
+    sunk, at spread-out directions: genus `handles`, with loops small beside the body (an elephant's handles)."""
+    m3d = _manifold()
+    ball = m3d.Manifold.sphere(1.0, SEGMENTS)
+    handle = _upright(_torus(0.3, 0.07))  # in the xz plane, around the y axis
+    parts = [ball]
+    for i in range(handles):  # golden-angle directions on the upper half: apart from each other
+        height = 0.8 - 1.2 * i / max(handles - 1, 1)
+        azimuth = np.degrees(2.39996 * i)
+        tilt = np.degrees(np.arccos(height))
+        # standing on the north pole at 1.15 (its inner arc sunk), then turned to its direction
+        parts.append(handle.translate((0.0, 0.0, 1.15)).rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
+    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+
+
+def trefoil(minor: float = 0.25, steps: int = 400):
+    """A tube of radius `minor` along the trefoil knot (sin t + 2 sin 2t, cos t - 2 cos 2t, -sin 3t): genus 1,
+    knotted. Its strands pass 1.21 apart at the closest, so the gap (0.71) is over 8 standard deviations of the
+    strongest benchmark noise. The tube's frame is the tangent's cross product with z (never vertical: the
+    tangent's horizontal part is at least 3 long), so the frame closes on itself."""
+    m3d = _manifold()
+    t = 2 * np.pi * np.arange(steps) / steps
+    centre = np.c_[np.sin(t) + 2 * np.sin(2 * t), np.cos(t) - 2 * np.cos(2 * t), -np.sin(3 * t)]
+    tangent = np.c_[np.cos(t) + 4 * np.cos(2 * t), -np.sin(t) + 4 * np.sin(2 * t), -3 * np.cos(3 * t)]
+    normal = np.cross(tangent, [0.0, 0.0, 1.0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    binormal = np.cross(tangent / np.linalg.norm(tangent, axis=1, keepdims=True), normal)
+    angle = 2 * np.pi * np.arange(SEGMENTS) / SEGMENTS
+    rim = (np.cos(angle)[None, :, None] * normal[:, None] + np.sin(angle)[None, :, None] * binormal[:, None])
+    vertices = (centre[:, None] + minor * rim).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(steps), np.arange(SEGMENTS), indexing="ij")
+    a, b = i * SEGMENTS + j, ((i + 1) % steps) * SEGMENTS + j
+    c, d = ((i + 1) % steps) * SEGMENTS + (j + 1) % SEGMENTS, i * SEGMENTS + (j + 1) % SEGMENTS
+    faces = np.vstack([np.c_[a.ravel(), b.ravel(), c.ravel()], np.c_[a.ravel(), c.ravel(), d.ravel()]])
+    return m3d.Manifold(m3d.Mesh(vert_properties=vertices.astype(np.float32), tri_verts=faces.astype(np.uint32)))
+
+
 # name -> (builder, ends of a correct skeleton or None when the construction does not fix them, description)
 SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "block_1_hole": (lambda: drilled_block(1), 0, "plate with 1 drilled hole"),
@@ -145,6 +183,8 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "linked_rings_3": (lambda: linked_rings(3), 0, "three rings linked in a chain"),
     "gear": (gear, None, "12-tooth gear with a bore and 4 lightening holes"),
     "chain": (chain, 0, "three oval chain links"),
+    "trefoil": (trefoil, 0, "tube along a trefoil knot"),
+    "handled_ball": (handled_ball, None, "ball with 3 small ring handles (genus 3)"),
 }
 
 

@@ -19,9 +19,10 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import skeleton_scale_share
-from .normalise import Normalisation, robust_extent
+from .curveness import curve_like_points, skeleton_scale_share
+from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
+from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
 TERMINATION_MESSAGES = {
@@ -75,7 +76,7 @@ class RunStart:
     sizes0: np.ndarray  # s^0, the input's ring sizes
     auto_wl0: float  # 1 / (5 * mean one-ring edge length), cloudcontr's W_L0
     extent0: np.ndarray  # robust extent of the input, for the growth check
-    diagonal: float  # the input's bounding-box diagonal in the run's frame: the scale of curve-likeness
+    diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
 
 
@@ -93,7 +94,7 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
                            params=params, timings={"rings": rings_time})
-    diagonal = float(np.linalg.norm(np.ptp(unit, axis=0)))
+    diagonal = object_diagonal(unit)
     return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, robust_extent(unit),
                     diagonal, state)
 
@@ -147,10 +148,41 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     return candidate, failure, timings
 
 
+def hold_curves(held: np.ndarray, wl: float, points: np.ndarray, params: ContractionParams,
+                diagonal: float) -> np.ndarray:
+    """W_L at which each point became curve-like at the skeleton's scale (inf while it is not), after a step
+    with `wl` that left the points at `points`. A curve-like point has reached the skeleton: more contraction
+    there only shortens the curve (curve-shortening flow), which pulls limbs' ends in and shrinks small loops
+    to points while a bulky part beside them is still contracting; so its W_L stays where it was. With
+    params.hold_curves off (the default) nothing is held, and a run retuned to off lets go."""
+    if not params.hold_curves:
+        return np.full_like(held, np.inf)
+    now = curve_like_points(points, SkeletonParams.sample_radius * diagonal)
+    return np.where(np.isinf(held) & now, wl, held)
+
+
+def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None) -> np.ndarray | None:
+    """Per-point factors on the Laplacian rows of eq. 2: the per-point contraction weights times W_L held / W_L
+    (hold_curves); None when all are 1."""
+    if not np.isfinite(held).any():
+        return weights
+    factors = np.minimum(wl, held) / wl
+    return factors if weights is None else weights * factors
+
+
 def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
     """Whether at least params.curve_share of the points are curve-like at the skeleton's scale of `diagonal`
     (skelcore.curveness.skeleton_scale_share; always, with share 0)."""
     return params.curve_share <= 0 or skeleton_scale_share(points, diagonal) >= params.curve_share
+
+
+def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: np.ndarray, params: ContractionParams,
+                  diagonal: float) -> bool:
+    """cloudcontr's stop rule, from the second step on: the step shrank the rings' total size by `drop` (a
+    share of the input's), less than params.termination; except that while the rings still shrink, a step
+    that goes_on is taken."""
+    return iteration > 1 and drop < params.termination and not (
+        drop >= 0 and goes_on(current, candidate, params, diagonal))
 
 
 def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:

@@ -27,7 +27,6 @@ FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" co
 CANDIDATES = {
     "max_peaks": [1, 2, 3, MANY_PEAKS],
     "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
-    "d_theta_tolerance": [0.05, 0.1, 0.15, 0.2, 0.3, 0.5],
     "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
     "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
     "max_step_shrink": [0.3, 0.5, 0.7, 0.9, 1.0],
@@ -41,7 +40,8 @@ CANDIDATES = {
     "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
 }
 # Not calibrated: piece_gap and loop_birth stay at 2 sample radii, the widest gap the skeleton's ball cover
-# (samples r apart, each covering r) bridges, so pieces and loops are counted at the skeleton's own scale.
+# (samples r apart, each covering r) bridges, so pieces and loops are counted at the skeleton's own scale;
+# d_theta_tolerance stays at half the target (skelcore.verdict.StabilityThresholds says why).
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
 PERMISSIVE = {"max_peaks": MANY_PEAKS, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
               "min_inside_share": 0.0, "max_step_shrink": 1.0, "shrink_tolerance": 1.0, "min_spread_ratio": 0.0,

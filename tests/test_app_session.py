@@ -47,6 +47,13 @@ def test_weight_change_applies_from_the_next_step(session):
     assert state.wl == pytest.approx(session.history[0].wl * 2.0)
 
 
+def test_the_curve_hold_can_be_switched_on_during_a_run(session):
+    session.step()
+    message = session.tune(session.params.replace(hold_curves=True))
+    assert "hold_curves=True from iteration 2" in message
+    assert session.step().params.hold_curves
+
+
 def test_tuning_after_the_end_waits_for_restart(session):
     while session.step() is not None:
         pass

@@ -95,3 +95,18 @@ def test_denoising_reads_cleanings_neighbours_with_the_same_result():
     assert (rows[:, 0] < 0).any() and (rows[:, 0] >= 0).mean() > 0.9  # both paths: read and re-queried
     shared = cleaned(Cloud(points=points, name="x"), CleaningParams(), report).points
     assert np.array_equal(shared, denoised(points[report.kept], CleaningParams().neighbours))
+
+
+def test_far_strays_kept_by_cleaning_do_not_rescale_the_object():
+    """With cleaning off, a stray cluster ten object sizes away changes neither the working frame's scale nor
+    the skeleton's sample radius; a clean cloud's object box is its whole box."""
+    import skelcore
+    from skelcore.normalise import Normalisation, object_box
+
+    torus = ring(2000)
+    assert np.array_equal(np.stack(object_box(torus)), np.stack([torus.min(axis=0), torus.max(axis=0)]))
+    strays = np.random.default_rng(3).normal(0, 0.05, (15, 3)) + [25.0, 25.0, 0.0]
+    scan = np.vstack([torus, strays])
+    assert Normalisation.fit(scan).scale == pytest.approx(Normalisation.fit(torus).scale)
+    plain, strayed = (skelcore.skeletonize(points, cleaning=False) for points in (torus, scan))
+    assert strayed.skeleton.radius == pytest.approx(plain.skeleton.radius)

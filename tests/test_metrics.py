@@ -212,6 +212,19 @@ def test_point_ids_compare_with_the_same_input_points():
         MetricsReference.from_points(points, faces=np.array([[0, 1, len(points)]]))
 
 
+def test_shrinking_compares_the_same_points_when_points_merge_away():
+    """X_{k+1} <= X_k compares one cloud: when the points near the centre merge away (GLSkeleton), the spread
+    of the ones left is larger than that of all the earlier points, yet none of them moved."""
+    points = capsule()
+    reference = MetricsReference.from_points(points)
+    first = reference.evaluate(points, np.arange(len(points)), iteration=1)
+    far = np.linalg.norm(points - points.mean(axis=0), axis=1)
+    kept = np.flatnonzero(far > np.median(far))
+    second = reference.evaluate(points[kept], kept, previous=first, iteration=2)
+    assert second.spread > 1.05 * first.spread
+    assert second.boundedness["growth"] == pytest.approx(0.0) and second.boundedness["shrinking"]
+
+
 def test_large_clouds_are_judged_on_a_fixed_sample():
     points = capsule(800)
     reference = MetricsReference.from_points(points, max_points=200)

@@ -7,6 +7,7 @@ import pytest
 from skelcore.cli import main
 from skelcore.study import RUNS_FILE, load_runs, run_study
 from skelcore.study_analysis import auc, goals, split_of
+from skelcore.verdict import StabilityThresholds
 
 
 @pytest.mark.slow
@@ -69,9 +70,9 @@ def test_goals_count_forbidden_stable_runs():
     assert json.dumps(result)
 
 
-def _run(setting, iterations, right, d_mean=0.5):
+def _run(setting, iterations, right, d_mean=0.5, symmetry=0.9):
     """A study record with the figures the verdict reads (a ring whose skeleton agrees with its cloud)."""
-    stats = lambda mean: {"mean": mean, "peaks": {"count": 1}, "symmetry": 0.9}
+    stats = lambda mean: {"mean": mean, "peaks": {"count": 1}, "symmetry": symmetry}
     last = {"d_theta": stats(d_mean), "delta_kappa": stats(0.0), "curve": {"curve_share": 0.8},
             "boundedness": {"inside_share": 1.0, "growth": -0.05, "spread_ratio": 0.8}}
     evidence = {"nodes": 30, "components": 1, "cycles": 1, "cloud_pieces": {"2": 1}, "input_pieces": {"2": 1},
@@ -84,9 +85,10 @@ def test_calibration_keeps_the_floors_and_is_no_stricter_than_the_data_demand():
     from skelcore.study_analysis import calibrate
 
     records = [_run("default", 4, True) for _ in range(5)]
-    records += [_run("stop after 1", 1, False), _run("default", 4, False, d_mean=0.1)]
+    records += [_run("stop after 1", 1, False), _run("default", 4, False, symmetry=0.4)]
     fitted = calibrate(records, "outward", passes=2, restarts=2)
     assert fitted.min_steps == 2  # the one-step run kept out, at the floor
-    assert fitted.d_theta_tolerance == 0.3  # the loosest that keeps the mean of 0.1 out
+    assert fitted.min_symmetry == 0.5  # the loosest that keeps the symmetry of 0.4 out
+    assert fitted.d_theta_tolerance == StabilityThresholds().d_theta_tolerance  # not calibrated
     assert fitted.max_peaks == 100 and fitted.min_curve_share == 0.0  # criteria the data do not need: off
     assert fitted.min_spread_ratio == 0.2  # the size rule's floor, never off

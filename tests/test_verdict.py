@@ -34,6 +34,15 @@ def test_iteration_zero_has_no_verdict_and_later_ones_name_their_iteration():
     assert "No verdict" in explanation_markdown(judge(features(entry()), 0))
 
 
+def test_an_iteration_that_has_barely_contracted_is_not_yet_converged_by_default():
+    """A cloud whose normals have barely turned (mean D_theta 0.03, nearer its start 0 than its target 0.5)
+    has not contracted, whatever else passes: seen on an 80k torus at iteration 2 with a ring ratio of 0.95."""
+    verdict = judge(features(entry(d_mean=0.03, linear=0.0), evidence()), 2)
+    assert verdict["label"] == "not yet converged"
+    assert any(reason.startswith("mean D_theta: 0.03") for reason in verdict["reasons"])
+    assert judge(features(entry(d_mean=0.3), evidence()), 2)["label"] == "stable"
+
+
 def test_values_are_stated_plainly():
     verdict = judge(features(entry(d_mean=0.26)), 2, T)
     assert verdict["label"] == "not yet converged"
