@@ -214,7 +214,10 @@ class MetricsReference:
         else:
             raise InputError("point_ids: none of the present points is among the evaluated ones")
         outward = self.convention == "outward"
-        normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
+        if everyone and points is self.points:  # the input itself (iteration 0): its features are known
+            normals, kappa = self.normals[ids], self.kappa[ids]
+        else:
+            normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
         curve = {"curve_share": skeleton_scale_share(points, self.diagonal)}
         everything, points = points, (points if rows is None else points[rows])
         undefined = ~np.isfinite(normals).all(axis=1)
