@@ -15,8 +15,7 @@ Pieces are single-linkage clusters, so a spanning forest of shortest joins gives
 (the edges that end a component in its 0-dimensional persistence) when the loops are wanted too, and the
 Euclidean minimum spanning tree of a k-d tree's neighbour pairs when only the pieces are (`piece_counts`, an
 input cloud's). Both forests join the same points at the same gaps: the minimum spanning tree's edges are
-Gabriel edges, which enter the complex at alpha = (length/2)^2, and no edge of the complex is shorter than
-2 sqrt(alpha).
+Gabriel edges, which enter the complex at alpha = (length/2)^2, and no edge enters it earlier than that.
 """
 from __future__ import annotations
 
