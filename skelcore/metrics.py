@@ -201,8 +201,9 @@ class MetricsReference:
         if iteration is None:
             iteration = previous.iteration + 1 if previous is not None else 1
         n_present = len(points)
-        everyone = len(ids) == n and np.array_equal(ids, np.arange(n))  # X_0 is known
-        spread, spread0 = _spread(points), (self.spread if everyone else _spread(self.points[ids]))
+        everyone = len(ids) == n and np.array_equal(ids, np.arange(n))  # every input point, in order
+        known = everyone and np.isfinite(self.spread)  # X_0 of the whole input, set by from_points
+        spread, spread0 = _spread(points), (self.spread if known else _spread(self.points[ids]))
         spread_before = spread0 if previous is None else _spread_before(previous, ids, n)
         present_ids = ids
         bbox = object_diagonal(points)
