@@ -57,7 +57,7 @@ from .errors import InputError, ParameterError
 from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
-from .multires import POINT_BUDGET, reduce_cloud
+from .multires import POINT_BUDGET, Reduction, reduce_cloud
 from .normalise import object_diagonal
 from .normals import away_from_centroid, orient_outward, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
@@ -127,11 +127,16 @@ class MetricsReference:
     inside: "InsideTest" = field(repr=False)  # the original shape, for boundedness
     evaluated: np.ndarray = field(repr=False)  # (n,) bool: input points whose metrics are computed
     convention: str = NORMAL_CONVENTION  # how normals are centred and signed (module docstring)
+    spread: float = float("nan")  # X_0 of the whole input, for the iterations where every point is present
 
     @classmethod
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
-                    seed: int = 0, convention: str = NORMAL_CONVENTION) -> "MetricsReference":
+                    seed: int = 0, convention: str = NORMAL_CONVENTION,
+                    reduction: Reduction | None = None) -> "MetricsReference":
+        """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction
+        of points0 at POINT_BUDGET when the caller has made it already (skelcore.multires.reduce_cloud); a
+        large cloud's inside test samples its surface by these voxel centroids."""
         points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
@@ -168,13 +173,15 @@ class MetricsReference:
             # The inside test needs the surface's own normals: k neighbours wrap around a thin tube, whose
             # PCA normal then runs along its axis, so a small neighbourhood gives them. A large cloud's
             # surface is sampled by voxel centroids (multi-resolution's point budget, spacing far below band).
-            reduction = reduce_cloud(points0, POINT_BUDGET)
+            if reduction is None or reduction.n_input != len(points0):
+                reduction = reduce_cloud(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
             surface_normals, _, surface_idx = pca_features(samples, min(_SURFACE_NEIGHBOURS, len(samples)),
                                                            collapsed=_COLLAPSED * diagonal)
             sample_normals = orient_outward(samples, surface_normals, surface_idx)
         inside = InsideTest.from_samples(samples, sample_normals, band)
-        return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated, convention)
+        return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated, convention,
+                   _spread(points0))
 
     def evaluate(self, points, point_ids=None, previous: IterationMetrics | None = None,
                  iteration: int | None = None) -> IterationMetrics:
@@ -194,7 +201,9 @@ class MetricsReference:
         if iteration is None:
             iteration = previous.iteration + 1 if previous is not None else 1
         n_present = len(points)
-        spread, spread0 = _spread(points), _spread(self.points[ids])
+        everyone = len(ids) == n and np.array_equal(ids, np.arange(n))  # every input point, in order
+        known = everyone and np.isfinite(self.spread)  # X_0 of the whole input, set by from_points
+        spread, spread0 = _spread(points), (self.spread if known else _spread(self.points[ids]))
         spread_before = spread0 if previous is None else _spread_before(previous, ids, n)
         present_ids = ids
         bbox = object_diagonal(points)
@@ -206,7 +215,10 @@ class MetricsReference:
         else:
             raise InputError("point_ids: none of the present points is among the evaluated ones")
         outward = self.convention == "outward"
-        normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
+        if everyone and points is self.points:  # the input itself (iteration 0): its features are known
+            normals, kappa = self.normals[ids], self.kappa[ids]
+        else:
+            normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
         curve = {"curve_share": skeleton_scale_share(points, self.diagonal)}
         everything, points = points, (points if rows is None else points[rows])
         undefined = ~np.isfinite(normals).all(axis=1)

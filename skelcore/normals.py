@@ -51,6 +51,9 @@ def _covariances(points: np.ndarray, idx: np.ndarray, anchors: np.ndarray | None
     m, k = idx.shape
     # Neighbourhood means of x and x x^T at once: one sparse averaging operator, 9 columns.
     origin = points.mean(axis=0)
+    if idx.size < len(points):  # a few rows of a large cloud: the columns of the neighbours only
+        used, idx = np.unique(idx, return_inverse=True)
+        points, idx = points[used], idx.reshape(m, k)
     x, y, z = (points - origin).T
     columns = np.column_stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z])
     average = sp.csr_matrix((np.full(m * k, 1.0 / k), idx.ravel(), np.arange(0, m * k + 1, k)),

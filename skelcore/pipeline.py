@@ -25,7 +25,7 @@ from .labels import check_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .normalise import object_diagonal
 from .params import ContractionParams, default_k
-from .persistence import persistence_summary
+from .persistence import persistence_summary, piece_counts
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
 from .solver import backend
 from .verdict import run_verdict
@@ -117,11 +117,12 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
 
 def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None) -> dict:
     """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the pieces and loops
-    of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius.
-    source: persistence_summary of `original` at that radius, when already known."""
+    of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
+    (only the contracted cloud's loops need a complex: the input's pieces come from piece_counts).
+    source: {"pieces": piece_counts of `original` at that radius}, when already known."""
     topology = skeleton.topology()
     cloud = persistence_summary(state.points, skeleton.radius)
-    source = source or persistence_summary(original, skeleton.radius)
+    source = source or {"pieces": piece_counts(original, skeleton.radius)}
     return {"nodes": skeleton.graph.number_of_nodes(), "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
             "input_pieces": source["pieces"]}
@@ -131,8 +132,12 @@ class IterationMetricsCache:
     """The paper's metrics of each state of one run, computed on demand, once, in iteration order
     (each iteration's normals are oriented from the one before). A restarted run needs a new cache."""
 
-    def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0, convention: str = NORMAL_CONVENTION) -> None:
-        self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention)
+    def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0, convention: str = NORMAL_CONVENTION,
+                 reduction: multires.Reduction | None = None) -> None:
+        """reduction: the cloud's voxel reduction at multires.POINT_BUDGET, when the run made it (the inside
+        test samples a large cloud's surface by it)."""
+        self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention,
+                                                      reduction=reduction)
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
@@ -236,8 +241,10 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             carrier = reduction.carrier(reduced[0].rings)
             states = [reduction.lift(state, carrier) for state in reduced]
             clock.mark("carry")
-        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed,
-                                        options.normal_convention).all(states)
+        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one.
+        surface = reduction if options.point_budget == multires.POINT_BUDGET else None
+        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention,
+                                        surface).all(states)
         clock.mark("metrics")
     except SkelError as error:
         raise named(error, cloud.name) from None

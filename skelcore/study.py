@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
@@ -223,6 +222,8 @@ def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS),
                 last = records[0]
                 progress(f"{len(done)} runs: {last['shape']} {last['variant']} seed {last['seed']}")
         if jobs > 1:
+            from concurrent.futures import ProcessPoolExecutor  # not at import: the CLI reads SETTINGS on every start
+
             with ProcessPoolExecutor(jobs) as pool:
                 for records in pool.map(_job, todo):
                     keep(records)

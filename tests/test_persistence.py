@@ -1,7 +1,7 @@
 """Pieces and loops of point clouds from the alpha complex."""
 import numpy as np
 
-from skelcore.persistence import persistence_summary
+from skelcore.persistence import persistence_summary, piece_counts
 from skelcore.verdict import StabilityThresholds, count_loops, count_pieces
 
 
@@ -31,3 +31,15 @@ def test_two_rings_apart_are_two_pieces_and_a_stray_point_is_none():
 def test_a_collapsed_cloud_has_one_piece_and_no_loop():
     summary = persistence_summary(np.zeros((50, 3)), unit=0.05)
     assert count_pieces(summary["pieces"], StabilityThresholds()) == 1 and summary["loops"] == []
+
+
+def test_the_pieces_alone_are_those_of_the_complex():
+    rng = np.random.default_rng(3)
+    blobs = np.concatenate([rng.normal(size=(400, 3)) * 0.05, rng.normal(size=(300, 3)) * 0.05 + (0.4, 0, 0),
+                            rng.normal(size=(5, 3)) * 0.05 + (3.0, 0, 0)])  # two pieces apart 3 to 7 units, a stray one
+    clouds = [ring(), np.concatenate([ring(), ring(centre=(5.0, 0.0, 0.0), seed=1), [[2.5, 3.0, 0.0]]]),
+              blobs, ring(n=5000), np.zeros((50, 3))]
+    for points in clouds:
+        summary = persistence_summary(points, unit=0.05)
+        assert piece_counts(points, unit=0.05) == summary["pieces"]
+    assert len(set(persistence_summary(blobs, unit=0.05)["pieces"].values())) > 1  # the gaps part them differently
