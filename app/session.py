@@ -24,7 +24,7 @@ from skelcore.errors import ParameterError
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
-from skelcore.persistence import persistence_summary
+from skelcore.persistence import piece_counts
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
@@ -254,7 +254,7 @@ class Session:
             if key not in run.evidence:
                 skeleton = self.skeleton(index, run)
                 if skeleton.radius not in run.input_topology:  # the same at every iteration: computed once
-                    run.input_topology[skeleton.radius] = persistence_summary(run.cloud.points, skeleton.radius)
+                    run.input_topology[skeleton.radius] = {"pieces": piece_counts(run.cloud.points, skeleton.radius)}
                 run.evidence[key] = pipeline.skeleton_evidence(skeleton, run.history[index], run.cloud.points,
                                                                run.input_topology[skeleton.radius])
             evidence = run.evidence[key]

@@ -106,13 +106,13 @@ def test_metrics_and_skeletons_are_computed_once(session):
 
 
 def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
-    """The verdict's skeleton checks read the input's pieces and loops: the same at every iteration."""
+    """The verdict's skeleton checks read the input's pieces: the same at every iteration."""
     import app.session as session_module
     from skelcore import pipeline
 
     inputs = []
-    real = session_module.persistence_summary
-    monkeypatch.setattr(session_module, "persistence_summary",
+    real = session_module.piece_counts
+    monkeypatch.setattr(session_module, "piece_counts",
                         lambda points, unit: inputs.append(points) or real(points, unit))
     for _ in range(3):
         session.step()
