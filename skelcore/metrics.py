@@ -13,14 +13,15 @@ signed cosine, so how the signs are chosen decides what the D_theta histogram sh
 - "outward" (the paper's reading, the default): eq. 6 centred on the anchor point (the covariance of the
   neighbours about the point itself, not about their mean), and every normal, at iteration 0 and at k,
   oriented away from its cloud's centroid. D_theta moves from left-skewed toward a bell centred on 0.5 as
-  the paper describes (in `skelcore study`, 16 of 25 default runs end within 0.1 of 0.5 with one peak).
+  the paper describes (in `skelcore study`, 18 of 27 default runs end within 0.1 of 0.5 with one peak).
 - "tracked": mean-centred covariance and each normal's sign carried over from the previous iteration
   (n_k . n_{k-1} >= 0): D_theta is the total turn of a continuous normal field, 0 for an unchanged cloud;
-  its mean ends at 0.19-0.39 (none of 25 default runs near 0.5).
-The study (375 runs, README "The stability verdict") found outward D_theta predicting a right skeleton
-better (ROC AUC of its mean 0.70 [0.64, 0.75] against 0.60 [0.55, 0.66] tracked, of its symmetry 0.70
-against 0.63) and the calibrated verdicts labelling about the same held-out runs (59 and 61, all right),
-so the default is the one that shows the paper's behaviour. Reference normals for the boundedness test are always MST-oriented (Hoppe et al. 1992).
+  its mean ends at 0.19-0.39 (none of 27 default runs near 0.5).
+The study (810 runs, README "The stability verdict") found outward D_theta predicting a right skeleton
+better (ROC AUC of its mean 0.70 [0.67, 0.74] against 0.59 [0.55, 0.63] tracked, of its symmetry 0.70
+against 0.61) and the calibrated verdicts labelling the same number of held-out runs (126 each, all right),
+so the default is the one that shows the paper's behaviour. Reference normals for the boundedness test are
+always MST-oriented (Hoppe et al. 1992).
 A neighbourhood that has collapsed to a point has no normal or curvature: its values are NaN, left out
 of the statistics (counted in "n_undefined"); a tracked normal carries the previous one forward.
 
