@@ -265,7 +265,7 @@ class MetricsReference:
 def _spread_before(previous: IterationMetrics, ids: np.ndarray, n: int) -> float:
     """The spread one iteration earlier of the points present now: X_{k+1} <= X_k compares one cloud, and when
     points merge away (GLSkeleton) the spread of the ones left differs from that of all the earlier ones."""
-    if previous.positions is None:
+    if previous.positions is None or np.array_equal(previous.present_ids, ids):  # the same points (LBC)
         return previous.spread
     row_of = np.full(n, -1)
     row_of[previous.present_ids] = np.arange(len(previous.present_ids))

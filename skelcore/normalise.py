@@ -43,18 +43,29 @@ ROBUST_SHARE = 0.01  # the share of points each side that a robust extent ignore
 OBJECT_FENCE = 0.5
 
 
+def _middle_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(3,) low and high ends of the middle 98% of the points along each axis. Column by column: np.quantile
+    along axis 0 of an (n,3) array partitions strided data, about 5x slower on a million points."""
+    ends = np.array([np.quantile(points[:, axis], [ROBUST_SHARE, 1.0 - ROBUST_SHARE])
+                     for axis in range(points.shape[1])])
+    return ends[:, 0], ends[:, 1]
+
+
 def robust_extent(points: np.ndarray) -> np.ndarray:
     """(3,) the extent of the middle 98% of the points along each axis: a few points flung far by a
     degenerate ring, or stray points a scan left, do not change it."""
-    low, high = np.quantile(points, [ROBUST_SHARE, 1.0 - ROBUST_SHARE], axis=0)
+    low, high = _middle_box(points)
     return high - low
 
 
 def object_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The bounding box of the points within OBJECT_FENCE robust extents of the middle 98% on every axis:
     the whole cloud's box when nothing lies far out, the object's alone when strays do."""
-    low, high = np.quantile(points, [ROBUST_SHARE, 1.0 - ROBUST_SHARE], axis=0)
+    low, high = _middle_box(points)
     margin = OBJECT_FENCE * (high - low)
+    lowest, highest = points.min(axis=0), points.max(axis=0)
+    if (lowest >= low - margin).all() and (highest <= high + margin).all():  # nothing far out: the whole box
+        return lowest, highest
     inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
     kept = points[inside]
     return kept.min(axis=0), kept.max(axis=0)
