@@ -39,10 +39,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--curve-share", type=float, default=defaults.curve_share,
                        help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
                             "(0: cloudcontr's rule alone) (default: %(default)s)")
-    group.add_argument("--hold-curves", action="store_true",
-                       help="each point keeps the W_L it had when it became curve-like, so curves neither shorten "
-                            "nor shrink their loops while bulkier parts contract: small handles on a body survive "
-                            "(default: W_L rises everywhere, as in cloudcontr)")
+    group.add_argument("--hold-curves", action=argparse.BooleanOptionalAction, default=defaults.hold_curves,
+                       help="points that the first step brought to a thin part's axis keep that step's W_L, so small "
+                            "handles and limbs' ends are not shortened away while bulkier parts contract "
+                            "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
