@@ -7,11 +7,14 @@ launch to its exit, its CPU time and peak resident memory read by the process it
 size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
 only those ratios mean much.
 
-The pc-skeletor baseline is its LBC solve (pc_skeletor.laplacian_based_contraction: the normal equations
-built with scipy and solved with scipy.sparse.linalg.spsolve, COLAMD, once per coordinate) for as many
-iterations as our LBC run made, on our own one-rings and Laplacian, which stand in for its robust_laplacian.
-Its loading, point-cloud handling and skeleton extraction are not counted, so the ratio against it is a lower
-bound on the speed-up over pc-skeletor itself. SuperLU's fill makes it impractical past --baseline-max points.
+The pc-skeletor baseline is pc-skeletor's own whole LBC run when an interpreter with pc-skeletor installed is
+given (`--pc-skeletor PYTHON`, or the current one if it imports `pc_skeletor`): a fresh process that imports it,
+reads the PLY with open3d, runs `LBC(...).extract_skeleton()` held to as many iterations as our LBC run made,
+`extract_topology()` and `save()`, as its README shows. Without it the baseline is a reproduction of its LBC
+solve only (the normal equations built with scipy and solved with scipy.sparse.linalg.spsolve, COLAMD, once per
+coordinate) on our own one-rings and Laplacian, which stand in for its robust_laplacian; loading, the
+per-iteration Laplacian and the skeleton are then not counted, so the ratio is a lower bound. SuperLU's fill
+makes either impractical past --baseline-max points.
 """
 from __future__ import annotations
 
@@ -32,12 +35,17 @@ STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics",
 
 
 def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,
-              full_resolution: bool = False, noise: float = NOISE, out=print) -> list[dict]:
-    """Time every (size, method) and the baseline; print the table, the ratios and the growth exponents."""
+              full_resolution: bool = False, noise: float = NOISE, pc_skeletor: str | None = None,
+              out=print) -> list[dict]:
+    """Time every (size, method) and the baseline; print the table, the ratios and the growth exponents.
+    `pc_skeletor`: a Python interpreter with pc-skeletor installed (module docstring); None looks for it in
+    the current one."""
     from .solver import backend
 
+    peer = _pc_skeletor_interpreter(pc_skeletor)
+    baseline = "pc-skeletor's whole LBC run" if peer else "a reproduction of pc-skeletor's LBC solve"
     out(f"skelcore bench: torus (noise {noise:g}), whole `skelcore run` per process, solver {backend()}"
-        + (", full resolution" if full_resolution else ""))
+        + (", full resolution" if full_resolution else "") + f"; baseline: {baseline}")
     rows = []
     with tempfile.TemporaryDirectory(prefix="skelcore-bench-") as tmp:
         for n in sizes:
@@ -48,9 +56,15 @@ def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int =
                 _print_run(rows[-1], out)
             lbc = next((row for row in rows if row["n"] == n and row["method"] == "lbc"), None)
             if n <= baseline_max and lbc is not None:
-                rows.append(_child(n, ["baseline", str(cloud), str(lbc["iterations"])]))
-                out(f"  pc-skeletor LBC solve, {lbc['iterations']} iterations: {rows[-1]['total']:.2f} s "
-                    f"(CPU {rows[-1]['cpu']:.2f} s), peak {rows[-1]['peak_mb']:.0f} MB")
+                if peer:
+                    rows.append(_peer_child(n, peer, cloud, lbc["iterations"], Path(tmp) / f"pc-skeletor-{n}"))
+                    stages = " | ".join(f"{key} {value:.2f}" for key, value in rows[-1]["stages"].items())
+                    out(f"  pc-skeletor LBC, whole run, {lbc['iterations']} iterations: {rows[-1]['total']:.2f} s "
+                        f"(CPU {rows[-1]['cpu']:.2f} s), peak {rows[-1]['peak_mb']:.0f} MB; {stages}")
+                else:
+                    rows.append(_child(n, ["baseline", str(cloud), str(lbc["iterations"])]))
+                    out(f"  pc-skeletor LBC solve, {lbc['iterations']} iterations: {rows[-1]['total']:.2f} s "
+                        f"(CPU {rows[-1]['cpu']:.2f} s), peak {rows[-1]['peak_mb']:.0f} MB")
     _print_summary(rows, sizes, methods, out)
     return rows
 
@@ -116,6 +130,57 @@ def _child(n: int, args: list[str]) -> dict:
     result = json.loads(done.stdout.strip().splitlines()[-1])
     result["total"] = time.perf_counter() - started  # interpreter start and imports included
     result["n_input"], result["n"] = result["n"], n
+    return result
+
+
+# pc-skeletor's whole LBC run as its README shows it, in the peer's interpreter; its last line is the JSON result.
+_PEER_RUN = """
+import json, resource, sys, time
+started = time.perf_counter()
+import open3d as o3d
+from pc_skeletor import LBC
+path, iterations, out_dir = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+lbc = LBC(point_cloud=o3d.io.read_point_cloud(path), max_iteration_steps=iterations, down_sample=-1)
+loaded = time.perf_counter()
+lbc.extract_skeleton()
+contracted = time.perf_counter()
+lbc.extract_topology()
+skeleton = time.perf_counter()
+lbc.save(out_dir)
+usage = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({"stages": {"start and load": loaded - started, "contract": contracted - loaded,
+                             "skeleton": skeleton - contracted, "write": time.perf_counter() - skeleton},
+                  "peak_mb": usage.ru_maxrss / 1024.0, "cpu": usage.ru_utime + usage.ru_stime}))
+"""
+
+
+def _pc_skeletor_interpreter(python: str | None) -> str | None:
+    """The interpreter to run pc-skeletor in: `python` (checked), else the current one if it has it, else None."""
+    if python is None:
+        import importlib.util
+
+        return sys.executable if importlib.util.find_spec("pc_skeletor") else None
+    from .errors import ParameterError
+
+    try:
+        probe = subprocess.run([python, "-c", "import pc_skeletor"], capture_output=True, text=True)
+    except OSError as error:
+        raise ParameterError(f"bench: --pc-skeletor {python} cannot be started ({error.strerror})") from None
+    if probe.returncode != 0:
+        last = (probe.stderr.strip().splitlines() or ["no message"])[-1]
+        raise ParameterError(f"bench: --pc-skeletor {python} cannot import pc_skeletor ({last})")
+    return python
+
+
+def _peer_child(n: int, python: str, cloud: Path, iterations: int, out_dir: Path) -> dict:
+    """pc-skeletor's whole run in a fresh process of `python`, timed like ours from launch to exit."""
+    started = time.perf_counter()
+    done = subprocess.run([python, "-c", _PEER_RUN, str(cloud), str(iterations), str(out_dir)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"pc-skeletor run failed on {n:,} points: {done.stderr.strip().splitlines()[-1:]}")
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result.update(total=time.perf_counter() - started, n=n, method="baseline", iterations=iterations)
     return result
 
 

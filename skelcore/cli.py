@@ -39,10 +39,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--curve-share", type=float, default=defaults.curve_share,
                        help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
                             "(0: cloudcontr's rule alone) (default: %(default)s)")
-    group.add_argument("--hold-curves", action="store_true",
-                       help="each point keeps the W_L it had when it became curve-like, so curves neither shorten "
-                            "nor shrink their loops while bulkier parts contract: small handles on a body survive "
-                            "(default: W_L rises everywhere, as in cloudcontr)")
+    group.add_argument("--hold-curves", action=argparse.BooleanOptionalAction, default=defaults.hold_curves,
+                       help="points that the first step brought to a thin part's axis keep that step's W_L, so small "
+                            "handles and limbs' ends are not shortened away while bulkier parts contract "
+                            "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
@@ -130,11 +130,14 @@ def build_parser() -> argparse.ArgumentParser:
     from .bench import BASELINE_MAX, NOISE, SIZES
 
     bench = commands.add_parser("bench", help="time whole runs per stage on noisy tori, LBC and GLSkeleton, "
-                                               "against pc-skeletor's LBC solve, with peak memory and growth")
+                                               "against pc-skeletor's LBC, with peak memory and growth")
     bench.add_argument("--points", type=int, nargs="+", default=list(SIZES), help="cloud sizes (default: %(default)s)")
     bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="both")
     bench.add_argument("--baseline-max", type=int, default=BASELINE_MAX,
-                       help="time pc-skeletor's LBC solve up to this many points (0: never; default: %(default)s)")
+                       help="time pc-skeletor's LBC up to this many points (0: never; default: %(default)s)")
+    bench.add_argument("--pc-skeletor", metavar="PYTHON", default=None,
+                       help="a Python interpreter with pc-skeletor installed: the baseline is then its whole LBC run "
+                            "(default: this interpreter if it has pc-skeletor, else a reproduction of its solve)")
     bench.add_argument("--full-resolution", action="store_true", help="contract every point (no multi-resolution)")
     bench.add_argument("--noise", type=float, default=NOISE,
                        help="Gaussian noise of the tori, a fraction of the bounding-box diagonal (default: %(default)s)")
@@ -241,7 +244,7 @@ def _bench(args: argparse.Namespace) -> int:
 
     methods = ("lbc", "glskeleton") if args.method == "both" else (args.method,)
     run_bench(args.points, methods=methods, full_resolution=args.full_resolution, noise=args.noise,
-              baseline_max=args.baseline_max)
+              baseline_max=args.baseline_max, pc_skeletor=args.pc_skeletor)
     return 0
 
 

@@ -51,14 +51,14 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
     state, ids, sizes0 = run.state, run.state.point_ids, run.sizes0
     current, sizes, ratio = run.unit, sizes0, 1.0
     solver = CholeskySolver()
-    held = np.full(len(points), np.inf)  # W_L held by curve-like points (step.hold_curves)
+    held = np.full(len(points), np.inf)  # W_L held on thin parts' axes (step.hold_curves)
     for iteration in itertools.count(1):
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
                                                               run.extent0, first_step=iteration == 1, stages=stages,
-                                                              row_weights=contraction_rows(held, wl, weights))
+                                                              row_weights=contraction_rows(held, wl, weights, params))
         if stages:
             yield None
         if failure is None:
@@ -74,7 +74,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             yield stopped(state, *failure, notes)
             return
         current, sizes, ratio = candidate, new_sizes, new_ratio
-        held = hold_curves(held, wl, current, params, run.diagonal)
+        if iteration == 1:
+            held = hold_curves(wl, current, run)
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]

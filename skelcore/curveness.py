@@ -9,10 +9,14 @@ stopped at a sheet.
 
 `skeleton_scale_share` is the one curve-likeness every figure reports (metrics.json, the verdict, the
 inspector): the share at the skeleton's default sample radius, a fraction of the INPUT cloud's diagonal.
+
+`thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
+a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .skeleton import SkeletonParams
@@ -20,6 +24,9 @@ from .skeleton import SkeletonParams
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
 PROBES = 2000  # points whose neighbourhoods are measured (a fixed random subset; all when fewer)
 MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread too thin to be a curve there
+NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
+SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
+MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
 
 
 def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -68,3 +75,33 @@ def skeleton_scale_share(points: np.ndarray, diagonal: float, seed: int = 0) -> 
     the input cloud's object diagonal (skelcore.normalise.object_diagonal): the scale at which the skeleton
     samples the contracted cloud."""
     return curve_share(points, SkeletonParams.sample_radius * diagonal, seed)
+
+
+def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> np.ndarray:
+    """(n,) whether each contracted point lies on the axis of a thin part of the input, judged after the first
+    contraction step. Such a point is
+    - curve-like at `radius` (one step made it so: the part's cross-section is a few ring spacings),
+    - surrounded by the input: the unit directions from it to its NEAREST_INPUT nearest input points average to
+      a vector shorter than SURROUNDED, as around a tube's axis, and not one-sided, as on the rim of an open
+      scan or the edge of a sheet, which also contract to curves first,
+    - in a piece of such points (within `radius` of each other) spanning at least MIN_CURVE_RADII radii: shorter
+      pieces are bumps the skeleton could not draw as a curve anyway."""
+    thin = np.zeros(len(contracted), dtype=bool)
+    candidates = np.flatnonzero(curve_like_points(contracted, radius))
+    if len(candidates) == 0:
+        return thin
+    _, nearest = cKDTree(original).query(contracted[candidates], min(NEAREST_INPUT, len(original)), workers=-1)
+    directions = original[nearest.reshape(len(candidates), -1)] - contracted[candidates, None]
+    directions /= np.maximum(np.linalg.norm(directions, axis=2, keepdims=True), 1e-300)
+    candidates = candidates[np.linalg.norm(directions.mean(axis=1), axis=1) < SURROUNDED]
+    if len(candidates) == 0:
+        return thin
+    axis_points = contracted[candidates]
+    tree = cKDTree(axis_points)
+    count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
+                                        directed=False)
+    low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
+    np.minimum.at(low, piece, axis_points)
+    np.maximum.at(high, piece, axis_points)
+    thin[candidates[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
+    return thin

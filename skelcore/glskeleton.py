@@ -89,7 +89,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     current, sizes, start_sizes, ratio = unit, sizes0, sizes0, 1.0
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
-    held = np.full(n, np.inf)  # W_L held by curve-like points (step.hold_curves)
+    held = np.full(n, np.inf)  # W_L held on thin parts' axes (step.hold_curves)
     for iteration in itertools.count(1):
         params, notes = retune(params, (yield state))
         step_start = time.perf_counter()
@@ -101,7 +101,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
-        row_weights = contraction_rows(held, wl, row_weights)
+        row_weights = contraction_rows(held, wl, row_weights, params)
         laplacian_start = time.perf_counter()
         values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
         laplacian_time = time.perf_counter() - laplacian_start
@@ -144,7 +144,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         timings["rings"] = time.perf_counter() - reduce_start
 
         current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
-        held = hold_curves(held[keep], wl, current, params, run.diagonal)
+        held = hold_curves(wl, current, run) if iteration == 1 else held[keep]
         start_sizes = rings.sizes(current) if len(current) < len(keep) else sizes
         share_removed = (len(ids) - len(current)) / n
         ids, owner, ratio = ids[keep], new_row[owner], new_ratio

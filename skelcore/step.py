@@ -19,7 +19,7 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import curve_like_points, skeleton_scale_share
+from .curveness import skeleton_scale_share, thin_parts
 from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
@@ -148,23 +148,20 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     return candidate, failure, timings
 
 
-def hold_curves(held: np.ndarray, wl: float, points: np.ndarray, params: ContractionParams,
-                diagonal: float) -> np.ndarray:
-    """W_L at which each point became curve-like at the skeleton's scale (inf while it is not), after a step
-    with `wl` that left the points at `points`. A curve-like point has reached the skeleton: more contraction
-    there only shortens the curve (curve-shortening flow), which pulls limbs' ends in and shrinks small loops
-    to points while a bulky part beside them is still contracting; so its W_L stays where it was. With
-    params.hold_curves off (the default) nothing is held, and a run retuned to off lets go."""
-    if not params.hold_curves:
-        return np.full_like(held, np.inf)
-    now = curve_like_points(points, SkeletonParams.sample_radius * diagonal)
-    return np.where(np.isinf(held) & now, wl, held)
+def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
+    """W_L that each point keeps (inf: none) when params.hold_curves is on, from the first step, which used
+    `wl` and left the points at `points`. A point on a thin part's axis (curveness.thin_parts) has reached the
+    skeleton; more contraction there only shortens the curve (curve-shortening flow), which pulls limbs' ends in
+    and shrinks small handles to points while a bulky part beside them is still contracting. Only the first
+    step decides: what becomes curve-like later was bulky at the input's scale and contracts with the rest."""
+    return np.where(thin_parts(points, run.unit, SkeletonParams.sample_radius * run.diagonal), wl, np.inf)
 
 
-def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None) -> np.ndarray | None:
+def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams
+                     ) -> np.ndarray | None:
     """Per-point factors on the Laplacian rows of eq. 2: the per-point contraction weights times W_L held / W_L
-    (hold_curves); None when all are 1."""
-    if not np.isfinite(held).any():
+    (hold_curves, while params.hold_curves is on); None when all are 1."""
+    if not params.hold_curves or not np.isfinite(held).any():
         return weights
     factors = np.minimum(wl, held) / wl
     return factors if weights is None else weights * factors

@@ -47,10 +47,14 @@ def test_weight_change_applies_from_the_next_step(session):
     assert state.wl == pytest.approx(session.history[0].wl * 2.0)
 
 
-def test_the_curve_hold_can_be_switched_on_during_a_run(session):
+def test_the_curve_hold_can_be_switched_off_and_on_during_a_run(session):
+    assert session.params.hold_curves  # the default
     session.step()
+    message = session.tune(session.params.replace(hold_curves=False))
+    assert "hold_curves=False from iteration 2" in message
+    assert not session.step().params.hold_curves
     message = session.tune(session.params.replace(hold_curves=True))
-    assert "hold_curves=True from iteration 2" in message
+    assert "hold_curves=True from iteration 3" in message
     assert session.step().params.hold_curves
 
 

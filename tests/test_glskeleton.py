@@ -34,15 +34,16 @@ def runs():
 
 
 @pytest.mark.parametrize("name", SHAPES)
-def test_skeleton_matches_the_shape_suite(runs, name):
-    """Issue 6: the right topology and a chamfer distance within 1.5% of the centreline's diagonal, with the
-    pipeline's skeleton for GLSkeleton (collinear degree-2 nodes dropped)."""
-    shape, states = runs(name)
-    params = RunOptions(params=GLSKELETON).skeleton_params()
-    assert params.drop_collinear
-    skeleton = skeleton_of_state(states[-1], shape.points, params)
+def test_skeleton_matches_the_shape_suite(name):
+    """Issue 6: the right topology and a chamfer distance within 1.5% of the centreline's diagonal, through the
+    whole pipeline a user runs (cleaning, contraction, the skeleton with collinear degree-2 nodes dropped)."""
+    import skelcore
+
+    shape = make_shape(name, 3000, seed=0)
+    result = skelcore.skeletonize(shape.points, method="glskeleton")
+    assert result.options.skeleton_params().drop_collinear
     truth = make_graph(*centreline(name)[:2], name)
-    result = evaluate(make_graph(skeleton.nodes_array(), skeleton.edges_array()), truth)
+    result = evaluate(make_graph(result.skeleton.nodes_array(), result.skeleton.edges_array()), truth)
     assert {key: result["topology"]["skeleton"][key] for key in TOPOLOGY} == \
         {key: EXPECTED_TOPOLOGY[name][key] for key in TOPOLOGY}
     assert result["chamfer"] <= 0.015
