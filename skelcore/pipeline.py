@@ -353,7 +353,9 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
     write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted, labels=labels))
     write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton)))
+    # compact: its correspondence lists every input point, which an indented layout puts one per line through
+    # json's pure-Python encoder (4x slower: 0.3 s instead of 0.08 s at 1M points)
+    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton), indent=None))
     write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
     write_atomic(out_dir / "params.json",
                  lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
@@ -413,8 +415,8 @@ def prepare_output(out_dir, force: bool = False) -> Path:
     return out_dir
 
 
-def _write_json(path: Path, document: dict) -> None:
-    path.write_text(json.dumps(document, indent=1, default=_json_default))
+def _write_json(path: Path, document: dict, indent: int | None = 1) -> None:
+    path.write_text(json.dumps(document, indent=indent, default=_json_default))
 
 
 def _json_default(value):
