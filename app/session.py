@@ -49,6 +49,8 @@ class Run:
     reduction: multires.Reduction | None = None
     reduced: list[IterationState] = field(default_factory=list)
     carrier: object = None  # (n, m) sparse weights carrying the reduced cloud's points to the input's
+    # (rings, point ids, skelcore.surface.OriginalSurface) of the last skeleton: the states on the same rings share it
+    surface: tuple | None = None
 
 
 class Session:
@@ -231,7 +233,11 @@ class Session:
         key = (index, self.run_options(run).skeleton_params())
         if key not in run.skeletons:
             state = run.history[index] if run.reduction is None else run.reduced[index]
-            run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction)
+            kept = run.surface
+            if kept is None or kept[0] is not state.rings or not np.array_equal(kept[1], state.point_ids):
+                original = run.cloud.points if run.reduction is None else run.reduction.points
+                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original))
+            run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:

@@ -29,7 +29,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .errors import ParameterError
 from .io import Cloud
-from .neighbours import CHUNK, knn, pca_frames
+from .neighbours import CHUNK, knn, local_frames
 
 
 @dataclass(frozen=True)
@@ -158,9 +158,9 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     projected = np.empty_like(points)
     for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
         rows = slice(start, start + CHUNK)
-        _, frames = pca_frames(points, index[rows])
+        _, frames, mean = local_frames(points[index[rows]])
         normal = frames[:, :, 0]
-        offset = np.einsum("ij,ij->i", points[rows] - points[index[rows]].mean(axis=1), normal)
+        offset = np.einsum("ij,ij->i", points[rows] - mean[:, 0], normal)
         projected[rows] = points[rows] - offset[:, None] * normal
     return projected
 

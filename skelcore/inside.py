@@ -37,19 +37,23 @@ class InsideTest:
     band: float
 
     @classmethod
-    def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float) -> "InsideTest":
+    def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float, tree: cKDTree | None = None,
+                     spacing: np.ndarray | None = None) -> "InsideTest":
+        """tree, spacing: a cKDTree over `samples` and each sample's distance to its nearest other sample, when
+        the caller has them (used only when every sample has a normal)."""
         from scipy import ndimage
 
         keep = np.linalg.norm(np.nan_to_num(normals), axis=1) > 0.5  # mesh vertices without faces have none
         if keep.sum() < 4:
             raise InputError("no part of the cloud is large enough for its extent to have a surface normal "
                              "(small clusters far apart?); skeletonise the parts one by one")
-        samples, normals = samples[keep], normals[keep]
-        tree = cKDTree(samples)
-        spacing, _ = tree.query(samples, k=2, workers=-1)
+        if tree is None or spacing is None or not keep.all():
+            samples, normals = samples[keep], normals[keep]
+            tree = cKDTree(samples)
+            spacing = tree.query(samples, k=2, workers=-1)[0][:, 1]
         extent = np.ptp(samples, axis=0)
         # Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis.
-        size = max(band, 2.0 * float(np.quantile(spacing[:, 1], 0.9)), float(extent.max()) / 256, 1e-12)
+        size = max(band, 2.0 * float(np.quantile(spacing, 0.9)), float(extent.max()) / 256, 1e-12)
         origin = samples.min(axis=0) - 2.5 * size
         shape = tuple(np.ceil(extent / size).astype(int) + 6)
         occupied = np.zeros(shape, bool)

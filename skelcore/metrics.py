@@ -52,6 +52,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .curveness import skeleton_scale_share
 from .errors import InputError, ParameterError
@@ -59,6 +60,7 @@ from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
 from .multires import POINT_BUDGET, Reduction, reduce_cloud
+from .neighbours import knn
 from .normalise import object_diagonal
 from .normals import away_from_centroid, orient_outward, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
@@ -168,6 +170,7 @@ class MetricsReference:
         if outward:
             normals[rows] = away_from_centroid(points0[rows], normals[rows], points0.mean(axis=0))
         band = thresholds.surface_tolerance * diagonal
+        known = {}  # what the inside test can take from the surface normals' kNN
         if faces is not None and len(faces):
             samples, sample_normals = mesh_surface(points0, faces, band, seed)
         else:
@@ -177,10 +180,14 @@ class MetricsReference:
             if reduction is None or reduction.n_input != len(points0):
                 reduction = reduce_cloud(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
-            surface_normals, _, surface_idx = pca_features(samples, min(_SURFACE_NEIGHBOURS, len(samples)),
-                                                           collapsed=_COLLAPSED * diagonal)
+            # One tree and one kNN query serve the normals, their orientation and the inside test's spacing.
+            tree = cKDTree(samples)
+            distances, surface_idx = knn(samples, min(_SURFACE_NEIGHBOURS, len(samples)), tree)
+            surface_normals, _, _ = pca_features(samples, surface_idx.shape[1], collapsed=_COLLAPSED * diagonal,
+                                                 neighbours=surface_idx)
             sample_normals = orient_outward(samples, surface_normals, surface_idx)
-        inside = InsideTest.from_samples(samples, sample_normals, band)
+            known = {"tree": tree, "spacing": distances[:, 1]}
+        inside = InsideTest.from_samples(samples, sample_normals, band, **known)
         return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated, convention,
                    _spread(points0))
 

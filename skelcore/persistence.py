@@ -11,11 +11,12 @@ are what its skeleton should have. An alpha complex (gudhi) of the cloud gives b
 Lengths are multiples of `unit` (the skeleton's sample radius). Which loops and gaps count is the verdict's
 to decide (skelcore.verdict.count_pieces and count_loops).
 
-Pieces are single-linkage clusters, so a spanning forest of shortest joins gives them all: the complex's own
-(the edges that end a component in its 0-dimensional persistence) when the loops are wanted too, and the
-Euclidean minimum spanning tree of a k-d tree's neighbour pairs when only the pieces are (`piece_counts`, an
-input cloud's). Both forests join the same points at the same gaps: the minimum spanning tree's edges are
-Gabriel edges, which enter the complex at alpha = (length/2)^2, and no edge enters it earlier than that.
+Pieces are single-linkage clusters: the points that chains of pairs at most a gap apart join. With the loops,
+the complex's own spanning forest gives them (the edges that end a component in its 0-dimensional
+persistence); for the pieces alone (`piece_counts`, an input cloud's) a k-d tree's pairs within each gap do.
+Both join the same points at the same gaps: the Euclidean minimum spanning tree's edges, whose gap-limited
+parts join what the pairs within that gap join, are Gabriel edges, which enter the complex at
+alpha = (length/2)^2, and no edge enters it earlier than that.
 """
 from __future__ import annotations
 
@@ -50,18 +51,14 @@ def persistence_summary(points: np.ndarray, unit: float, seed: int = 0) -> dict:
 
 def piece_counts(points: np.ndarray, unit: float, seed: int = 0) -> dict:
     """The "pieces" of persistence_summary alone, without the complex: {gap: count} for each gap of PIECE_GAPS."""
-    from scipy.sparse.csgraph import minimum_spanning_tree
     from scipy.spatial import cKDTree
 
     points = _sample(points, unit, seed)
     if len(points) < 4:
         return {f"{gap:g}": 1 for gap in PIECE_GAPS}
-    pairs = cKDTree(points).query_pairs(max(PIECE_GAPS) * unit, output_type="ndarray")
-    lengths = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1) / unit
-    # Points are distinct (_sample), so every length is > 0 and stays an edge of the sparse graph.
-    forest = minimum_spanning_tree(sp.csr_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2))
-    forest = forest.tocoo()
-    return _pieces(np.column_stack([forest.row, forest.col]), forest.data, len(points))
+    tree = cKDTree(points)
+    return {f"{gap:g}": _count_pieces(tree.query_pairs(gap * unit, output_type="ndarray"), len(points))
+            for gap in PIECE_GAPS}
 
 
 def _sample(points: np.ndarray, unit: float, seed: int) -> np.ndarray:
@@ -77,10 +74,11 @@ def _sample(points: np.ndarray, unit: float, seed: int) -> np.ndarray:
 def _pieces(joins: np.ndarray, lengths: np.ndarray, n: int) -> dict:
     """{gap: pieces holding at least MIN_PIECE_SHARE of the n points} from a spanning forest of shortest joins
     (edges `joins` of `lengths` in units)."""
-    pieces = {}
-    for gap in PIECE_GAPS:
-        joined = joins[lengths <= gap]
-        graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(n, n))
-        _, labels = connected_components(graph, directed=False)
-        pieces[f"{gap:g}"] = max(1, int(np.sum(np.bincount(labels) >= MIN_PIECE_SHARE * n)))
-    return pieces
+    return {f"{gap:g}": _count_pieces(joins[lengths <= gap], n) for gap in PIECE_GAPS}
+
+
+def _count_pieces(joined: np.ndarray, n: int) -> int:
+    """The pieces holding at least MIN_PIECE_SHARE of the n points that the edges `joined` (e,2) make."""
+    graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    return max(1, int(np.sum(np.bincount(labels) >= MIN_PIECE_SHARE * n)))

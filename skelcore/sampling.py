@@ -18,6 +18,9 @@ def ball_cover_sampling(points: np.ndarray, radius: float) -> tuple[np.ndarray, 
     first = int(np.argmax(np.linalg.norm(points - points.mean(axis=0), axis=1)))
     nearest = np.linalg.norm(points - points[first], axis=1)
     owner = np.zeros(len(points), dtype=np.int64)
+    # Coordinates column by column: the distances of a ball gathered and summed as np.linalg.norm sums them
+    # ((x^2 + y^2) + z^2, the same values), without its (m, 3) temporaries.
+    xs, ys, zs = (np.ascontiguousarray(column) for column in points.T)
     samples = [first]
     while True:
         far = int(np.argmax(nearest))
@@ -25,27 +28,34 @@ def ball_cover_sampling(points: np.ndarray, radius: float) -> tuple[np.ndarray, 
         if reach <= radius:
             break
         ball = np.asarray(tree.query_ball_point(points[far], reach, return_sorted=False), dtype=np.int64)
-        dist = np.linalg.norm(points[ball] - points[far], axis=1)
+        dx, dy, dz = xs[ball] - xs[far], ys[ball] - ys[far], zs[ball] - zs[far]
+        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
         closer = dist < nearest[ball]
-        nearest[ball[closer]] = dist[closer]
-        owner[ball[closer]] = len(samples)
+        ball, dist = ball[closer], dist[closer]
+        nearest[ball] = dist
+        owner[ball] = len(samples)
         nearest[far], owner[far] = 0.0, len(samples)
         samples.append(far)
     return np.asarray(samples, dtype=np.int64), owner
 
 
-def ball_cover_by_piece(points: np.ndarray, radius: float, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def ball_cover_by_piece(points: np.ndarray, radius: float, edges: np.ndarray,
+                        pieces: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """ball_cover_sampling within each connected piece of the graph of `edges` (the original surface): a
     sample never owns points of two pieces, so two rings that pass close to each other after contraction
-    (linked rings, a chain) stay apart. Same returns as ball_cover_sampling."""
+    (linked rings, a chain) stay apart. `pieces`: connected_components of that graph, when known. Same
+    returns as ball_cover_sampling."""
     n = len(points)
-    graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) else \
-        sp.coo_matrix((n, n))
-    count, piece = connected_components(graph, directed=False)
+    if pieces is None:
+        graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) \
+            else sp.coo_matrix((n, n))
+        pieces = connected_components(graph, directed=False)
+    count, piece = pieces
     lone = np.ones(n, dtype=bool)
     lone[edges.ravel()] = False
     if lone.any() and not lone.all():  # points on no edge (e.g. absorbed by GLSkeleton) join their nearest piece
         linked = np.flatnonzero(~lone)
+        piece = piece.copy()  # `pieces` may be kept for the next skeleton
         piece[lone] = piece[linked[cKDTree(points[linked]).query(points[lone])[1]]]
         labels, piece = np.unique(piece, return_inverse=True)
         count = len(labels)

@@ -25,14 +25,14 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .collapse import SampleComplex, collapse_to_graph, surface_triangles
-from .errors import InputError, ParameterError
+from .collapse import SampleComplex, collapse_to_graph
+from .errors import ParameterError
 from .io import as_points
-from .normalise import object_diagonal
-from .loops import SurfaceProbe, cut_false_loops
+from .loops import cut_false_loops
 from .recentre import recentre
 from .refine import drop_collinear, merge_junctions, prune_spurs
 from .sampling import ball_cover_by_piece
+from .surface import OriginalSurface
 
 
 @dataclass(frozen=True)
@@ -112,19 +112,25 @@ class Skeleton:
 def extract_skeleton(contracted, original, surface, params: SkeletonParams | None = None) -> Skeleton:
     """Curve skeleton graph of `contracted` (n,3); `original` (n,3) the same points before contraction;
     `surface` the original surface as point ids: (t,3) ring triangles (OneRings.triangles, preferred: the
-    fans cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles."""
+    fans cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles; or an
+    OriginalSurface of `original` made before (skelcore.surface: the skeletons of one run share it)."""
     params = (params or SkeletonParams()).validated()
-    contracted, original, edges, triangles = _checked(contracted, original, surface)
-    radius = params.sample_radius * object_diagonal(original)
+    if isinstance(surface, OriginalSurface):
+        known, contracted = surface, surface.checked(contracted)
+    else:
+        contracted = as_points(contracted, "contracted points")
+        known = OriginalSurface.of(original, surface)
+        known.checked(contracted)
+    original, edges, triangles = known.points, known.edges, known.triangles
+    radius = params.sample_radius * known.diagonal
 
-    samples, owner = ball_cover_by_piece(contracted, radius, edges)
+    samples, owner = ball_cover_by_piece(contracted, radius, edges, known.pieces)
     xyz = [tuple(p) for p in contracted[samples].tolist()]
     complex_ = SampleComplex.from_surface(xyz, owner, edges, triangles)
     collapse_to_graph(complex_)
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
-        spacing = float(np.median(np.linalg.norm(original[edges[:, 0]] - original[edges[:, 1]], axis=1)))
-        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, SurfaceProbe(original, spacing))
+        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe)
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
@@ -135,26 +141,6 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     if params.drop_collinear:
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle)
     return _finish(adj, xyz, node_of_point, radius)
-
-
-def _checked(contracted, original, surface) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Validated (contracted, original, edges, triangles)."""
-    arrays = [as_points(contracted, "contracted points"), as_points(original, "original points")]
-    if len(arrays[0]) != len(arrays[1]):
-        raise InputError(f"contracted and original points differ in number ({len(arrays[0])} vs {len(arrays[1])})")
-    cells = np.asarray(surface)
-    if cells.size == 0:
-        cells = np.zeros((0, 2), dtype=np.int64)
-    if cells.ndim != 2 or cells.shape[1] not in (2, 3) or not np.issubdtype(cells.dtype, np.integer):
-        raise InputError(f"surface: expected (t, 3) triangles or (e, 2) edges of point ids, got shape {cells.shape} "
-                         f"of {cells.dtype}")
-    if len(cells) and (cells.min() < 0 or cells.max() >= len(arrays[0])):
-        raise InputError(f"surface: point ids must lie in [0, {len(arrays[0])})")
-    cells = cells.astype(np.int64)
-    if cells.shape[1] == 2:
-        return arrays[0], arrays[1], cells, surface_triangles(cells, len(arrays[0]))
-    edges = np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [0, 2]]])
-    return arrays[0], arrays[1], edges, cells
 
 
 def _roots(parent: np.ndarray) -> np.ndarray:

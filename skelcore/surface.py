@@ -1,0 +1,73 @@
+"""The ORIGINAL points and surface as curve-skeleton extraction reads them (skelcore.skeleton).
+
+Everything here depends on the input and its one-rings only, not on where the contraction has moved the
+points: for a run on one set of rings (LBC's, or GLSkeleton's between two reductions) it is the same at every
+iteration. Made once with `OriginalSurface.of` and passed to extract_skeleton, it is not worked out again for
+each iteration's skeleton (the inspector draws one per step): the validated edges and triangles, the surface's
+connected pieces, the object diagonal, the median edge length and the probe of false loops with the normals it
+has computed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from .collapse import surface_triangles
+from .errors import InputError
+from .io import as_points
+from .loops import SurfaceProbe
+from .normalise import object_diagonal
+
+
+@dataclass(eq=False)
+class OriginalSurface:
+    """The original points, their surface as point ids, and what is derived from them once."""
+    points: np.ndarray  # (n,3) the original points
+    edges: np.ndarray  # (e,2) surface edges (the triangles' sides, as many times as triangles have them)
+    triangles: np.ndarray  # (t,3) surface triangles
+    diagonal: float  # object diagonal of the original points (skelcore.normalise.object_diagonal)
+    pieces: tuple[int, np.ndarray]  # connected pieces of the graph of `edges`: (count, piece of every point)
+    _probe: SurfaceProbe | None = field(default=None, repr=False)
+
+    @classmethod
+    def of(cls, original, surface) -> "OriginalSurface":
+        """From `original` (n,3) and `surface`: (t,3) ring triangles (OneRings.triangles, preferred: the fans
+        cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles."""
+        original = as_points(original, "original points")
+        cells = np.asarray(surface)
+        if cells.size == 0:
+            cells = np.zeros((0, 2), dtype=np.int64)
+        if cells.ndim != 2 or cells.shape[1] not in (2, 3) or not np.issubdtype(cells.dtype, np.integer):
+            raise InputError(f"surface: expected (t, 3) triangles or (e, 2) edges of point ids, got shape "
+                             f"{cells.shape} of {cells.dtype}")
+        n = len(original)
+        if len(cells) and (cells.min() < 0 or cells.max() >= n):
+            raise InputError(f"surface: point ids must lie in [0, {n})")
+        cells = cells.astype(np.int64)
+        if cells.shape[1] == 2:
+            edges, triangles = cells, surface_triangles(cells, n)
+        else:
+            edges, triangles = np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [0, 2]]]), cells
+        graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) else \
+            sp.coo_matrix((n, n))
+        return cls(original, edges, triangles, object_diagonal(original), connected_components(graph, directed=False))
+
+    def checked(self, contracted) -> np.ndarray:
+        """The contracted positions of the original points, validated against them."""
+        contracted = as_points(contracted, "contracted points")
+        if len(contracted) != len(self.points):
+            raise InputError(f"contracted and original points differ in number ({len(contracted)} vs "
+                             f"{len(self.points)})")
+        return contracted
+
+    @property
+    def probe(self) -> SurfaceProbe:
+        """The surface probe of false loops at the median edge length (its normals kept between skeletons)."""
+        if self._probe is None:
+            spacing = float(np.median(np.linalg.norm(self.points[self.edges[:, 0]] - self.points[self.edges[:, 1]],
+                                                     axis=1)))
+            self._probe = SurfaceProbe(self.points, spacing)
+        return self._probe

@@ -1,0 +1,44 @@
+"""The original surface made once per run (skelcore.surface) gives every state the skeleton made from scratch."""
+import numpy as np
+import pytest
+
+from skelcore.contraction import run_contraction
+from skelcore.errors import InputError
+from skelcore.params import ContractionParams
+from skelcore.pipeline import original_surface, skeleton_of_state
+from skelcore.shapes import make_shape
+from skelcore.skeleton import SkeletonParams, extract_skeleton
+from skelcore.surface import OriginalSurface
+
+
+def _same(a, b) -> bool:
+    return (np.array_equal(a.nodes_array(), b.nodes_array()) and np.array_equal(a.edges_array(), b.edges_array())
+            and np.array_equal(a.correspondence, b.correspondence) and a.radius == b.radius)
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_kept_surface_gives_the_skeleton_made_from_scratch(method):
+    points = make_shape("torus", 2500, seed=3, noise=0.002).points
+    states = run_contraction(points, ContractionParams(method=method, max_iterations=4))
+    params = SkeletonParams(drop_collinear=method == "glskeleton")
+    kept = {}
+    for state in [*states, *states[::-1]]:  # forwards, then back: a kept surface serves any state on its rings
+        key = id(state.rings)
+        if key not in kept:
+            kept[key] = original_surface(state, points)
+        pieces = kept[key].pieces[1].copy()
+        assert _same(skeleton_of_state(state, points, params, surface=kept[key]),
+                     skeleton_of_state(state, points, params))
+        assert np.array_equal(kept[key].pieces[1], pieces)  # extraction leaves the kept surface as it was
+    if method == "glskeleton":
+        assert len(states[-1].removed_ids)  # absorbed points: the ball cover's points on no edge were exercised
+
+
+def test_surface_of_other_points_is_refused():
+    points = make_shape("capsule", 500, seed=0).points
+    state = run_contraction(points, ContractionParams(max_iterations=1))[-1]
+    surface = original_surface(state, points)
+    with pytest.raises(InputError, match="differ in number"):
+        extract_skeleton(state.points[:-1], points, surface)
+    with pytest.raises(InputError, match="point ids"):
+        OriginalSurface.of(points, state.rings.triangles + len(points))
