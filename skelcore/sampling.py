@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 
@@ -40,16 +38,12 @@ def ball_cover_sampling(points: np.ndarray, radius: float) -> tuple[np.ndarray, 
 
 
 def ball_cover_by_piece(points: np.ndarray, radius: float, edges: np.ndarray,
-                        pieces: tuple[int, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                        pieces: tuple[int, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """ball_cover_sampling within each connected piece of the graph of `edges` (the original surface): a
     sample never owns points of two pieces, so two rings that pass close to each other after contraction
-    (linked rings, a chain) stay apart. `pieces`: connected_components of that graph, when known. Same
-    returns as ball_cover_sampling."""
+    (linked rings, a chain) stay apart. `pieces`: connected_components of that graph
+    (skelcore.surface.OriginalSurface.pieces). Same returns as ball_cover_sampling."""
     n = len(points)
-    if pieces is None:
-        graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) \
-            else sp.coo_matrix((n, n))
-        pieces = connected_components(graph, directed=False)
     count, piece = pieces
     lone = np.ones(n, dtype=bool)
     lone[edges.ravel()] = False
