@@ -27,7 +27,6 @@ import numpy as np
 
 from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
-from .io import as_points
 from .loops import cut_false_loops
 from .recentre import recentre
 from .refine import drop_collinear, merge_junctions, prune_spurs
@@ -115,12 +114,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     fans cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles; or an
     OriginalSurface of `original` made before (skelcore.surface: the skeletons of one run share it)."""
     params = (params or SkeletonParams()).validated()
-    if isinstance(surface, OriginalSurface):
-        known, contracted = surface, surface.checked(contracted)
-    else:
-        contracted = as_points(contracted, "contracted points")
-        known = OriginalSurface.of(original, surface)
-        known.checked(contracted)
+    known = surface if isinstance(surface, OriginalSurface) else OriginalSurface.of(original, surface)
+    contracted = known.checked(contracted)
     original, edges, triangles = known.points, known.edges, known.triangles
     radius = params.sample_radius * known.diagonal
 
