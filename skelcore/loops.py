@@ -14,8 +14,17 @@ A crossing is an original point within one point spacing of the disk whose PCA n
 CROSSING_ANGLE degrees with the disk's normal; a loop needs CROSSING_POINTS of them, so that one noisy
 point does not make a loop.
 
-A false cycle is cut at its weakest edge, the one fewest surface edges support (ties: the longest), never
-merged to a point: the curve keeps its length, and its points keep their nodes.
+Before the disk, a cycle must be joined by the surface all round: a cycle one of whose edges only surface
+edges longer than the sample DIAMETER (twice the skeleton's sample radius) support is no loop of the shape.
+No ball of the cover can hold both ends of such an edge, so the skeleton resolves the space between them:
+the edge is a jump across a gap of the scan (a twig's tip beside another branch, a partial scan's shadow),
+where the k-nearest one-rings reach over the empty space, not surface. The disk cannot tell such a cycle
+apart: the walls of the branches it runs along cross its disk. The rule reads the lengths of the INPUT's
+one-ring edges; a surface of merged rings (GLSkeleton's reduction) has edges that span several spacings
+by construction, so there the caller turns it off.
+
+A false cycle is cut at its weakest edge, never merged to a point: its longest jump, else the edge fewest
+surface edges support (ties: the longest). The curve keeps its length, and its points keep their nodes.
 """
 from __future__ import annotations
 
@@ -116,31 +125,41 @@ def _segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.nd
 
 
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
-                    probe: SurfaceProbe) -> int:
-    """Cut every cycle of `adj` that is no loop of the shape (see the module's rule) at its weakest edge,
-    shortest cycles first, until every cycle left is a loop. Returns the number of cuts."""
+                    probe: SurfaceProbe, jump_length: float = math.inf) -> int:
+    """Cut every cycle of `adj` that is no loop of the shape (see the module's rules) at its weakest edge,
+    shortest cycles first, until every cycle left is a loop. `jump_length`: surface edges longer than this
+    are jumps across gaps (the module's first rule; inf: none). Returns the number of cuts."""
     ends = node_of_point[edges].reshape(-1, 2)
     low, high = ends.min(axis=1), ends.max(axis=1)
     m = len(xyz)
-    codes, counts = np.unique(low[low != high] * m + high[low != high], return_counts=True)
-    support = {(u, v): count for u, v, count in zip((codes // m).tolist(), (codes % m).tolist(), counts.tolist())}
+    between = low != high
+    codes, inverse, counts = np.unique(low[between] * m + high[between], return_inverse=True, return_counts=True)
+    lengths = np.linalg.norm(probe.points[edges[between, 0]] - probe.points[edges[between, 1]], axis=1)
+    shortest = np.full(len(codes), np.inf)
+    np.minimum.at(shortest, inverse.ravel(), lengths)
+    pairs = list(zip((codes // m).tolist(), (codes % m).tolist()))
+    support = dict(zip(pairs, counts.tolist()))
+    jump = {pair: length for pair, length in zip(pairs, shortest.tolist()) if length > jump_length}
     judged: dict[frozenset, bool] = {}
     cuts = 0
     while True:
         graph = nx.Graph((u, v, {"length": math.dist(xyz[u], xyz[v])}) for u in adj for v in adj[u] if u < v)
         false = None
         for cycle in sorted(nx.minimum_cycle_basis(graph, weight="length"), key=len):
+            ordered = _ordered(graph, cycle)
+            if any((min(e), max(e)) in jump for e in zip(ordered, ordered[1:] + ordered[:1])):
+                false = ordered
+                break
             key = frozenset(cycle)
             if key not in judged:
-                judged[key] = probe.crossings(np.array([xyz[node] for node in _ordered(graph, cycle)])) \
-                    >= CROSSING_POINTS
+                judged[key] = probe.crossings(np.array([xyz[node] for node in ordered])) >= CROSSING_POINTS
             if not judged[key]:
-                false = _ordered(graph, cycle)
+                false = ordered
                 break
         if false is None:
             return cuts
-        ring = list(zip(false, false[1:] + false[:1]))
-        u, v = min(ring, key=lambda e: (support.get((min(e), max(e)), 0), -math.dist(xyz[e[0]], xyz[e[1]])))
+        ring = [(min(e), max(e)) for e in zip(false, false[1:] + false[:1])]
+        u, v = min(ring, key=lambda e: (-jump.get(e, 0.0), support.get(e, 0), -math.dist(xyz[e[0]], xyz[e[1]])))
         adj[u].discard(v)
         adj[v].discard(u)
         cuts += 1
