@@ -65,11 +65,9 @@ class RunOptions:
 
     def skeleton_params(self) -> SkeletonParams:
         """The skeleton parameters of this run, validated."""
-        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024); its surface of merged rings
-        # has long edges by construction, so the gap-jump rule of skelcore.loops does not apply to it.
-        glskeleton = self.params.method == "glskeleton"
-        return SkeletonParams(sample_radius=self.sample_radius, drop_collinear=glskeleton,
-                              cut_jumps=not glskeleton).validated()
+        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
+        return SkeletonParams(sample_radius=self.sample_radius,
+                              drop_collinear=self.params.method == "glskeleton").validated()
 
 
 @dataclass

@@ -39,8 +39,8 @@ class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
-    # ... and cycles that jump a gap: joined somewhere only by surface edges longer than twice sample_radius
-    # (skelcore.loops; for a surface of the input's one-rings, off for GLSkeleton's merged rings)
+    # ... and cycles that jump a gap of the scan: joined somewhere only by surface edges whose middle has no
+    # original point within sample_radius (skelcore.loops)
     cut_jumps: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
@@ -129,7 +129,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
         cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe,
-                        2 * radius if params.cut_jumps else math.inf)
+                        radius if params.cut_jumps else 0.0)
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
