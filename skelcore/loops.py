@@ -163,7 +163,7 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
 
 
 def _jumps(probe: SurfaceProbe, edges: np.ndarray, pair_of_edge: np.ndarray, pairs: list, radius: float) -> dict:
-    """The node pairs (of `pairs`, each edge's in `pair_of_edge`) that only a jump joins (the module's first
+    """The node pairs (of `pairs`, each edge's in `pair_of_edge`) that only a jump joins (the module's jump
     rule), each with the width of its gap. The gap is as wide as the shortest edge across it: when even that
     edge is a jump, the longer ones run across the same gap (or slant over surface beside it)."""
     lengths = np.linalg.norm(probe.points[edges[:, 0]] - probe.points[edges[:, 1]], axis=1)

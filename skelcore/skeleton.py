@@ -39,8 +39,8 @@ class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
-    # ... and cycles that jump a gap of the scan: joined somewhere only by surface edges whose middle has no
-    # original point within sample_radius (skelcore.loops)
+    # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
+    # within the sample radius of its middle (skelcore.loops)
     cut_jumps: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
