@@ -14,8 +14,17 @@ A crossing is an original point within one point spacing of the disk whose PCA n
 CROSSING_ANGLE degrees with the disk's normal; a loop needs CROSSING_POINTS of them, so that one noisy
 point does not make a loop.
 
-A false cycle is cut at its weakest edge, the one fewest surface edges support (ties: the longest), never
-merged to a point: the curve keeps its length, and its points keep their nodes.
+Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
+original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
+ends lie more than r from that middle too): it is a jump across a gap of the scan, where the k-nearest
+one-rings reach over nothing (a twig's tip beside another branch, a partial scan's shadow), not surface.
+A cycle with an edge whose shortest supporting surface edge is such a jump is no loop of the shape,
+whatever its disk says: the walls of the branches it runs along cross it. A long edge over surface that is
+there (a sparse patch, the merged rings of GLSkeleton's reduction, a chord over points that went to another
+node) is no jump: its middle lies on that surface.
+
+A false cycle is cut at its weakest edge, never merged to a point: its widest jump, else the edge fewest
+surface edges support (ties: the longest). The curve keeps its length, and its points keep their nodes.
 """
 from __future__ import annotations
 
@@ -116,34 +125,56 @@ def _segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.nd
 
 
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
-                    probe: SurfaceProbe) -> int:
-    """Cut every cycle of `adj` that is no loop of the shape (see the module's rule) at its weakest edge,
-    shortest cycles first, until every cycle left is a loop. Returns the number of cuts."""
+                    probe: SurfaceProbe, radius: float = 0.0) -> int:
+    """Cut every cycle of `adj` that is no loop of the shape (see the module's rules) at its weakest edge,
+    shortest cycles first, until every cycle left is a loop. `radius`: the skeleton's sample radius, the
+    empty space a jump crosses (0: no jumps). Returns the number of cuts."""
     ends = node_of_point[edges].reshape(-1, 2)
     low, high = ends.min(axis=1), ends.max(axis=1)
     m = len(xyz)
-    codes, counts = np.unique(low[low != high] * m + high[low != high], return_counts=True)
-    support = {(u, v): count for u, v, count in zip((codes // m).tolist(), (codes % m).tolist(), counts.tolist())}
+    between = low != high
+    codes, inverse, counts = np.unique(low[between] * m + high[between], return_inverse=True, return_counts=True)
+    pairs = list(zip((codes // m).tolist(), (codes % m).tolist()))
+    support = dict(zip(pairs, counts.tolist()))
+    jump = _jumps(probe, edges[between], inverse.ravel(), pairs, radius) if radius > 0 else {}
     judged: dict[frozenset, bool] = {}
     cuts = 0
     while True:
         graph = nx.Graph((u, v, {"length": math.dist(xyz[u], xyz[v])}) for u in adj for v in adj[u] if u < v)
         false = None
         for cycle in sorted(nx.minimum_cycle_basis(graph, weight="length"), key=len):
+            ordered = _ordered(graph, cycle)
+            if any((min(e), max(e)) in jump for e in zip(ordered, ordered[1:] + ordered[:1])):
+                false = ordered
+                break
             key = frozenset(cycle)
             if key not in judged:
-                judged[key] = probe.crossings(np.array([xyz[node] for node in _ordered(graph, cycle)])) \
-                    >= CROSSING_POINTS
+                judged[key] = probe.crossings(np.array([xyz[node] for node in ordered])) >= CROSSING_POINTS
             if not judged[key]:
-                false = _ordered(graph, cycle)
+                false = ordered
                 break
         if false is None:
             return cuts
-        ring = list(zip(false, false[1:] + false[:1]))
-        u, v = min(ring, key=lambda e: (support.get((min(e), max(e)), 0), -math.dist(xyz[e[0]], xyz[e[1]])))
+        ring = [(min(e), max(e)) for e in zip(false, false[1:] + false[:1])]
+        u, v = min(ring, key=lambda e: (-jump.get(e, 0.0), support.get(e, 0), -math.dist(xyz[e[0]], xyz[e[1]])))
         adj[u].discard(v)
         adj[v].discard(u)
         cuts += 1
+
+
+def _jumps(probe: SurfaceProbe, edges: np.ndarray, pair_of_edge: np.ndarray, pairs: list, radius: float) -> dict:
+    """The node pairs (of `pairs`, each edge's in `pair_of_edge`) that only a jump joins (the module's jump
+    rule), each with the width of its gap. The gap is as wide as the shortest edge across it: when even that
+    edge is a jump, the longer ones run across the same gap (or slant over surface beside it)."""
+    lengths = np.linalg.norm(probe.points[edges[:, 0]] - probe.points[edges[:, 1]], axis=1)
+    order = np.lexsort((lengths, pair_of_edge))
+    first = order[np.searchsorted(pair_of_edge[order], np.arange(len(pairs)))]  # each pair's shortest edge
+    long = first[lengths[first] > 2 * radius]  # a shorter edge has an end within r of its middle
+    if not len(long):
+        return {}
+    middles = (probe.points[edges[long, 0]] + probe.points[edges[long, 1]]) / 2
+    gaps = long[probe.tree.query(middles, workers=-1)[0] > radius]
+    return {pairs[pair_of_edge[i]]: float(lengths[i]) for i in gaps.tolist()}
 
 
 def _ordered(graph: nx.Graph, cycle: list[int]) -> list[int]:

@@ -39,6 +39,9 @@ class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
+    # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
+    # within the sample radius of its middle (skelcore.loops)
+    cut_jumps: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
     prune_spurs: bool = True
@@ -125,7 +128,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     collapse_to_graph(complex_)
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
-        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe)
+        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe,
+                        radius if params.cut_jumps else 0.0)
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:

@@ -255,3 +255,23 @@ def test_a_twig_thinner_than_the_sampling_is_seen_from_every_side():
     cloud = np.vstack([sheet, twig])
     seen, _ = perturbations.partial_scan(cloud)
     assert set(range(1500, 1700)) <= set(seen.tolist())
+
+
+@pytest.fixture(scope="module")
+def partial_tree():
+    from conftest import REFERENCE
+
+    if not REFERENCE.is_dir():
+        pytest.skip("../shared/reference is absent: reference data not available")
+    shape = solids.benchmark_shapes(REFERENCE, names=["tree"])[0]
+    return perturbations.perturb(shape.points, "partial", normals=shape.normals)
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_the_partial_tree_scan_has_no_loop_where_a_twig_jumps_a_gap(partial_tree, method):
+    """In the single-view scan of the tree (10k points, as the benchmark samples it), a twig's tip ends beside
+    another branch across a gap the one-rings reach over; the skeleton cuts that cycle at the gap."""
+    from skelcore.quality_bench import run_case
+
+    outcome = run_case(partial_tree, method, name="tree")
+    assert outcome["topology"]["cycles"] == 0 and outcome["topology"]["components"] == 1

@@ -112,6 +112,33 @@ def test_genus_two_gives_two_loops():
     assert topology(skeleton)["cycles"] == 2 and topology(skeleton)["components"] == 1
 
 
+def broken_ring(gap, n=400, tube=0.01, seed=0):
+    """A thin tube along the unit circle, scanned as a string of points (a twig), with an arc `gap` cut out of
+    it; contracted points on the circle."""
+    rng = np.random.default_rng(seed)
+    angle = np.linspace(gap / 2, 2 * np.pi - gap / 2, n, endpoint=gap == 0)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    axis_points = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(n)])
+    original = axis_points + tube * (np.cos(phi)[:, None] * axis_points + np.sin(phi)[:, None] * [0.0, 0.0, 1.0])
+    return axis_points + rng.normal(0, 0.002, (n, 3)), original
+
+
+def test_a_loop_that_jumps_a_gap_of_the_scan_is_cut_there():
+    """The k-nearest one-rings of a scan reach across gaps of several spacings (a twig's tip beside another
+    branch): a ring broken by a gap whose middle lies more than the sample radius (r ~ 0.057 here) from every
+    point is no loop, whatever the disk test says; without the gap rule it was one. A closed ring, and one
+    whose gap the skeleton cannot resolve, keep their loop."""
+    for gap, cycles in ((0.0, 1), (0.05, 1), (0.25, 0), (0.4, 0)):
+        contracted, original = broken_ring(gap)
+        surface = ring_triangles(original, k=30)  # the k of a 10k-point scan
+        skeleton = extract_skeleton(contracted, original, surface, SkeletonParams())
+        assert topology(skeleton)["cycles"] == cycles and topology(skeleton)["components"] == 1, gap
+        if cycles == 0:
+            assert topology(skeleton)["ends"] == 2  # cut at the gap, not merged away
+            assert topology(extract_skeleton(contracted, original, surface, SkeletonParams(cut_jumps=False))) \
+                ["cycles"] == 1
+
+
 def test_y_gives_one_junction_and_three_ends():
     contracted, original = y_shape()
     skeleton = skeleton_of(contracted, original)
