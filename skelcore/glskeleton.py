@@ -333,8 +333,9 @@ def _nearest_in_ring(rings: OneRings, points: np.ndarray) -> tuple[np.ndarray, n
     centres = rings.centres()
     lengths = np.linalg.norm(points[rings.indices] - points[centres], axis=1)
     sizes = np.minimum.reduceat(lengths, rings.indptr[:-1])
-    hits = np.flatnonzero(lengths == sizes[centres])
-    _, first = np.unique(centres[hits], return_index=True)
+    hits = np.flatnonzero(lengths == sizes[centres])  # in entry order, so grouped by centre
+    first = np.ones(len(hits), dtype=bool)
+    first[1:] = centres[hits[1:]] != centres[hits[:-1]]
     return sizes, rings.indices[hits[first]]
 
 
