@@ -267,7 +267,7 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
 def _merged_candidates(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per pair, ring(i) U ring(j) minus i and j in increasing order, packed left (ids (pairs, w), 0 where not
     valid; w the longest union). Sorting each short row twice (repeats and i, j pushed to the end in between)
-    costs a tenth of one np.unique over all the pairs' keys."""
+    costs a quarter of one np.unique over all the pairs' keys."""
     n, pairs = rings.n_points, len(absorbers)
     counts = np.diff(rings.indptr)
     first = counts[absorbers]
