@@ -73,6 +73,7 @@ SMOOTH = 3.0  # weight of the Laplacian-difference term (Remove_points_in_rings.
 COVARIANCE_FROM = 3  # LCWR `t>=3`: the covariance rule is tested from the third step on
 MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed fan repeats its first one)
 PRIORITY_SEED = 0
+FAN_GROUP = 10  # merged rings up to this many candidates are triangulated apart from the longer ones
 
 
 def contract_with_reduction(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None = None, *,
@@ -216,28 +217,16 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
     if not len(absorbers):
         return None
     n = rings.n_points
-    counts = np.diff(rings.indptr)
-    pair, entry = _ranges(np.concatenate([rings.indptr[absorbers], rings.indptr[absorbed]]),
-                          np.concatenate([counts[absorbers], counts[absorbed]]))
-    pair %= len(absorbers)
-    candidate = rings.indices[entry]
-    useful = (candidate != absorbers[pair]) & (candidate != absorbed[pair])
-    key = np.unique(pair[useful] * n + candidate[useful])
-    pair, candidate = key // n, key % n
-    lengths = np.bincount(pair, minlength=len(absorbers))
-    enough = np.flatnonzero(lengths >= 3)
+    ids, valid = _merged_candidates(rings, absorbers, absorbed)
+    enough = np.flatnonzero(valid.sum(axis=1) >= 3)
     if not len(enough):
         return None
-    ids = np.zeros((len(absorbers), int(lengths.max())), dtype=np.int64)
-    valid = np.zeros(ids.shape, dtype=bool)
-    column = np.arange(len(pair)) - (np.cumsum(lengths) - lengths)[pair]
-    ids[pair, column], valid[pair, column] = candidate, True
     ids, valid = ids[enough], valid[enough]
 
     offsets = origin[ids] - origin[absorbers[enough]][:, None, :]
     u, v = _plane_basis(_fan_normals(gamma[absorbers[enough]], offsets, valid))
     planar = np.stack([np.einsum("pwc,pc->pw", offsets, u), np.einsum("pwc,pc->pw", offsets, v)], axis=-1)
-    ring_row, ring_slot, tri_row, tri_j, tri_l = delaunay_fans(planar, valid)
+    ring_row, ring_slot, tri_row, tri_j, tri_l = _fans_by_length(planar, valid)
     good = np.bincount(tri_row, minlength=len(enough)) >= MIN_FAN_TRIANGLES
     if not good.any():
         return None
@@ -266,11 +255,54 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
     order = np.argsort(centre, kind="stable")
     centre, neighbour = centre[order], neighbour[order]
     m = int(keep.sum())
-    _, first = np.unique(centre * m + neighbour, return_index=True)  # drop repeats, keep the fan order
-    first.sort()
-    centre, neighbour = centre[first], neighbour[first]
+    key = centre * m + neighbour
+    by_key = np.argsort(key, kind="stable")
+    repeat = np.zeros(len(key), dtype=bool)  # drop repeats, keep the first in fan order
+    repeat[by_key[1:]] = key[by_key[1:]] == key[by_key[:-1]]
+    centre, neighbour = centre[~repeat], neighbour[~repeat]
     indptr = np.concatenate([[0], np.cumsum(np.bincount(centre, minlength=m))])
     return OneRings(indptr=indptr, indices=neighbour, triangles=triangles), keep, new_row
+
+
+def _merged_candidates(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pair, ring(i) U ring(j) minus i and j in increasing order, packed left (ids (pairs, w), 0 where not
+    valid; w the longest union). Sorting each short row twice (repeats and i, j pushed to the end in between)
+    costs a quarter of one np.unique over all the pairs' keys."""
+    n, pairs = rings.n_points, len(absorbers)
+    counts = np.diff(rings.indptr)
+    first = counts[absorbers]
+    which, entry = _ranges(np.concatenate([rings.indptr[absorbers], rings.indptr[absorbed]]),
+                           np.concatenate([first, counts[absorbed]]))
+    column = entry - rings.indptr[np.concatenate([absorbers, absorbed])][which]
+    second = which >= pairs
+    which[second] -= pairs
+    column[second] += first[which[second]]
+    union = np.full((pairs, int((first + counts[absorbed]).max())), n, dtype=np.int64)  # n: no candidate
+    union[which, column] = rings.indices[entry]
+    union[(union == absorbers[:, None]) | (union == absorbed[:, None])] = n
+    union.sort(axis=1)
+    union[:, 1:][union[:, 1:] == union[:, :-1]] = n
+    union.sort(axis=1)
+    valid = union < n
+    width = int(valid.sum(axis=1).max())
+    ids, valid = union[:, :width], valid[:, :width]
+    ids[~valid] = 0
+    return ids, valid
+
+
+def _fans_by_length(planar: np.ndarray, valid: np.ndarray):
+    """delaunay_fans of rows of different lengths (valid entries packed left), each group of rows trimmed to its
+    longest: a fan does not depend on its row's padding, and a few long unions no longer widen every row."""
+    lengths = valid.sum(axis=1)
+    groups = [rows for rows in (np.flatnonzero(lengths <= FAN_GROUP), np.flatnonzero(lengths > FAN_GROUP))
+              if len(rows)]
+    parts = [delaunay_fans(planar[rows, :lengths[rows].max()], valid[rows, :lengths[rows].max()]) for rows in groups]
+    ring_row = np.concatenate([rows[part[0]] for rows, part in zip(groups, parts)])
+    tri_row = np.concatenate([rows[part[2]] for rows, part in zip(groups, parts)])
+    ring_order, tri_order = np.argsort(ring_row, kind="stable"), np.argsort(tri_row, kind="stable")
+    ring_slot, tri_j, tri_l = (np.concatenate([part[index] for part in parts]) for index in (1, 3, 4))
+    return (ring_row[ring_order], ring_slot[ring_order], tri_row[tri_order], tri_j[tri_order],
+            tri_l[tri_order])
 
 
 def _fan_normals(gamma: np.ndarray, offsets: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -301,8 +333,9 @@ def _nearest_in_ring(rings: OneRings, points: np.ndarray) -> tuple[np.ndarray, n
     centres = rings.centres()
     lengths = np.linalg.norm(points[rings.indices] - points[centres], axis=1)
     sizes = np.minimum.reduceat(lengths, rings.indptr[:-1])
-    hits = np.flatnonzero(lengths == sizes[centres])
-    _, first = np.unique(centres[hits], return_index=True)
+    hits = np.flatnonzero(lengths == sizes[centres])  # in entry order, so grouped by centre
+    first = np.ones(len(hits), dtype=bool)
+    first[1:] = centres[hits[1:]] != centres[hits[:-1]]
     return sizes, rings.indices[hits[first]]
 
 

@@ -42,12 +42,23 @@ class LaplacianSystem:
         self._triangles = rings.triangles
         i, j, l = rings.triangles.T
         self._rows = np.concatenate([i, i])
-        keys = np.concatenate([self._rows * n + np.concatenate([j, l]), np.arange(n) * (n + 1)])
-        unique_keys, slots = np.unique(keys, return_inverse=True)
+        rows = np.concatenate([self._rows, np.arange(n)])
+        columns = np.concatenate([j, l, np.arange(n)])
+        # Group the entries by row (a stable sort of a few sorted runs: fans come by centre), then sort each row's
+        # columns carrying every entry's index along (scipy's per-row sort): 2.3x faster than np.unique of keys.
+        by_row = np.argsort(rows, kind="stable")
+        grouped = sp.csr_matrix((by_row.astype(np.float64), columns[by_row], _offsets(rows, n)), shape=(n, n))
+        grouped.has_sorted_indices = False
+        grouped.sort_indices()
+        entry_rows = np.repeat(np.arange(n), np.diff(grouped.indptr))
+        first = np.ones(len(rows), dtype=bool)  # the first entry of each (row, column)
+        first[1:] = (grouped.indices[1:] != grouped.indices[:-1]) | (entry_rows[1:] != entry_rows[:-1])
+        slots = np.empty(len(rows), dtype=np.int64)
+        slots[grouped.data.astype(np.int64)] = np.cumsum(first) - 1
         self._weight_slots, self._diagonal_slots = slots[: len(self._rows)], slots[len(self._rows):]
-        self._l_indices = unique_keys % n
-        self._l_rows = unique_keys // n
-        self._l_indptr = np.searchsorted(self._l_rows, np.arange(n + 1))
+        self._l_indices = grouped.indices[first].astype(np.int64)
+        self._l_rows = entry_rows[first]
+        self._l_indptr = _offsets(self._l_rows, n)
 
     def laplacian_values(self, points: np.ndarray) -> np.ndarray:
         """The values of L (eq. 1) at `points`, in the order of its fixed sparsity pattern."""
@@ -76,6 +87,11 @@ class LaplacianSystem:
         product = (wl**2 * (laplacian.T @ laplacian) + sp.diags(wh**2)).tocsr()
         product.sort_indices()
         return product
+
+
+def _offsets(rows: np.ndarray, n: int) -> np.ndarray:
+    """CSR row offsets of entries grouped by row."""
+    return np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
 
 
 def _cot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
