@@ -7,8 +7,9 @@ play, restart, load, export) run on one worker thread, in that order, so a weigh
 Step click is used by that step. The points of a new state are drawn at once; for each viewer, the plots
 and colours follow from an analysis thread and the skeleton from a skeleton thread, both working on what
 that viewer shows last (app.analysis keeps the results, so viewers on one iteration share them). Anything
-slower than about a second says so (app.progress). Widgets live in app.layout, exports in app.delivery,
-status and legend words in app.status.
+slower than about a second says so (app.progress). While nothing else runs, the worker computes the next
+iteration ahead (Session.look_ahead), so that a Step shows it at once. Widgets live in app.layout, exports
+in app.delivery, status and legend words in app.status.
 """
 from __future__ import annotations
 
@@ -50,7 +51,7 @@ class Inspector:
         self._source = None  # the original cloud the view settings were set for
         self.messages = Messages(server)
         self.activity = Activity(self.messages.progress, lambda: self.presenter.update_statuses())
-        self.worker = Worker(self._report_error)
+        self.worker = Worker(self._report_error, on_idle=self._look_ahead)
         self.upload_guard = UploadGuard(server, max_upload_bytes, self.messages.upload_refused)
         self.uploads = UploadNotices(server)  # viser's "uploaded successfully" never shows: we say what happened
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
@@ -231,6 +232,15 @@ class Inspector:
         if viewer is not None:
             viewer.look_at(newest, newest)  # who steps watches the step
         self._advance(full=True)
+
+    def _look_ahead(self) -> bool:
+        """The idle task: the next iteration, its metrics and (when a browser shows it) its skeleton, computed
+        while the person looks, so that Step only shows them; a parameter change has them computed again."""
+        if not self.session.looks_ahead:
+            return True
+        skeleton = any(viewer.view.visible["skeleton"] for viewer in self.presenter.all())
+        return self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
+                                       provisional=bool(self.ui.view.provisional.value))
 
     def _tick(self, full: bool) -> bool:
         """One Play / Run-to-end iteration; False ends the loop."""

@@ -158,6 +158,10 @@ class IterationMetricsCache:
                                                          iteration=state.iteration))
         return self._metrics[index]
 
+    def forget(self, index: int) -> None:
+        """Drop the metrics of states[index:] (a state that was replaced, and those after it)."""
+        del self._metrics[index:]
+
     def all(self, states: list[IterationState]) -> list[IterationMetrics]:
         """The metrics of every state."""
         return [self.get(states, index) for index in range(len(states))]

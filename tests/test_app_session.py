@@ -431,3 +431,92 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     session.write_results(last, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]["input_points"] == 3000
     assert Session(cloud, point_budget=None).run.reduction is None  # --full-resolution
+
+
+def test_a_state_computed_ahead_is_the_step_and_is_shown_at_once(cloud):
+    """look_ahead computes the next state, its metrics and its skeleton; Step then takes that very state, and
+    the run is the same as one stepped without looking ahead."""
+    plain, ahead = Session(cloud), Session(cloud)
+    plain.step()
+    ahead.step()
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    computed = ahead.run.ahead
+    assert len(ahead.history) == 2 and computed.iteration == 2  # not part of the run yet
+    assert ahead.step() is computed
+    assert np.array_equal(computed.points, plain.step().points)
+    assert (2, ahead.skeleton_params) in ahead.run.skeletons  # made ahead, under the index the state took
+    np.testing.assert_array_equal(ahead.metrics(2).d_theta, plain.metrics(2).d_theta)
+    assert ahead.skeleton(2).graph.number_of_nodes() == plain.skeleton(2).graph.number_of_nodes()
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_a_change_after_the_look_ahead_computes_the_step_again(cloud, method):
+    """A parameter changed after the next state was computed ahead applies to that state, as the note says;
+    its metrics and skeleton are those of the state computed again."""
+    params = ContractionParams(method=method)
+    plain, ahead = Session(cloud, params), Session(cloud, params)
+    plain.step()
+    ahead.step()
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    stale = ahead.run.ahead
+    assert "sl=2.0 from iteration 2" in ahead.tune(ahead.params.replace(sl=2.0))
+    plain.tune(plain.params.replace(sl=2.0))
+    assert ahead.look_ahead(skeleton=True, provisional=True)  # the idle worker computes it again at once
+    state = ahead.step()
+    assert state is not stale and state.params.sl == 2.0 and ahead.pending == ""
+    assert np.array_equal(state.points, plain.step().points)
+    np.testing.assert_array_equal(ahead.metrics(2).d_theta, plain.metrics(2).d_theta)
+    assert np.allclose(ahead.skeleton(2).nodes_array(), plain.skeleton(2).nodes_array())
+    assert ahead.tune(ahead.params.replace(sl=3.0)) and ahead.look_ahead()
+    assert ahead.tune(ahead.params.replace(sl=2.0)) == ""  # back to the shown parameters: nothing pending
+    assert np.array_equal(ahead.step().points, plain.step().points)  # ...yet the state ahead was redone
+
+
+def test_a_look_ahead_stops_between_stages_and_step_finishes_it(cloud):
+    straight, ahead = Session(cloud), Session(cloud)
+    straight.step()
+    ahead.step()
+    assert not ahead.look_ahead(paused=lambda: True)  # stopped within the step
+    assert ahead.run.ahead is None and len(ahead.history) == 2
+    assert np.array_equal(ahead.step().points, straight.step().points)
+
+
+def test_the_idle_worker_looks_ahead_and_yields_to_jobs():
+    order, interrupted = [], []
+
+    def idle():
+        order.append("idle")
+        interrupted.append(worker.interrupted())
+        return True
+
+    worker = Worker(lambda message, client: order.append(message), on_idle=idle)
+    try:
+        worker.submit(lambda: order.append("a"))
+        assert worker.wait_idle(10)
+        assert order == ["a", "idle"] and interrupted == [False]
+        assert worker.wait_idle(10) and order == ["a", "idle"]  # idle again only after a job ran
+        release = threading.Event()
+        worker.submit(release.wait)
+        worker.submit(lambda: order.append("b"))
+        worker.submit(lambda: order.append("c"))
+        release.set()
+        assert worker.wait_idle(10)
+        assert order == ["a", "idle", "b", "c", "idle"]  # not between queued jobs
+    finally:
+        worker.close()
+
+
+def test_an_interrupted_idle_task_is_taken_up_again():
+    calls = []
+
+    def idle():
+        calls.append(worker.interrupted())
+        return not worker.interrupted() and len(calls) > 1  # the first call pretends a job interrupted it
+
+    worker = Worker(lambda message, client: None, on_idle=idle)
+    try:
+        worker.submit(lambda: None)
+        assert worker.wait_idle(10)
+        assert len(calls) == 2  # taken up again by the next turn of the queue, wait_idle's marker included
+    finally:
+        worker.close()
