@@ -238,6 +238,9 @@ class Inspector:
         while the person looks, so that Step only shows them; a parameter change has them computed again."""
         if not self.session.looks_ahead:
             return True
+        while not self.presenter.wait_idle(0.05):  # the plots and skeleton of what browsers show come first
+            if self.worker.interrupted():
+                return False
         skeleton = any(viewer.view.visible["skeleton"] for viewer in self.presenter.all())
         return self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
                                        provisional=bool(self.ui.view.provisional.value))

@@ -520,3 +520,15 @@ def test_an_interrupted_idle_task_is_taken_up_again():
         assert len(calls) == 2  # taken up again by the next turn of the queue, wait_idle's marker included
     finally:
         worker.close()
+
+
+def test_a_reduced_run_looks_ahead_at_its_own_resolution(cloud):
+    """Above the point budget the state ahead is the reduced cloud's, carried to every input point; its skeleton
+    is made from the reduced state, as Step would."""
+    plain, ahead = Session(cloud, point_budget=400), Session(cloud, point_budget=400)
+    assert ahead.run.reduction is not None
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    state = ahead.step()
+    assert len(state.points) == len(cloud.points) and len(ahead.run.reduced[-1].points) < len(cloud.points)
+    assert np.array_equal(state.points, plain.step().points)
+    assert np.allclose(ahead.skeleton(1).nodes_array(), plain.skeleton(1).nodes_array())
