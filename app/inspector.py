@@ -13,6 +13,7 @@ in app.delivery, status and legend words in app.status.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -219,7 +220,9 @@ class Inspector:
     # ------------------------------------------------------------------ jobs (worker thread only)
     def _step(self, viewer: Viewer | None, client) -> None:
         session = self.session
-        if session.step() is None:
+        with self._computing(client):
+            state = session.step()
+        if state is None:
             self._notify(client, "Run has ended", f"{session.latest.message}. Reset or Restart to run again.",
                          color="yellow")
             return
@@ -232,6 +235,13 @@ class Inspector:
         if viewer is not None:
             viewer.look_at(newest, newest)  # who steps watches the step
         self._advance(full=True)
+
+    def _computing(self, client, notify: bool = True):
+        """The status (and after a second a notification) while a step is computed; nothing when it is ready."""
+        session = self.session
+        if session.finished or session.ready_ahead:
+            return contextlib.nullcontext()
+        return self.activity.busy(client, "Step", f"computing iteration {session.latest.iteration + 1}", notify=notify)
 
     def _look_ahead(self) -> bool:
         """The idle task: the next iteration, its metrics and (when a browser shows it) its skeleton, computed
@@ -247,7 +257,8 @@ class Inspector:
 
     def _tick(self, full: bool) -> bool:
         """One Play / Run-to-end iteration; False ends the loop."""
-        state = self.session.step(paused=lambda: not self.worker.playing)  # a pause lands between two stages
+        with self._computing(None, notify=False):
+            state = self.session.step(paused=lambda: not self.worker.playing)  # a pause lands between two stages
         going = state is not None and not self.session.finished
         if not going:
             self.playback.ended()

@@ -102,6 +102,11 @@ class Session:
         return self.latest.termination is not None
 
     @property
+    def ready_ahead(self) -> bool:
+        """Whether the next step was computed ahead with the parameters in force (Step only has to take it)."""
+        return self.run.ahead is not None and self._pending is None and not self._within_step
+
+    @property
     def start_params(self) -> ContractionParams:
         return self.run.start_params
 
@@ -211,7 +216,7 @@ class Session:
             return None
         with self._engine:
             run = self.run
-            if run.ahead is not None and self._pending is None and not self._within_step:
+            if self.ready_ahead:
                 state, reduced = run.ahead, run.ahead_reduced
                 run.ahead = run.ahead_reduced = None
             else:

@@ -532,3 +532,26 @@ def test_a_reduced_run_looks_ahead_at_its_own_resolution(cloud):
     assert len(state.points) == len(cloud.points) and len(ahead.run.reduced[-1].points) < len(cloud.points)
     assert np.array_equal(state.points, plain.step().points)
     assert np.allclose(ahead.skeleton(1).nodes_array(), plain.skeleton(1).nodes_array())
+
+
+@pytest.mark.parametrize("look_ahead", [False, True])
+def test_a_step_says_what_it_computes_unless_it_was_computed_ahead(cloud, look_ahead):
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, look_ahead=look_ahead))
+    said, step = [], inspector.session.step
+    inspector.session.step = lambda *args, **kwargs: said.append(inspector.activity.text()) or step(*args, **kwargs)
+    try:
+        assert inspector.wait_idle(120)
+        assert (inspector.session.run.ahead is not None) == look_ahead
+        inspector._on_step(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and len(inspector.session.history) == 2
+        assert said == [""] if look_ahead else "computing iteration 1" in said[0]
+    finally:
+        inspector.close()
+        server.stop()
