@@ -252,8 +252,11 @@ class Inspector:
             if self.worker.interrupted():
                 return False
         skeleton = any(viewer.view.visible["skeleton"] for viewer in self.presenter.all())
-        return self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
-                                       provisional=bool(self.ui.view.provisional.value))
+        ready = self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
+                                        provisional=bool(self.ui.view.provisional.value))
+        if ready:
+            self.presenter.update_statuses()  # says the next iteration is ready
+        return ready
 
     def _tick(self, full: bool) -> bool:
         """One Play / Run-to-end iteration; False ends the loop."""

@@ -161,7 +161,8 @@ class Presenter:
         viewer.set_timeline(len(history), index)
         readiness = self.analyses.readiness(session.run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
-            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing),
+            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
+                                                      session.ready_ahead),
             notice=viewer.view.notice(history[index].n_points), readiness=readiness,
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)
