@@ -555,3 +555,30 @@ def test_a_step_says_what_it_computes_unless_it_was_computed_ahead(cloud, look_a
     finally:
         inspector.close()
         server.stop()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_looking_ahead_never_changes_the_run(cloud, seed):
+    """Random Steps, weight changes and look-aheads (some stopped within the step) give the same run as the same
+    Steps and changes without looking ahead."""
+    rng = np.random.default_rng(seed)
+    method = ["lbc", "glskeleton"][seed % 2]
+    plain = Session(cloud, ContractionParams(method=method, max_iterations=8), look_ahead=False)
+    ahead = Session(cloud, ContractionParams(method=method, max_iterations=8))
+    for _ in range(25):
+        action = rng.choice(["step", "tune", "look", "stop"])
+        if action == "step":
+            assert (plain.step() is None) == (ahead.step() is None)
+        elif action == "tune":
+            change = {"sl": float(rng.choice([2.0, 2.5, 3.0])), "wh0": float(rng.choice([1.0, 2.0]))}
+            assert plain.tune(plain.params.replace(**change)) == ahead.tune(ahead.params.replace(**change))
+        else:
+            stages = iter(range(int(rng.integers(1, 3)) if action == "stop" else 10**6))
+            ahead.look_ahead(lambda: next(stages, None) is None, skeleton=True, provisional=True)
+        assert len(plain.history) == len(ahead.history) and plain.pending == ahead.pending
+        assert np.array_equal(plain.latest.points, ahead.latest.points) and plain.latest.params == ahead.latest.params
+    assert [m.iteration for m in plain.metrics_upto(len(plain.history) - 1)] == \
+        [m.iteration for m in ahead.metrics_upto(len(ahead.history) - 1)]
+    last = len(plain.history) - 1
+    np.testing.assert_array_equal(plain.metrics(last).d_theta, ahead.metrics(last).d_theta)
+    assert np.allclose(plain.skeleton(last).nodes_array(), ahead.skeleton(last).nodes_array())
