@@ -34,13 +34,14 @@ CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 WAIT = 300.0  # seconds: a waiting limit, not part of any figure
-# Resolves with Date.now() once the status panel changed and a frame was drawn after that.
-PROBE = """() => {
+# Resolves with Date.now() once the status panel names the given iteration (it arrives with its points, after
+# any "busy" line) and a frame was drawn after that.
+PROBE = """(iteration) => {
   const status = [...document.querySelectorAll('p')].find(p => p.textContent.includes('computed'));
-  const panel = status.parentElement, before = panel.textContent;
+  const panel = status.parentElement;
   window.__skelDrawn = new Promise(resolve => {
     const observer = new MutationObserver(() => {
-      if (panel.textContent === before) return;
+      if (!panel.textContent.includes(`Iteration ${iteration} of`)) return;
       observer.disconnect();
       requestAnimationFrame(() => requestAnimationFrame(() => resolve(Date.now() / 1000)));
     });
@@ -99,7 +100,7 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
                     _wait(lambda: len(inspector.session.history) == 1)
                     inspector.wait_idle(WAIT)
                     page.wait_for_timeout(200)  # let the page settle on iteration 0
-                page.evaluate(PROBE)
+                page.evaluate(PROBE, inspector.session.latest.iteration + 1)
                 ahead = sum(engine["look_ahead"])  # what was computed before this click
                 for times in engine.values():
                     times.clear()

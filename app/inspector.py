@@ -244,19 +244,21 @@ class Inspector:
         return self.activity.busy(client, "Step", f"computing iteration {session.latest.iteration + 1}", notify=notify)
 
     def _look_ahead(self) -> bool:
-        """The idle task: the next iteration, its metrics and (when a browser shows it) its skeleton, computed
-        while the person looks, so that Step only shows them; a parameter change has them computed again."""
+        """The idle task: the next iteration, its metrics, plots and (when a browser shows it) its skeleton,
+        computed while the person looks, so that Step only shows them; a parameter change has them computed
+        again."""
         if not self.session.looks_ahead:
             return True
         while not self.presenter.wait_idle(0.05):  # the plots and skeleton of what browsers show come first
             if self.worker.interrupted():
                 return False
         skeleton = any(viewer.view.visible["skeleton"] for viewer in self.presenter.all())
-        ready = self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
-                                        provisional=bool(self.ui.view.provisional.value))
-        if ready:
-            self.presenter.update_statuses()  # says the next iteration is ready
-        return ready
+        if not self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
+                                       provisional=bool(self.ui.view.provisional.value)) or self.worker.interrupted():
+            return False
+        self.presenter.prepare_ahead()
+        self.presenter.update_statuses()  # says the next iteration is ready
+        return True
 
     def _tick(self, full: bool) -> bool:
         """One Play / Run-to-end iteration; False ends the loop."""

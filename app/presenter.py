@@ -87,6 +87,13 @@ class Presenter:
             self.analyst.request((viewer, run, index), client, key=viewer.id)
             self.skeletons.request((viewer, run, index), client, key=viewer.id)
 
+    def prepare_ahead(self) -> None:
+        """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""
+        run = self.session.run
+        ahead = run.ahead
+        if ahead is not None and ahead.iteration != run.history[-1].iteration:
+            self.analyses.plots(run, len(run.history))
+
     def reanalyse(self) -> None:
         for viewer in self.all():
             if "points" in viewer.drawn:

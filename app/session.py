@@ -254,10 +254,7 @@ class Session:
             return True
         if paused():
             return False
-        with self._lock:
-            if run.metrics is None:
-                run.metrics = pipeline.IterationMetricsCache(run.cloud)
-            run.metrics.get([*run.history, ahead], index)
+        self.metrics_upto(index, run)
         if skeleton:
             if paused():
                 return False
@@ -335,12 +332,14 @@ class Session:
         return run.skeletons[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
-        """The paper's metrics of history[0..index], each computed once, in order."""
+        """The paper's metrics of history[0..index] (index len(history): the state ahead too), each computed
+        once, in order."""
         run = run or self.run
+        states = run.history if index < len(run.history) else [*run.history, run.state(index)]
         with self._lock:
             if run.metrics is None:
                 run.metrics = pipeline.IterationMetricsCache(run.cloud)
-            return [run.metrics.get(run.history, i) for i in range(index + 1)]
+            return [run.metrics.get(states, i) for i in range(index + 1)]
 
     def metrics(self, index: int, run: Run | None = None) -> IterationMetrics:
         return self.metrics_upto(index, run)[-1]
