@@ -34,14 +34,16 @@ CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 WAIT = 300.0  # seconds: a waiting limit, not part of any figure
-# Resolves with Date.now() once the status panel names the given iteration (it arrives with its points, after
-# any "busy" line) and a frame was drawn after that.
+# Resolves with Date.now() once the status panel names the given iteration, or says the run ended (a rejected
+# step shows the last iteration again), and a frame was drawn after that: that status arrives with the points,
+# after any "busy" line.
 PROBE = """(iteration) => {
   const status = [...document.querySelectorAll('p')].find(p => p.textContent.includes('computed'));
   const panel = status.parentElement;
   window.__skelDrawn = new Promise(resolve => {
     const observer = new MutationObserver(() => {
-      if (!panel.textContent.includes(`Iteration ${iteration} of`)) return;
+      const text = panel.textContent;
+      if (!text.includes(`Iteration ${iteration} of`) && !text.includes('ended at iteration')) return;
       observer.disconnect();
       requestAnimationFrame(() => requestAnimationFrame(() => resolve(Date.now() / 1000)));
     });
