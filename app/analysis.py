@@ -76,28 +76,35 @@ class Analyses:
 
     def readiness(self, run: Run, index: int, compute: bool = True) -> Readiness | None:
         """compute=False: None unless already known (the status does not wait for it)."""
+        state = run.state(index)
+
         def compute() -> Readiness:
-            state = run.history[index]
             share = pipeline.state_curve_share(state, run.cloud)
             return Readiness(share, pipeline.skeleton_is_provisional(state, share))
-        return self._cached(run, ("readiness", index), compute if compute else lambda: None)
+        # a run's last state is never provisional: a step rejected at the end replaces its state with the ended one
+        return self._cached(run, ("readiness", index, state.termination), compute if compute else lambda: None)
 
     def plots(self, run: Run, index: int) -> Plots:
+        """The figures of history[index], or of the state computed ahead (index len(history)). Keyed by the
+        state's parameters too: a state ahead computed again with others is another state (the same parameters
+        give the same state)."""
+        state = run.state(index)
+
         def compute() -> Plots:
-            state = run.history[index]
             history = self.session.metrics_upto(index, run)
             figures = (_compact(report.histogram_figure(history[-1], "d_theta", iteration=state.iteration, fit=True)),
                        _compact(report.histogram_figure(history[-1], "delta_kappa", iteration=state.iteration,
                                                         fit=True)),
                        report.convergence_figure(history).update_layout(height=None))
             return Plots(figures, tuple(figure.to_json() for figure in figures))
-        return self._cached(run, ("plots", index), compute)
+        return self._cached(run, ("plots", index, state.params), compute)
 
     def colours(self, run: Run, index: int, quantity: str, on_original: bool) -> Colours:
         """Colours of one of COLOUR_RANGES' quantities, for every point (the sample's values carried to the
         rest, which the note says)."""
+        state = run.state(index)
+
         def compute() -> Colours:
-            state = run.history[index]
             measured = self.session.metrics(index, run)
             values = display.values_for_all_points(measured, state.points, report.measure_key(quantity))
             note = (f"{values.measured:,} points measured; the other {values.carried:,} show the value of their "
@@ -109,7 +116,7 @@ class Analyses:
                 original = colour_values(per_input, quantity)
             return Colours(colour_values(values.values, quantity), original, note)
         assert quantity in COLOUR_RANGES
-        return self._cached(run, ("colours", index, quantity, on_original), compute)
+        return self._cached(run, ("colours", index, state.params, quantity, on_original), compute)
 
 
 def _compact(histogram):

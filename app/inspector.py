@@ -7,11 +7,13 @@ play, restart, load, export) run on one worker thread, in that order, so a weigh
 Step click is used by that step. The points of a new state are drawn at once; for each viewer, the plots
 and colours follow from an analysis thread and the skeleton from a skeleton thread, both working on what
 that viewer shows last (app.analysis keeps the results, so viewers on one iteration share them). Anything
-slower than about a second says so (app.progress). Widgets live in app.layout, exports in app.delivery,
-status and legend words in app.status.
+slower than about a second says so (app.progress). While nothing else runs, the worker computes the next
+iteration ahead (Session.look_ahead), so that a Step shows it at once. Widgets live in app.layout, exports
+in app.delivery, status and legend words in app.status.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -50,7 +52,7 @@ class Inspector:
         self._source = None  # the original cloud the view settings were set for
         self.messages = Messages(server)
         self.activity = Activity(self.messages.progress, lambda: self.presenter.update_statuses())
-        self.worker = Worker(self._report_error)
+        self.worker = Worker(self._report_error, on_idle=self._look_ahead)
         self.upload_guard = UploadGuard(server, max_upload_bytes, self.messages.upload_refused)
         self.uploads = UploadNotices(server)  # viser's "uploaded successfully" never shows: we say what happened
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
@@ -218,7 +220,9 @@ class Inspector:
     # ------------------------------------------------------------------ jobs (worker thread only)
     def _step(self, viewer: Viewer | None, client) -> None:
         session = self.session
-        if session.step() is None:
+        with self._computing(client):
+            state = session.step()
+        if state is None:
             self._notify(client, "Run has ended", f"{session.latest.message}. Reset or Restart to run again.",
                          color="yellow")
             return
@@ -232,9 +236,34 @@ class Inspector:
             viewer.look_at(newest, newest)  # who steps watches the step
         self._advance(full=True)
 
+    def _computing(self, client, notify: bool = True):
+        """The status (and after a second a notification) while a step is computed; nothing when it is ready."""
+        session = self.session
+        if session.finished or session.ready_ahead:
+            return contextlib.nullcontext()
+        return self.activity.busy(client, "Step", f"computing iteration {session.latest.iteration + 1}", notify=notify)
+
+    def _look_ahead(self) -> bool:
+        """The idle task: the next iteration, its metrics, plots and (when a browser shows it) its skeleton,
+        computed while the person looks, so that Step only shows them; a parameter change has them computed
+        again."""
+        if not self.session.looks_ahead:
+            return True
+        while not self.presenter.wait_idle(0.05):  # the plots and skeleton of what browsers show come first
+            if self.worker.interrupted():
+                return False
+        skeleton = any(viewer.view.visible["skeleton"] for viewer in self.presenter.all())
+        if not self.session.look_ahead(self.worker.interrupted, skeleton=skeleton,
+                                       provisional=bool(self.ui.view.provisional.value)) or self.worker.interrupted():
+            return False
+        self.presenter.prepare_ahead()
+        self.presenter.update_statuses()  # says the next iteration is ready
+        return True
+
     def _tick(self, full: bool) -> bool:
         """One Play / Run-to-end iteration; False ends the loop."""
-        state = self.session.step(paused=lambda: not self.worker.playing)  # a pause lands between two stages
+        with self._computing(None, notify=False):
+            state = self.session.step(paused=lambda: not self.worker.playing)  # a pause lands between two stages
         going = state is not None and not self.session.finished
         if not going:
             self.playback.ended()

@@ -120,7 +120,7 @@ def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
           **session_options):
     """Start a server and an inspector on `cloud`; returns (server, inspector). The caller stops them.
     With a token, every page and websocket request must carry it. session_options: label_weights, weights,
-    history, point_budget (see app.session.Session)."""
+    history, point_budget, look_ahead (see app.session.Session)."""
     from .inspector import Inspector
 
     session = Session(cloud, params, **session_options)
@@ -139,6 +139,9 @@ def main(argv: list[str] | None = None) -> int:
                                                          "(for a cloud over the inspector's memory budget)")
     parser.add_argument("--full-resolution", action="store_true",
                         help="contract every point, even above the point budget (slower on large clouds)")
+    parser.add_argument("--no-look-ahead", action="store_true",
+                        help="do not compute the next iteration while the run waits for Step (saves the CPU on a "
+                             "shared machine; each Step then takes the whole step's time)")
     parser.add_argument("--no-token", action="store_true",
                         help="serve a non-loopback --host without a token: anyone who can reach it can drive the "
                              "session, upload files and write into --save-dir")
@@ -159,6 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         cloud = (load(args.input, voxel_size=args.voxel_size, budget=budget_bytes(INSPECTOR_SHARE)) if args.input
                  else default_cloud(bundled_assets()))
         server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir, token=token,
+                                  look_ahead=not args.no_look_ahead,
                                   **({"point_budget": None} if args.full_resolution else {}))
     except SkelError as error:
         advice = f" (--voxel-size {error.voxel_size:g})" if isinstance(error, TooLargeError) else ""

@@ -87,6 +87,13 @@ class Presenter:
             self.analyst.request((viewer, run, index), client, key=viewer.id)
             self.skeletons.request((viewer, run, index), client, key=viewer.id)
 
+    def prepare_ahead(self) -> None:
+        """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""
+        run = self.session.run
+        ahead = run.ahead
+        if ahead is not None and ahead.iteration != run.history[-1].iteration:
+            self.analyses.plots(run, len(run.history))
+
     def reanalyse(self) -> None:
         for viewer in self.all():
             if "points" in viewer.drawn:
@@ -161,7 +168,8 @@ class Presenter:
         viewer.set_timeline(len(history), index)
         readiness = self.analyses.readiness(session.run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
-            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing),
+            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
+                                                      session.ready_ahead),
             notice=viewer.view.notice(history[index].n_points), readiness=readiness,
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)

@@ -51,20 +51,35 @@ class Run:
     carrier: object = None  # (n, m) sparse weights carrying the reduced cloud's points to the input's
     # (rings, point ids, skelcore.surface.OriginalSurface) of the last skeleton: the states on the same rings share it
     surface: tuple | None = None
+    # The next state, computed before Step asks for it (Session.look_ahead), and its reduced-resolution original:
+    # not part of the run until committed; its metrics and skeleton are cached under the index it will take.
+    ahead: IterationState | None = None
+    ahead_reduced: IterationState | None = None
+
+    def state(self, index: int, reduced: bool = False) -> IterationState:
+        """history[index] (reduced: the contracted cloud's own state), or the state ahead at index len(history)."""
+        states = self.reduced if reduced and self.reduction is not None else self.history
+        if index == len(self.history) and self.ahead is not None:
+            return self.ahead_reduced if reduced and self.reduction is not None else self.ahead
+        return states[index]
 
 
 class Session:
     """label_weights: {label: contraction weight} for clouds with labels, applied on every (re)start.
     weights: explicit per-point weights of `cloud` (replaced by label weights once those are set, dropped on
-    load). history: the states of a finished run on `cloud` (e.g. a skelcore.Result's) to open at."""
+    load). history: the states of a finished run on `cloud` (e.g. a skelcore.Result's) to open at.
+    look_ahead: whether the inspector has the next iteration computed while the run waits for Step."""
 
     def __init__(self, cloud: Cloud, params: ContractionParams = ContractionParams(),
                  sample_radius: float = pipeline.RunOptions.sample_radius, *, label_weights=None, weights=None,
-                 history: list[IterationState] | None = None, point_budget: int | None = multires.POINT_BUDGET):
+                 history: list[IterationState] | None = None, point_budget: int | None = multires.POINT_BUDGET,
+                 look_ahead: bool = True):
         self.sample_radius = sample_radius
         self.point_budget = point_budget  # larger clouds contract at reduced resolution (None or 0: never)
+        self.looks_ahead = look_ahead
         self.log: list[str] = []
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # the metrics
+        self._engine = threading.Lock()  # the contraction generator: Step and the look-ahead
         self.label_weights = check_label_weights(label_weights)
         self._point_weights = None if weights is None else check_weights(weights, len(cloud.points))
         self._start(cloud if history else self._cleaned(cloud), params, history)
@@ -87,13 +102,18 @@ class Session:
         return self.latest.termination is not None
 
     @property
+    def ready_ahead(self) -> bool:
+        """Whether the next step was computed ahead with the parameters in force (Step only has to take it)."""
+        return self.run.ahead is not None and self._pending is None and not self._within_step
+
+    @property
     def start_params(self) -> ContractionParams:
         return self.run.start_params
 
     @property
     def params(self) -> ContractionParams:
         """The parameters the next step will use."""
-        return self._pending or self.latest.params
+        return self._pending or self._engine_params
 
     def restart(self, params: ContractionParams | None = None) -> None:
         """Start the run again from iteration 0 (with new parameters when given)."""
@@ -147,31 +167,33 @@ class Session:
             reduced_weights = weights if reduction is None or weights is None else reduction.mean(weights)
             generator = contraction.contract(points, params, reduced_weights, stages=True)
             states = [next(generator)]  # the one-rings: an error here leaves the current run as it was
-        self._generator, self._pending, self._within_step = generator, None, False
-        self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
-        self.run = Run(cloud, params, states, weights=weights,
-                       label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
-                       else {})
-        if reduction is not None:
-            self.run.reduction, self.run.reduced = reduction, states
-            self.run.carrier = reduction.carrier(states[0].rings)
-            self.run.history = [reduction.lift(states[0], self.run.carrier)]
-            self.note(reduction.note())
-        weighted = "" if weights is None else f", weights in [{weights.min():g}, {weights.max():g}]"
-        self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}{weighted}")
+        with self._engine:  # no look-ahead is under way on the run it replaces
+            self._generator, self._pending, self._within_step = generator, None, False
+            self._engine_params = params  # those the generator steps with
+            self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
+            self.run = Run(cloud, params, states, weights=weights,
+                           label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
+                           else {})
+            if reduction is not None:
+                self.run.reduction, self.run.reduced = reduction, states
+                self.run.carrier = reduction.carrier(states[0].rings)
+                self.run.history = [reduction.lift(states[0], self.run.carrier)]
+                self.note(reduction.note())
+            weighted = "" if weights is None else f", weights in [{weights.min():g}, {weights.max():g}]"
+            self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}{weighted}")
 
     def tune(self, params: ContractionParams) -> str:
         """Take the panel's parameters: live ones apply from the next step, the others on restart.
         Returns what changed, in words ("" when nothing did)."""
         params = params.validated()
-        current = self.params
+        current, shown = self.params, self.latest.params
         live = dataclasses.replace(current, **{name: getattr(params, name) for name in current.to_dict()
                                                if name not in contraction.RESTART_FIELDS})
-        changed = [name for name in current.to_dict() if getattr(live, name) != getattr(current, name)]
+        changed = [name for name in current.to_dict() if getattr(live, name) != getattr(shown, name)]
         waiting = [name for name in contraction.RESTART_FIELDS if getattr(params, name) != getattr(current, name)]
         if changed and self.finished:  # no next step: only a restart can use them
             waiting, changed = waiting + changed, []
-        if changed:
+        elif live != current:  # a state computed ahead with `current` is computed again (look_ahead)
             self._pending = live
         self._live_note = changed and f"{_assignments(live, changed)} from iteration {self.latest.iteration + 1}"
         ended = " (the run has ended)" if self.finished else ""
@@ -188,29 +210,98 @@ class Session:
 
     def step(self, paused: Callable[[], bool] = lambda: False) -> IterationState | None:
         """One iteration (retuned by gen.send when parameters changed); None when the run has ended, or
-        when `paused()` turned true between two stages of the step: the next call resumes it there."""
+        when `paused()` turned true between two stages of the step: the next call resumes it there. A state
+        computed ahead (look_ahead) with the parameters still in force is taken as it is."""
         if self.finished:
             return None
-        if self._within_step:
-            state = next(self._generator)
-        else:
-            pending, self._pending = self._pending, None
-            state = self._generator.send(pending)  # send(None) is next()
-        while state is None:  # between two stages of the step
-            self._within_step = True
-            if paused():
-                return None
-            state = next(self._generator)
-        self._within_step = False
-        self._live_note = ""
-        run = self.run
-        if run.reduction is not None:
-            record(run.reduced, state)
-            state = run.reduction.lift(state, run.carrier)
-        record(run.history, state)
+        with self._engine:
+            run = self.run
+            if self.ready_ahead:
+                state, reduced = run.ahead, run.ahead_reduced
+                run.ahead = run.ahead_reduced = None
+            else:
+                advanced = self._advance(paused)
+                if advanced is None:
+                    return None
+                state, reduced = advanced
+            self._live_note = ""
+            if run.reduction is not None:
+                record(run.reduced, reduced)
+            record(run.history, state)
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
         return state
+
+    def look_ahead(self, paused: Callable[[], bool] = lambda: False, skeleton: bool = False,
+                   provisional: bool = False) -> bool:
+        """Compute the next state before Step asks for it, with the parameters in force, and its metrics (and
+        its skeleton: when `skeleton`, unless it would be provisional and `provisional` is off), so that Step
+        only has to show them. The state is not part of the run until Step takes it; a parameter change
+        meanwhile has it computed again (contraction.Redo). Stops between two stages when `paused()` turns
+        true (the next call goes on from there) and then returns False; True once everything asked for is ready,
+        or when the run has ended."""
+        with self._engine:
+            run = self.run
+            if self.finished:
+                return True
+            if run.ahead is None or self._pending is not None or self._within_step:
+                advanced = self._advance(paused)
+                if advanced is None:
+                    return False
+                run.ahead, run.ahead_reduced = advanced
+            ahead, index = run.ahead, len(run.history)
+        if ahead.iteration == run.history[-1].iteration:  # a rejected step: the last state again, measured as such
+            return True
+        if paused():
+            return False
+        self.metrics_upto(index, run)
+        if skeleton:
+            if paused():
+                return False
+            if provisional or not pipeline.skeleton_is_provisional(ahead, pipeline.state_curve_share(ahead, run.cloud)):
+                self.skeleton(index, run)
+        return True
+
+    def _advance(self, paused: Callable[[], bool]) -> tuple[IterationState, IterationState] | None:
+        """The generator's next state (lifted to every input point, and as contracted); None when paused within
+        the step. A state computed ahead is redone when parameters changed after it was begun."""
+        run = self.run
+        while True:
+            if self._within_step:
+                state = next(self._generator)
+            else:
+                pending, self._pending = self._pending, None
+                redo = run.ahead is not None
+                self._discard_ahead()
+                state = self._generator.send(contraction.Redo(pending) if redo else pending)  # send(None) is next()
+                self._engine_params = pending or self._engine_params
+            while state is None:  # between two stages of the step
+                self._within_step = True
+                if paused():
+                    return None
+                state = next(self._generator)
+            self._within_step = False
+            if self._pending is None:
+                break
+            run.ahead = run.ahead_reduced = state  # begun before the parameters changed: redone with them
+        reduced = state
+        if run.reduction is not None:
+            state = run.reduction.lift(state, run.carrier)
+        return state, reduced
+
+    def _discard_ahead(self) -> None:
+        """Forget the state computed ahead and what was derived from it (it took the next index)."""
+        run = self.run
+        if run.ahead is None:
+            return
+        index = len(run.history)
+        with self._lock:
+            if run.metrics is not None:
+                run.metrics.forget(index)
+        for cache in (run.skeletons, run.evidence):
+            for key in [key for key in list(cache) if key[0] == index]:
+                cache.pop(key, None)
+        run.ahead = run.ahead_reduced = None
 
     # -- derived data of history[index], cached per run
     def run_options(self, run: Run | None = None) -> pipeline.RunOptions:
@@ -232,7 +323,7 @@ class Session:
         run = run or self.run
         key = (index, self.run_options(run).skeleton_params())
         if key not in run.skeletons:
-            state = run.history[index] if run.reduction is None else run.reduced[index]
+            state = run.state(index, reduced=True)
             kept = run.surface
             if kept is None or kept[0] is not state.rings or not np.array_equal(kept[1], state.point_ids):
                 original = run.cloud.points if run.reduction is None else run.reduction.points
@@ -241,12 +332,14 @@ class Session:
         return run.skeletons[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
-        """The paper's metrics of history[0..index], each computed once, in order."""
+        """The paper's metrics of history[0..index] (index len(history): the state ahead too), each computed
+        once, in order."""
         run = run or self.run
+        states = run.history if index < len(run.history) else [*run.history, run.state(index)]
         with self._lock:
             if run.metrics is None:
                 run.metrics = pipeline.IterationMetricsCache(run.cloud)
-            return [run.metrics.get(run.history, i) for i in range(index + 1)]
+            return [run.metrics.get(states, i) for i in range(index + 1)]
 
     def metrics(self, index: int, run: Run | None = None) -> IterationMetrics:
         return self.metrics_upto(index, run)[-1]

@@ -6,8 +6,8 @@ from .analysis import Readiness
 from .scene import COLOUR_RANGES, legend_html
 
 
-def run_state(history, doing: str, playing: bool) -> str:
-    """What the shared run is doing, in a few words."""
+def run_state(history, doing: str, playing: bool, ready_ahead: bool = False) -> str:
+    """What the shared run is doing, in a few words (ready_ahead: the next iteration was computed ahead)."""
     latest = history[-1]
     if doing:
         return f"busy: {doing}…"
@@ -15,7 +15,8 @@ def run_state(history, doing: str, playing: bool) -> str:
         return f"ended at iteration {latest.iteration}: {latest.message}"
     if playing:
         return "running"
-    return "paused" if len(history) > 1 else "ready"
+    state = "paused" if len(history) > 1 else "ready"
+    return f"{state}; iteration {latest.iteration + 1} computed ahead (Step shows it at once)" if ready_ahead else state
 
 
 def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:

@@ -2,7 +2,9 @@
 
 `Worker` runs every engine call, in submission order. Play is a job that re-submits itself after
 each iteration (after a wait, when Play is paced), so a pause, a parameter change or a timeline move
-queued meanwhile runs between two iterations. `Latest` runs the slow per-iteration analysis (metrics,
+queued meanwhile runs between two iterations. When a job leaves nothing queued and nothing plays, the
+worker runs its idle task (the inspector computes the next iteration ahead), which yields to the next job
+as soon as one is queued (`interrupted`) and is taken up again once the worker is idle anew. `Latest` runs the slow per-iteration analysis (metrics,
 skeleton) for the newest request of each key (each browser) only: requests made while it is busy replace
 the waiting one of their key, so the engine never waits for it.
 """
@@ -42,9 +44,14 @@ def _in_our_words(error: Exception) -> str:
 
 
 class Worker:
-    def __init__(self, on_error: ErrorHandler):
+    def __init__(self, on_error: ErrorHandler, on_idle: Callable[[], bool] | None = None):
+        """on_idle: the idle task; it returns False when it stopped because `interrupted()` turned true."""
         self._on_error = on_error
+        self._on_idle = on_idle
         self._jobs: queue.Queue = queue.Queue()
+        self._waiting = 0  # jobs queued, not counting wait_idle's markers
+        self._counting = threading.Lock()
+        self._idle_due = False  # a job ran (or the idle task was interrupted) since the idle task last finished
         self._playing = threading.Event()
         self._closed = False
         self._thread = threading.Thread(target=self._loop, name="skel-inspect-engine", daemon=True)
@@ -54,9 +61,16 @@ class Worker:
     def playing(self) -> bool:
         return self._playing.is_set()
 
-    def submit(self, job: Callable[[], object], client=None) -> None:
+    def submit(self, job: Callable[[], object], client=None, *, marker: bool = False) -> None:
         if not self._closed:
-            self._jobs.put((job, client))
+            if not marker:
+                with self._counting:
+                    self._waiting += 1
+            self._jobs.put((job, client, marker))
+
+    def interrupted(self) -> bool:
+        """True when the idle task should stop: a job is queued, Play runs, or the worker closes."""
+        return self._waiting > 0 or self._playing.is_set() or self._closed
 
     def play(self, tick: Callable[[], bool], client=None, interval: float = 0.0) -> None:
         """Run tick() once per queue turn, at most once per `interval` seconds, until it returns False
@@ -70,14 +84,14 @@ class Worker:
         self._playing.clear()
 
     def wait_idle(self, timeout: float | None = None) -> bool:
-        """Block until the jobs submitted so far have run and nothing plays."""
+        """Block until the jobs submitted so far have run, nothing plays and the idle task has finished."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             done = threading.Event()
-            self.submit(done.set)
+            self.submit(done.set, marker=True)  # runs after the idle task the jobs before it set off
             if not done.wait(None if deadline is None else max(0.0, deadline - time.monotonic())):
                 return False
-            if not self._playing.is_set():
+            if not self._playing.is_set() and not self._idle_due:
                 return True
 
     def close(self) -> None:
@@ -104,9 +118,20 @@ class Worker:
 
     def _loop(self) -> None:
         while (item := self._jobs.get()) is not None:
-            job, client = item
+            job, client, marker = item
+            if not marker:
+                with self._counting:
+                    self._waiting -= 1
+                self._idle_due = self._on_idle is not None
             if not _guarded(job, client, self._on_error):
                 self._playing.clear()
+            if self._idle_due and not self.interrupted():
+                self._idle()
+
+    def _idle(self) -> None:
+        finished = []
+        _guarded(lambda: finished.append(self._on_idle()), None, self._on_error)
+        self._idle_due = finished == [False]  # interrupted: taken up again after the jobs that interrupted it
 
 
 class Latest:

@@ -7,7 +7,6 @@ analysis are made once per run.
 """
 from __future__ import annotations
 
-import itertools
 import time
 from typing import Generator
 
@@ -17,16 +16,17 @@ from . import glskeleton
 from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, contraction_rows, goes_on, hold_curves,
-                   record, retune, rings_stalled, schedule, solve_stages, start_run, stopped)
+from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, goes_on,
+                   hold_curves, record, retune, rings_stalled, schedule, solve_stages, start_run, stopped)
 
-__all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "contract", "goes_on", "record", "retune",
-           "run_contraction"]
+__all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
+           "retune", "run_contraction"]
 
 
 def contract(points: np.ndarray, params: ContractionParams = ContractionParams(), weights=None, *,
-             stages: bool = False) -> Generator[IterationState | None, ContractionParams | None, None]:
-    """Yield the input state, then one state per solve; `send(params)` retunes the following steps.
+             stages: bool = False) -> Generator[IterationState | None, ContractionParams | Redo | None, None]:
+    """Yield the input state, then one state per solve; `send(params)` retunes the following steps, and
+    `send(Redo(params))` forgets the state just yielded and computes that step again (with `params`).
 
     The last state yielded carries `termination`. When a rule rejects the candidate of a step (NaN,
     solver failure, bounding-box growth, ring ratio no longer falling: cloudcontr discards that step),
@@ -46,14 +46,23 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
 
 
 def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None, stages: bool
-                  ) -> Generator[IterationState | None, ContractionParams | None, None]:
+                  ) -> Generator[IterationState | None, ContractionParams | Redo | None, None]:
     run = start_run(points, params)
     state, ids, sizes0 = run.state, run.state.point_ids, run.sizes0
     current, sizes, ratio = run.unit, sizes0, 1.0
     solver = CholeskySolver()
     held = np.full(len(points), np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    for iteration in itertools.count(1):
-        params, notes = retune(params, (yield state))
+    iteration = 0
+    before = (iteration, state, current, sizes, ratio, held)  # what the last step started from, for a Redo
+    while True:
+        sent = yield state
+        if isinstance(sent, Redo):
+            (iteration, state, current, sizes, ratio, held), sent = before, sent.params
+        elif state.termination:
+            return
+        params, notes = retune(params, sent)
+        before = (iteration, state, current, sizes, ratio, held)
+        iteration += 1
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
@@ -71,8 +80,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
                 failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
         if failure is not None:
-            yield stopped(state, *failure, notes)
-            return
+            state = stopped(state, *failure, notes)
+            continue
         current, sizes, ratio = candidate, new_sizes, new_ratio
         if iteration == 1:
             held = hold_curves(wl, current, run)
@@ -82,9 +91,6 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         state = IterationState(iteration=iteration, points=run.normalisation.inverse(current), point_ids=ids,
                                owner=ids, rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                timings=timings, termination=termination, message=message)
-        if termination:
-            yield state
-            return
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),

@@ -54,7 +54,6 @@ The constants assume the normalised frame (bounding box 1.6), as the MATLAB does
 """
 from __future__ import annotations
 
-import itertools
 import time
 from typing import Generator
 
@@ -64,7 +63,7 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, contraction_rows, curve_like, hold_curves, retune,
+from .step import (TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, curve_like, hold_curves, retune,
                    rings_stalled, schedule, solve_stages, start_run, stopped)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
@@ -77,7 +76,7 @@ FAN_GROUP = 10  # merged rings up to this many candidates are triangulated apart
 
 
 def contract_with_reduction(points: np.ndarray, params: ContractionParams, weights: np.ndarray | None = None, *,
-                            stages: bool = False) -> Generator[IterationState | None, ContractionParams | None, None]:
+                            stages: bool = False) -> Generator[IterationState | None, ContractionParams | Redo | None, None]:
     """GLSkeleton as a generator with the same protocol as skelcore.contraction.contract. `weights`: (n,)
     per-point contraction weights of the input points, checked; a merged point carries their mean over the
     input points it stands for."""
@@ -91,8 +90,23 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
     held = np.full(n, np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    for iteration in itertools.count(1):
-        params, notes = retune(params, (yield state))
+    iteration = 0
+
+    def carried():  # what the loop carries from step to step: a Redo restores it
+        return (iteration, state, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing, held,
+                ids, owner)
+
+    before = carried()
+    while True:
+        sent = yield state
+        if isinstance(sent, Redo):
+            (iteration, state, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing, held, ids,
+             owner), sent = before, sent.params
+        elif state.termination:
+            return
+        params, notes = retune(params, sent)
+        before = carried()
+        iteration += 1
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
@@ -113,17 +127,17 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if stages:
             yield None
         if failure is not None:
-            yield stopped(state, *failure, notes)
-            return
+            state = stopped(state, *failure, notes)
+            continue
         new_sizes, nearest = _nearest_in_ring(rings, candidate)
         new_ratio = float(new_sizes.sum() / sizes0.sum())
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
-            yield stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
-                          notes)
-            return
+            state = stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
+                            notes)
+            continue
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
         reduce_start = time.perf_counter()
@@ -165,9 +179,6 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         state = IterationState(iteration=iteration, points=normalisation.inverse(current), point_ids=ids,
                                owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                timings=timings, termination=termination, message=message)
-        if termination:
-            yield state
-            return
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,

@@ -6,6 +6,7 @@ problem; recoverable oddities (duplicate points) are fixed and reported in `Clou
 from __future__ import annotations
 
 import errno
+import functools
 import re
 import tempfile
 from dataclasses import dataclass, field
@@ -16,6 +17,7 @@ import numpy as np
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
+from .normalise import object_diagonal
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
@@ -38,6 +40,11 @@ class Cloud:
     cleaning: dict | None = None  # what skelcore.clean removed before contraction (counts), once it ran
     labels: np.ndarray | None = None  # (n,) int64 per-point labels (skelcore.labels), when the input has them
     scale: float = 1.0  # the file's coordinates are points * scale (a power of two; 1 unless extreme)
+
+    @functools.cached_property
+    def diagonal(self) -> float:
+        """The object diagonal of the points (skelcore.normalise.object_diagonal), computed once per cloud."""
+        return object_diagonal(self.points)
 
 
 def load(path, *, sample: int | None = None, voxel_size: float | None = None,

@@ -23,7 +23,6 @@ from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError, OutputError, ParameterError, SkelError
 from .labels import check_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
-from .normalise import object_diagonal
 from .params import ContractionParams, default_k
 from .persistence import persistence_summary, piece_counts
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
@@ -158,6 +157,10 @@ class IterationMetricsCache:
                                                          iteration=state.iteration))
         return self._metrics[index]
 
+    def forget(self, index: int) -> None:
+        """Drop the metrics of states[index:] (a state that was replaced, and those after it)."""
+        del self._metrics[index:]
+
     def all(self, states: list[IterationState]) -> list[IterationMetrics]:
         """The metrics of every state."""
         return [self.get(states, index) for index in range(len(states))]
@@ -278,7 +281,7 @@ def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
     radius, a fraction of the input cloud's object diagonal (the skeleton's own scale, which the
     contraction's stop rule, skelcore.step.goes_on, and the verdict also use)."""
-    return skeleton_scale_share(state.points, object_diagonal(cloud.points))
+    return skeleton_scale_share(state.points, cloud.diagonal)
 
 
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],

@@ -67,6 +67,14 @@ class IterationState:
 
 
 @dataclass(frozen=True)
+class Redo:
+    """Sent into a contraction instead of parameters: forget the state just yielded and compute that step again
+    from the state before it, with `params` (None: the same). A caller that computes a step before it is asked
+    for (the inspector) redoes it when the parameters changed meanwhile. At the input state it is a plain send."""
+    params: ContractionParams | None = None
+
+
+@dataclass(frozen=True)
 class RunStart:
     """A run's fixed set-up: the frame, the input's one-rings and the figures every step compares with."""
     normalisation: Normalisation

@@ -431,3 +431,154 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     session.write_results(last, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]["input_points"] == 3000
     assert Session(cloud, point_budget=None).run.reduction is None  # --full-resolution
+
+
+def test_a_state_computed_ahead_is_the_step_and_is_shown_at_once(cloud):
+    """look_ahead computes the next state, its metrics and its skeleton; Step then takes that very state, and
+    the run is the same as one stepped without looking ahead."""
+    plain, ahead = Session(cloud), Session(cloud)
+    plain.step()
+    ahead.step()
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    computed = ahead.run.ahead
+    assert len(ahead.history) == 2 and computed.iteration == 2  # not part of the run yet
+    assert ahead.step() is computed
+    assert np.array_equal(computed.points, plain.step().points)
+    assert (2, ahead.skeleton_params) in ahead.run.skeletons  # made ahead, under the index the state took
+    np.testing.assert_array_equal(ahead.metrics(2).d_theta, plain.metrics(2).d_theta)
+    assert ahead.skeleton(2).graph.number_of_nodes() == plain.skeleton(2).graph.number_of_nodes()
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_a_change_after_the_look_ahead_computes_the_step_again(cloud, method):
+    """A parameter changed after the next state was computed ahead applies to that state, as the note says;
+    its metrics and skeleton are those of the state computed again."""
+    params = ContractionParams(method=method)
+    plain, ahead = Session(cloud, params), Session(cloud, params)
+    plain.step()
+    ahead.step()
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    stale = ahead.run.ahead
+    assert "sl=2.0 from iteration 2" in ahead.tune(ahead.params.replace(sl=2.0))
+    plain.tune(plain.params.replace(sl=2.0))
+    assert ahead.look_ahead(skeleton=True, provisional=True)  # the idle worker computes it again at once
+    state = ahead.step()
+    assert state is not stale and state.params.sl == 2.0 and ahead.pending == ""
+    assert np.array_equal(state.points, plain.step().points)
+    np.testing.assert_array_equal(ahead.metrics(2).d_theta, plain.metrics(2).d_theta)
+    assert np.allclose(ahead.skeleton(2).nodes_array(), plain.skeleton(2).nodes_array())
+    assert ahead.tune(ahead.params.replace(sl=3.0)) and ahead.look_ahead()
+    assert ahead.tune(ahead.params.replace(sl=2.0)) == ""  # back to the shown parameters: nothing pending
+    assert np.array_equal(ahead.step().points, plain.step().points)  # ...yet the state ahead was redone
+
+
+def test_a_look_ahead_stops_between_stages_and_step_finishes_it(cloud):
+    straight, ahead = Session(cloud), Session(cloud)
+    straight.step()
+    ahead.step()
+    assert not ahead.look_ahead(paused=lambda: True)  # stopped within the step
+    assert ahead.run.ahead is None and len(ahead.history) == 2
+    assert np.array_equal(ahead.step().points, straight.step().points)
+
+
+def test_the_idle_worker_looks_ahead_and_yields_to_jobs():
+    order, interrupted = [], []
+
+    def idle():
+        order.append("idle")
+        interrupted.append(worker.interrupted())
+        return True
+
+    worker = Worker(lambda message, client: order.append(message), on_idle=idle)
+    try:
+        worker.submit(lambda: order.append("a"))
+        assert worker.wait_idle(10)
+        assert order == ["a", "idle"] and interrupted == [False]
+        assert worker.wait_idle(10) and order == ["a", "idle"]  # idle again only after a job ran
+        release = threading.Event()
+        worker.submit(release.wait)
+        worker.submit(lambda: order.append("b"))
+        worker.submit(lambda: order.append("c"))
+        release.set()
+        assert worker.wait_idle(10)
+        assert order == ["a", "idle", "b", "c", "idle"]  # not between queued jobs
+    finally:
+        worker.close()
+
+
+def test_an_interrupted_idle_task_is_taken_up_again():
+    calls = []
+
+    def idle():
+        calls.append(worker.interrupted())
+        return not worker.interrupted() and len(calls) > 1  # the first call pretends a job interrupted it
+
+    worker = Worker(lambda message, client: None, on_idle=idle)
+    try:
+        worker.submit(lambda: None)
+        assert worker.wait_idle(10)
+        assert len(calls) == 2  # taken up again by the next turn of the queue, wait_idle's marker included
+    finally:
+        worker.close()
+
+
+def test_a_reduced_run_looks_ahead_at_its_own_resolution(cloud):
+    """Above the point budget the state ahead is the reduced cloud's, carried to every input point; its skeleton
+    is made from the reduced state, as Step would."""
+    plain, ahead = Session(cloud, point_budget=400), Session(cloud, point_budget=400)
+    assert ahead.run.reduction is not None
+    assert ahead.look_ahead(skeleton=True, provisional=True)
+    state = ahead.step()
+    assert len(state.points) == len(cloud.points) and len(ahead.run.reduced[-1].points) < len(cloud.points)
+    assert np.array_equal(state.points, plain.step().points)
+    assert np.allclose(ahead.skeleton(1).nodes_array(), plain.skeleton(1).nodes_array())
+
+
+@pytest.mark.parametrize("look_ahead", [False, True])
+def test_a_step_says_what_it_computes_unless_it_was_computed_ahead(cloud, look_ahead):
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, look_ahead=look_ahead))
+    said, step = [], inspector.session.step
+    inspector.session.step = lambda *args, **kwargs: said.append(inspector.activity.text()) or step(*args, **kwargs)
+    try:
+        assert inspector.wait_idle(120)
+        assert (inspector.session.run.ahead is not None) == look_ahead
+        inspector._on_step(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and len(inspector.session.history) == 2
+        assert said == [""] if look_ahead else "computing iteration 1" in said[0]
+    finally:
+        inspector.close()
+        server.stop()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_looking_ahead_never_changes_the_run(cloud, seed):
+    """Random Steps, weight changes and look-aheads (some stopped within the step) give the same run as the same
+    Steps and changes without looking ahead."""
+    rng = np.random.default_rng(seed)
+    method = ["lbc", "glskeleton"][seed % 2]
+    plain = Session(cloud, ContractionParams(method=method, max_iterations=8), look_ahead=False)
+    ahead = Session(cloud, ContractionParams(method=method, max_iterations=8))
+    for _ in range(25):
+        action = rng.choice(["step", "tune", "look", "stop"])
+        if action == "step":
+            assert (plain.step() is None) == (ahead.step() is None)
+        elif action == "tune":
+            change = {"sl": float(rng.choice([2.0, 2.5, 3.0])), "wh0": float(rng.choice([1.0, 2.0]))}
+            assert plain.tune(plain.params.replace(**change)) == ahead.tune(ahead.params.replace(**change))
+        else:
+            stages = iter(range(int(rng.integers(1, 3)) if action == "stop" else 10**6))
+            ahead.look_ahead(lambda: next(stages, None) is None, skeleton=True, provisional=True)
+        assert len(plain.history) == len(ahead.history) and plain.pending == ahead.pending
+        assert np.array_equal(plain.latest.points, ahead.latest.points) and plain.latest.params == ahead.latest.params
+    assert [m.iteration for m in plain.metrics_upto(len(plain.history) - 1)] == \
+        [m.iteration for m in ahead.metrics_upto(len(ahead.history) - 1)]
+    last = len(plain.history) - 1
+    np.testing.assert_array_equal(plain.metrics(last).d_theta, ahead.metrics(last).d_theta)
+    assert np.allclose(plain.skeleton(last).nodes_array(), ahead.skeleton(last).nodes_array())

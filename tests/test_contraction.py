@@ -4,7 +4,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.spatial import Delaunay
 
-from skelcore.contraction import contract, run_contraction
+from skelcore.contraction import Redo, contract, record, run_contraction
 from skelcore.errors import ParameterError
 from skelcore.laplacian import LaplacianSystem, cotangent_weights
 from skelcore.neighbours import knn, one_rings, pca_frames
@@ -262,3 +262,48 @@ def test_small_handles_keep_their_loops_while_the_body_contracts():
     shape = solid_shape("handled_ball", 5000)
     assert skelcore.skeletonize(shape.points).skeleton.topology()["cycles"] == 3
     assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
+
+
+
+def _session_like(points, params, redo):
+    """Drive a contraction as the inspector does: each state is computed ahead, then redone with redo(state)
+    (a Redo, or None to take it as it is); returns the run's history."""
+    generator = contract(points, params)
+    history = [next(generator)]
+    while not history[-1].termination:
+        ahead = next(generator)
+        again = redo(ahead)
+        record(history, ahead if again is None else generator.send(again))
+    return history
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_redo_computes_the_step_again_as_if_sent_in_the_first_place(method):
+    """A state computed ahead and redone (the inspector's look-ahead) is the one a plain run gives."""
+    points = make_shape("torus", 1500, seed=4).points
+    params = ContractionParams(method=method, max_iterations=5)
+    retuned = params.replace(sl=2.0)
+    steps, plain = contract(points, params), []
+    for state in steps:  # retuned from iteration 3
+        record(plain, state)
+        if state.iteration == 2 and not state.termination:
+            record(plain, steps.send(retuned))
+    redone = _session_like(points, params, lambda ahead: {1: Redo(), 3: Redo(retuned)}.get(ahead.iteration)
+                           if ahead.params == params else None)
+    assert [state.iteration for state in plain] == [state.iteration for state in redone]
+    assert len(plain) >= 4 and plain[3].params == retuned
+    for mine, theirs in zip(plain, redone):
+        np.testing.assert_array_equal(mine.points, theirs.points)
+        assert mine.params == theirs.params
+
+
+def test_redo_continues_a_run_that_ended():
+    """The last state of a run can be redone with parameters that let it go on."""
+    points = make_shape("torus", 1500, seed=4).points
+    short, longer = ContractionParams(max_iterations=2), ContractionParams(max_iterations=4)
+    history = _session_like(points, short, lambda ahead: Redo(longer) if ahead.termination and ahead.params == short
+                            else None)
+    plain = run_contraction(points, longer)
+    assert [state.iteration for state in history] == [state.iteration for state in plain]
+    assert len(history) > 3 and history[-1].params == longer and history[-1].termination == plain[-1].termination
+    np.testing.assert_array_equal(history[-1].points, plain[-1].points)
