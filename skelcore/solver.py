@@ -36,7 +36,6 @@ class CholeskySolver:
     def __init__(self) -> None:
         self._analysis = None
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
-        self._keys: np.ndarray | None = None  # column * n + row of each entry of the analysed pattern
 
     def solve(self, system: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
         """Solve system @ x = rhs (rhs (n,) or (n,k)); a SolverError when the factorisation fails."""
@@ -54,35 +53,10 @@ class CholeskySolver:
         pattern = (matrix.indptr, matrix.indices)
         if self._pattern is None or not (np.array_equal(pattern[0], self._pattern[0])
                                          and np.array_equal(pattern[1], self._pattern[1])):
-            padded = self._on_analysed_pattern(matrix)
-            if padded is None:
-                self._analysis = analyze(matrix, ordering_method=ORDERING)
-                self._pattern, self._keys = pattern, _entry_keys(matrix)
-            else:
-                matrix = padded
+            self._analysis = analyze(matrix, ordering_method=ORDERING)
+            self._pattern = pattern
         factor = self._analysis.cholesky(matrix)
         return np.asarray(factor(np.asarray(rhs, dtype=np.float64)))
-
-
-    def _on_analysed_pattern(self, matrix: sp.csc_matrix) -> sp.csc_matrix | None:
-        """`matrix` on the analysed pattern, with explicit zeros where it has no entry; None when it has an entry
-        outside that pattern. scipy drops an entry of L^T L whose terms cancel exactly, which changes the pattern
-        of an LBC system for one step: the analysis (AMD) would be redone for nothing."""
-        if self._keys is None or matrix.shape[0] != len(self._pattern[0]) - 1 or matrix.nnz > len(self._keys):
-            return None
-        keys = _entry_keys(matrix)
-        slots = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
-        if not np.array_equal(self._keys[slots], keys):
-            return None
-        data = np.zeros(len(self._keys))
-        data[slots] = matrix.data
-        return sp.csc_matrix((data, self._pattern[1], self._pattern[0]), shape=matrix.shape)
-
-
-def _entry_keys(matrix: sp.csc_matrix) -> np.ndarray:
-    """column * n + row of each stored entry, ascending for a CSC matrix with sorted indices."""
-    columns = np.repeat(np.arange(matrix.shape[1], dtype=np.int64), np.diff(matrix.indptr))
-    return columns * matrix.shape[0] + matrix.indices
 
 
 def _reason(error: Exception) -> str:
