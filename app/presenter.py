@@ -169,7 +169,7 @@ class Presenter:
         readiness = self.analyses.readiness(session.run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
             session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
-                                                      session.ready_ahead),
+                                                      session.run.ahead if session.ready_ahead else None),
             notice=viewer.view.notice(history[index].n_points), readiness=readiness,
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)

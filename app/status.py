@@ -6,8 +6,8 @@ from .analysis import Readiness
 from .scene import COLOUR_RANGES, legend_html
 
 
-def run_state(history, doing: str, playing: bool, ready_ahead: bool = False) -> str:
-    """What the shared run is doing, in a few words (ready_ahead: the next iteration was computed ahead)."""
+def run_state(history, doing: str, playing: bool, ahead=None) -> str:
+    """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead)."""
     latest = history[-1]
     if doing:
         return f"busy: {doing}…"
@@ -16,7 +16,11 @@ def run_state(history, doing: str, playing: bool, ready_ahead: bool = False) -> 
     if playing:
         return "running"
     state = "paused" if len(history) > 1 else "ready"
-    return f"{state}; iteration {latest.iteration + 1} computed ahead (Step shows it at once)" if ready_ahead else state
+    if ahead is None:
+        return state
+    if ahead.iteration == latest.iteration:  # the next step was rejected: Step ends the run
+        return f"{state}; the next step, computed ahead, ends the run"
+    return f"{state}; iteration {ahead.iteration} computed ahead (Step shows it at once)"
 
 
 def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:

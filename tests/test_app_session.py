@@ -582,3 +582,15 @@ def test_looking_ahead_never_changes_the_run(cloud, seed):
     last = len(plain.history) - 1
     np.testing.assert_array_equal(plain.metrics(last).d_theta, ahead.metrics(last).d_theta)
     assert np.allclose(plain.skeleton(last).nodes_array(), ahead.skeleton(last).nodes_array())
+
+
+def test_the_status_says_what_was_computed_ahead():
+    import types
+
+    from app.status import run_state
+
+    history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
+    assert run_state(history, "", False) == "paused"
+    assert "iteration 2 computed ahead" in run_state(history, "", False, types.SimpleNamespace(iteration=2))
+    assert "ends the run" in run_state(history, "", False, types.SimpleNamespace(iteration=1))
+    assert run_state(history, "computing iteration 2", False, None) == "busy: computing iteration 2…"
