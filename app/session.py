@@ -244,7 +244,7 @@ class Session:
             run = self.run
             if self.finished:
                 return True
-            if run.ahead is None or self._pending is not None or self._within_step:
+            if not self.ready_ahead:
                 advanced = self._advance(paused)
                 if advanced is None:
                     return False
