@@ -1,7 +1,7 @@
 """Refinements of the curve skeleton graph, each switchable: merge junctions joined by a short path, prune
-short spurs, drop nearly collinear degree-2 nodes. None of them can remove a loop or shrink a curve by more
-than its stated length: a merge is refused when it would fold a loop away, and only end branches shorter
-than the spur length are pruned.
+short spurs, drop nearly collinear degree-2 nodes, give stray specks to the skeleton beside them. None of them
+can remove a loop of the object or shrink a curve by more than its stated length: a merge is refused when it
+would fold a loop away, and only end branches shorter than the spur length are pruned.
 
 The graph is a dict node -> neighbours with positions `xyz` (list of tuples); `parent` is the merge forest
 (a merged node points at the node that absorbed it).
@@ -11,7 +11,9 @@ from __future__ import annotations
 import heapq
 import math
 
+import networkx as nx
 import numpy as np
+from scipy.spatial import cKDTree
 
 Adjacency = dict[int, set[int]]
 
@@ -94,6 +96,26 @@ def prune_spurs(adj: Adjacency, xyz: list, parent: np.ndarray, limit: float) -> 
             if tips:
                 gaps = np.abs(_arclength(xyz, path)[1:, None] - _arclength(xyz, tips[0])[None, :])
                 parent[pruned] = np.asarray(tips[0])[gaps.argmin(axis=1)]
+
+
+def absorb_specks(adj: Adjacency, xyz: list, parent: np.ndarray, node_of_point: np.ndarray, share: float) -> None:
+    """Give every component holding less than `share` of the points, beside a component that holds more, to the
+    nearest node of the larger ones: the cleaning's rule for stray pieces (skelcore.clean), applied to what
+    reaches the skeleton as its own piece of surface although the cleaning kept it, such as a point whose one-ring
+    joins no other (a lone node, counted as a component of its own)."""
+    counts = np.bincount(node_of_point, minlength=len(xyz))
+    graph = nx.Graph((u, v) for u in adj for v in adj[u])
+    graph.add_nodes_from(adj)
+    pieces = [list(piece) for piece in nx.connected_components(graph)]
+    small = [piece for piece in pieces if counts[piece].sum() < share * len(node_of_point)]
+    large = [node for piece in pieces if counts[piece].sum() >= share * len(node_of_point) for node in piece]
+    if not small or not large:
+        return
+    _, nearest = cKDTree(np.array([xyz[node] for node in large])).query(np.array([xyz[node] for node in
+                                                                                    sum(small, [])]))
+    for node, target in zip(sum(small, []), nearest.tolist()):
+        del adj[node]
+        parent[node] = large[target]
 
 
 def _pair(a: int, b: int) -> tuple[int, int]:

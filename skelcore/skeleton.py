@@ -8,7 +8,8 @@ After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topol
    2-complex on the samples with the loops of the shape; it is reduced to a graph by elementary collapses
    and link-condition edge contractions, which keep its loops exactly (skelcore.collapse);
 3. refinements, each switchable, in this order: merge junctions joined by a short path, prune short spurs,
-   recentre degree-2 nodes on the cross-section of their ORIGINAL points, drop nearly collinear degree-2
+   recentre degree-2 nodes on the cross-section of their ORIGINAL points, give components of less than the
+   cleaning's stray share of the points to the nearest node of the rest, drop nearly collinear degree-2
    nodes (skelcore.refine, skelcore.recentre). Their lengths are in units of r, so they follow the sampling.
 
 Invariants: every loop of the sample complex is a loop of the skeleton and the skeleton has no other; no
@@ -25,11 +26,12 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from .clean import CleaningParams
 from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
 from .loops import cut_false_loops
 from .recentre import recentre
-from .refine import drop_collinear, merge_junctions, prune_spurs
+from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs
 from .sampling import ball_cover_by_piece
 from .surface import OriginalSurface
 
@@ -46,6 +48,8 @@ class SkeletonParams:
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
     prune_spurs: bool = True
     spur_length: float = 3.0  # in sample radii: end branches shorter than this are removed
+    # components holding less than the cleaning's stray share of the points join the nearest larger one
+    absorb_specks: bool = True
     drop_collinear: bool = False
     collinear_angle: float = 10.0  # degrees: a degree-2 node turning less than this is dropped
     recentre: bool = True  # degree-2 nodes move across the curve onto the centre of their original points' cross-section
@@ -137,6 +141,9 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     node_of_point = _roots(parent)[owner]
     if params.recentre:
         recentre(adj, xyz, node_of_point, original)
+    if params.absorb_specks:  # after recentring: a speck's far points would pull its new node's centre
+        absorb_specks(adj, xyz, parent, node_of_point, CleaningParams.min_piece_share)
+        node_of_point = _roots(parent)[owner]
     if params.drop_collinear:
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle)
     return _finish(adj, xyz, node_of_point, radius)

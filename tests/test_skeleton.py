@@ -221,6 +221,25 @@ def test_prune_spurs_removes_a_short_branch():
     check_correspondence(pruned, len(original))
 
 
+def test_a_speck_is_given_to_the_skeleton_beside_it_and_a_separate_object_stays():
+    """A point whose one-ring joins no other point comes out as a lone node, a component of its own; below the
+    cleaning's stray share it joins the nearest node. A second torus, a piece of the object, stays a component."""
+    contracted, original = torus()
+    speck = np.array([[1.6, 0.0, 0.0]])
+    surface = ring_triangles(original)
+    for params, components in ((SkeletonParams(absorb_specks=False), 2), (SkeletonParams(), 1)):
+        skeleton = extract_skeleton(np.vstack([contracted, speck]), np.vstack([original, speck]), surface, params)
+        assert topology(skeleton)["components"] == components and topology(skeleton)["cycles"] == 1
+        check_correspondence(skeleton, len(original) + 1)
+    given = extract_skeleton(np.vstack([contracted, speck]), np.vstack([original, speck]), surface)
+    nearest = np.linalg.norm(given.nodes_array() - speck, axis=1).argmin()
+    assert given.correspondence[-1] == nearest
+    other, other_original = torus(centre=(4.0, 0.0, 0.0), seed=1)
+    both = np.vstack([original, other_original])
+    two = extract_skeleton(np.vstack([contracted, other]), both, ring_triangles(both))
+    assert topology(two) == {"components": 2, "cycles": 2, "junctions": 0, "ends": 0}
+
+
 def test_merge_junctions_joins_two_close_junctions():
     contracted, original = h_shape()
     separate = skeleton_of(contracted, original, merge_junctions=False)
