@@ -60,8 +60,16 @@ def piece_counts(points: np.ndarray, unit: float, seed: int = 0) -> dict:
     if len(points) < 4:
         return {f"{gap:g}": 1 for gap in PIECE_GAPS}
     tree = cKDTree(points)
-    return {f"{gap:g}": _count_pieces(tree.query_pairs(gap * unit, output_type="ndarray"), len(points))
-            for gap in PIECE_GAPS}
+    counts, piece = {}, np.arange(len(points))
+    for gap in sorted(PIECE_GAPS):
+        # The pieces at a gap join those at the gap before: only pairs between two of them can join more, and
+        # the graph of pieces is far smaller than that of the pairs (262,000 at 6 units of a 3,000-point sample).
+        joined = piece[tree.query_pairs(gap * unit, output_type="ndarray")]
+        joined = joined[joined[:, 0] != joined[:, 1]]
+        graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(len(points),) * 2)
+        piece = connected_components(graph, directed=False)[1][piece]
+        counts[f"{gap:g}"] = max(1, int(np.sum(np.bincount(piece) >= MIN_PIECE_SHARE * len(points))))
+    return {f"{gap:g}": counts[f"{gap:g}"] for gap in PIECE_GAPS}
 
 
 def _sample(points: np.ndarray, unit: float, seed: int) -> np.ndarray:
