@@ -88,8 +88,13 @@ class Result:
     def verdict(self) -> dict:
         """The run's stability verdict on its last iteration, skeleton checks included (as `skelcore run` writes
         it): {'label': 'stable' | 'not yet converged' | 'unstable', 'iteration', 'criteria', 'reasons', ...}."""
-        evidence = pipeline.skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
-        return run_verdict(self.metrics, evidence)
+        return run_verdict(self.metrics, self._evidence)
+
+    @functools.cached_property
+    def _evidence(self) -> dict:
+        """The skeleton checks' evidence (skelcore.pipeline.skeleton_evidence), which the verdict and every file
+        written read: computed once (its complex is a quarter of a 10k-point run)."""
+        return pipeline.skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
 
     @property
     def topology(self) -> dict:
@@ -101,7 +106,7 @@ class Result:
         contracted.ply, metrics.json, params.json. Returns the folder."""
         pipeline.write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
                                input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
-                               reduction=self.reduction)
+                               reduction=self.reduction, evidence=self._evidence)
         return Path(out_dir)
 
     def report(self, path) -> Path:
@@ -115,7 +120,8 @@ class Result:
             if source is None:  # an array: the report reads the original cloud back from a file
                 source = write_points_ply(Path(tmp) / "input.ply", self.cloud.points)
             pipeline.write_results(folder, self.cloud, self.states, self.skeleton, self.metrics, self.options,
-                                   input_path=source, elapsed=self.elapsed, weights=self.weights)
+                                   input_path=source, elapsed=self.elapsed, weights=self.weights,
+                                   evidence=self._evidence)
             return write_report([folder], path)
 
     def summary(self) -> str:

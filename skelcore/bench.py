@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
+from . import startup
 
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
@@ -107,6 +107,8 @@ def _print_summary(rows: list[dict], sizes, methods, out) -> None:
 
 
 def _exponent(pairs) -> float:
+    import numpy as np
+
     return float(np.polyfit(np.log([p[0] for p in pairs]), np.log([p[1] for p in pairs]), 1)[0])
 
 
@@ -185,10 +187,12 @@ def _peer_child(n: int, python: str, cloud: Path, iterations: int, out_dir: Path
 
 
 def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) -> dict:
-    """In the child: the whole pipeline as `skelcore run` does it, process start included."""
+    """In the child: the whole pipeline as `skelcore run` does it, process start and exit included (with
+    skelcore.cli.main's start-up and exit, skelcore.startup)."""
     from .params import ContractionParams
     from .pipeline import RunOptions, run_pipeline
 
+    startup.loaded()
     options = RunOptions(params=ContractionParams(method=method),
                          point_budget=None if full_resolution == "True" else RunOptions().point_budget)
     result = run_pipeline(cloud, out_dir, options)
@@ -208,6 +212,7 @@ def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) ->
 
 def _measure_baseline(cloud: str, iterations: str) -> dict:
     """In the child: pc-skeletor's LBC solve (module docstring) for the given number of iterations."""
+    import numpy as np
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
@@ -215,6 +220,7 @@ def _measure_baseline(cloud: str, iterations: str) -> dict:
     from .params import ContractionParams
     from .step import schedule, start_run
 
+    startup.loaded()
     points = io.load(cloud).points
     params = ContractionParams()
     run = start_run(points, params)
@@ -245,6 +251,7 @@ def _usage() -> tuple[float, float]:
 _STARTED = time.perf_counter()
 
 if __name__ == "__main__":
+    startup.begin()
     kind, *arguments = sys.argv[1:]
     measure = {"run": _measure_run, "baseline": _measure_baseline}[kind]
     row = measure(*arguments)

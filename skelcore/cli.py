@@ -10,10 +10,9 @@ import os
 import sys
 import traceback
 
-from .clean import CleaningParams
+from . import startup
 from .errors import SkelError, TooLargeError
 from .params import ContractionParams
-from .skeleton import SkeletonParams
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
@@ -21,6 +20,9 @@ EXIT_INTERNAL = 3
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     """The contraction and skeleton flags shared by `run`, `batch` and `bench`."""
+    from .clean import CleaningParams  # here, not at the top: `skelcore run` loads scipy after startup.begin
+    from .skeleton import SkeletonParams
+
     defaults = ContractionParams()
     group = parser.add_argument_group("contraction parameters")
     group.add_argument("--method", choices=["lbc", "glskeleton"], default=defaults.method,
@@ -94,6 +96,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 
 def run_options(args: argparse.Namespace):
     """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
+    from .clean import CleaningParams
     from .pipeline import RunOptions
 
     cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal,
@@ -310,9 +313,18 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit code (0 ok, 1 some batch objects failed, 2 bad input or parameters, 130 interrupted)."""
+    """Run the command line; returns the exit code (0 ok, 1 some batch objects failed, 2 bad input or parameters, 130 interrupted).
+    Without `argv` (a process of its own: the console script, `python -m skelcore.cli`) the process starts and
+    exits without the garbage collector's futile passes over the loaded modules (skelcore.startup)."""
+    own_process = argv is None
+    if own_process:
+        startup.begin()
     parser = build_parser()
     args = parser.parse_args(argv)
+    if own_process:
+        if args.command in ("run", "batch"):
+            from . import pipeline  # noqa: F401 -- the run's modules, loaded before the collector runs again
+        startup.loaded()
     try:
         return args.handler(args)
     except SkelError as error:

@@ -39,6 +39,9 @@ def persistence_summary(points: np.ndarray, unit: float, seed: int = 0) -> dict:
     if len(points) < 4:
         return {"pieces": {f"{gap:g}": 1 for gap in PIECE_GAPS}, "loops": []}
     tree = gudhi.AlphaComplex(points=points).create_simplex_tree()
+    # Pieces and loops are dimensions 0 and 1, which only edges and triangles pair: without the tetrahedra
+    # (paired with triangles alone) the same pairs come out of a third fewer columns.
+    tree.prune_above_dimension(2)
     tree.compute_persistence()
     to_length = lambda alpha: 2.0 * np.sqrt(np.maximum(alpha, 0.0)) / unit
     loops = tree.persistence_intervals_in_dimension(1)
@@ -57,8 +60,16 @@ def piece_counts(points: np.ndarray, unit: float, seed: int = 0) -> dict:
     if len(points) < 4:
         return {f"{gap:g}": 1 for gap in PIECE_GAPS}
     tree = cKDTree(points)
-    return {f"{gap:g}": _count_pieces(tree.query_pairs(gap * unit, output_type="ndarray"), len(points))
-            for gap in PIECE_GAPS}
+    counts, piece = {}, np.arange(len(points))
+    for gap in sorted(PIECE_GAPS):
+        # The pieces at a gap join those at the gap before: only pairs between two of them can join more, and
+        # the graph of pieces is far smaller than that of the pairs (262,000 at 6 units of a 3,000-point sample).
+        joined = piece[tree.query_pairs(gap * unit, output_type="ndarray")]
+        joined = joined[joined[:, 0] != joined[:, 1]]
+        graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(len(points),) * 2)
+        piece = connected_components(graph, directed=False)[1][piece]
+        counts[f"{gap:g}"] = max(1, int(np.sum(np.bincount(piece) >= MIN_PIECE_SHARE * len(points))))
+    return {f"{gap:g}": counts[f"{gap:g}"] for gap in PIECE_GAPS}
 
 
 def _sample(points: np.ndarray, unit: float, seed: int) -> np.ndarray:

@@ -339,8 +339,9 @@ def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | 
 def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
                   metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
                   elapsed: float | None = None, weights: np.ndarray | None = None,
-                  reduction: multires.Reduction | None = None) -> dict:
-    """Write the five result files, each atomically (a temporary file renamed into place)."""
+                  reduction: multires.Reduction | None = None, evidence: dict | None = None) -> dict:
+    """Write the five result files, each atomically (a temporary file renamed into place). evidence: the final
+    state's skeleton_evidence, when the caller has it already."""
     from .export import skeleton_document, write_points_ply, write_skeleton_ply
 
     out_dir = Path(out_dir)
@@ -349,7 +350,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     except OSError as error:
         raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
     final = states[-1]
-    summary = metrics_document(cloud, states, metrics, reduction, skeleton_evidence(skeleton, final, cloud.points))
+    evidence = skeleton_evidence(skeleton, final, cloud.points) if evidence is None else evidence
+    summary = metrics_document(cloud, states, metrics, reduction, evidence)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
     labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too

@@ -77,3 +77,22 @@ def test_bad_parameter_is_one_line_and_non_zero(tmp_path, assets_dir):
     result = run_cli("run", assets_dir / "torus.ply", "--out", tmp_path / "out", "--sl", "-2")
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert "sl=" in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_a_command_line_process_runs_with_the_collector_on_after_its_imports(tmp_path):
+    """skelcore.startup: a process of its own (no argv) loads its modules with the garbage collector off, then
+    freezes them and turns it back on for the run; called with argv (as here in-process) nothing changes."""
+    import gc
+
+    frozen = gc.get_freeze_count()
+    assert main(["shapes", "--out", str(tmp_path / "in"), "--names", "torus", "--n", "200"]) == 0
+    assert gc.isenabled() and gc.get_freeze_count() == frozen
+    code = ("import gc, sys; from skelcore import cli; "
+            f"sys.argv = ['skelcore', 'run', {str(tmp_path / 'in' / 'torus.ply')!r}, '--out', "
+            f"{str(tmp_path / 'out')!r}, '--quiet']; "
+            "code = cli.main(); print(code, gc.isenabled(), gc.get_freeze_count() > 10000, "
+            "'skelcore.pipeline' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["0", "True", "True", "True"]
+    assert (tmp_path / "out" / "metrics.json").exists()
