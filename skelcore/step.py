@@ -48,7 +48,7 @@ TERMINATION_MESSAGES = {
     "torn": "the step tore the cloud apart (many one-rings widened); the last good state is kept",
 }
 TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
-TEAR_SHARE = 0.1  # ... and a step that does so to more than this share of the points is rejected
+TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
 RESTART_FIELDS = ("method", "k", "normalise", "balance_density")
 
 
