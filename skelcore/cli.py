@@ -45,6 +45,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="points that the first step brought to a thin part's axis keep that step's W_L, so small "
                             "handles and limbs' ends are not shortened away while bulkier parts contract "
                             "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")
+    group.add_argument("--balance-density", action=argparse.BooleanOptionalAction, default=defaults.balance_density,
+                       help="weight each point's attraction by the surface area it stands for, so that a sparsely "
+                            "sampled part contracts at the pace of a densely sampled one (--no-balance-density: every "
+                            "point weighs the same, as in cloudcontr) (default: %(default)s)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
@@ -90,7 +94,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
     """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
-                             hold_curves=args.hold_curves, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
+                             hold_curves=args.hold_curves, balance_density=args.balance_density, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
 
 

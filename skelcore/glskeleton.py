@@ -31,7 +31,10 @@ Attraction weights (not in LCWR): LBC's W_H,i times m_i, the number of input poi
   for. A cot Laplacian row scales with the area per point, so a merged point is pulled m_i times harder
   while LCWR leaves its attraction at one point's: every reduction acts as a larger W_L (x2.6 on the helix
   by step 3, about one s_L step ahead of LBC) and a thin coil shrinks onto its axis. With the weight, eq. 2
-  keeps the balance it has on the input cloud.
+  keeps the balance it has on the input cloud. With balance_density (skelcore.step) m_i is the summed area
+  of those input points, in units of the mean input point's: an unevenly sampled input is balanced too.
+Torn steps (not in LCWR): as in LBC (skelcore.step.torn), a step that widens many one-rings past twice their
+  size (the rings it solved with) is discarded and the run ends ('torn').
 Per-point contraction weights (semantic LBC, skelcore.labels; not in LCWR): a point's Laplacian row is scaled
   by the mean weight of the input points it stands for. The merge rule reads the unweighted Laplacian: it
   judges whether a neighbourhood has converged, not how hard it is pulled.
@@ -63,8 +66,8 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, curve_like, hold_curves, retune,
-                   rings_stalled, schedule, solve_stages, start_run, stopped)
+from .step import (TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, curve_like, hold_curves, represented,
+                   retune, rings_stalled, schedule, solve_stages, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -110,12 +113,13 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         step_start = time.perf_counter()
         wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
-        # per point), so its attraction row is weighted by m to keep eq. 2's balance of the input cloud.
-        stands_for = np.bincount(owner, minlength=len(ids))
-        wh = np.minimum(wh * stands_for, params.wh_max)
+        # per point), so its attraction row is weighted by their area (their count without balance_density)
+        # to keep eq. 2's balance of the input cloud.
+        wh = np.minimum(wh * represented(owner, run.areas, len(ids), params), params.wh_max)
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
-        row_weights = None if weights is None else np.bincount(owner, weights=weights, minlength=len(ids)) / stands_for
+        row_weights = None if weights is None else (np.bincount(owner, weights=weights, minlength=len(ids))
+                                                     / np.bincount(owner, minlength=len(ids)))
         row_weights = contraction_rows(held, wl, row_weights, params)
         laplacian_start = time.perf_counter()
         values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
@@ -137,6 +141,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             state = stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
                             notes)
+            continue
+        tear = torn(iteration, start_sizes, new_sizes)
+        if tear is not None:
+            state = stopped(state, *tear, notes)
             continue
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))

@@ -41,6 +41,10 @@ class ContractionParams:
     # points that the first step brought to a thin part's axis keep that step's W_L (skelcore.step.hold_curves;
     # not in cloudcontr): small handles and limbs' ends are not shortened away while the bulk still contracts
     hold_curves: bool = True
+    # each point's attraction W_H is weighted by the input surface area it stands for (skelcore.step.represented;
+    # not in cloudcontr), so a sparsely sampled part contracts at the pace of a densely sampled one; off by
+    # default: it also moves when thin handles are held (the hold decides after the first step)
+    balance_density: bool = False
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6

@@ -6,6 +6,18 @@ coordinates. W_L grows by s_L per step up to a cap; W_H,i = W_H0 s_i^0 / s_i^t f
 has shrunk (cloudcontr: s_i is the smallest distance from point i to its ring). This module holds the state a
 step yields, the run's set-up, the weight schedule, the solve with the checks that reject its candidate, and
 live retuning; the method modules hold only their loops.
+
+Uneven sampling (not in cloudcontr): a cot Laplacian row is about 2 A_i H_i n_i, A_i the surface area point i
+stands for, while its attraction row is W_H,i whatever that area. So where the input is sampled k times
+sparser, eq. 2 pulls k times harder: with 30% of the points kept on one half of a drilled plate, that half is
+more than one s_L step ahead, and it is shortened to a tangle while the dense half is still a sheet.
+`represented` weights W_H,i by the area (params.balance_density), which keeps one balance over the surface.
+
+Torn steps (not in cloudcontr): a Laplacian step pulls every point towards its neighbours, so its one-rings
+shrink or stay. Once a cloud has thinned to ribbons, the rings of the input degenerate and a strong W_L can
+fling neighbours apart: loops fold across each other and a curve's ends are pulled in, while the rings'
+TOTAL still shrinks (others collapse), so the ring-ratio rule lets it pass. `torn` rejects a step that widens
+more than TEAR_SHARE of the one-rings past TEAR_GROWTH times their width before it.
 """
 from __future__ import annotations
 
@@ -33,8 +45,11 @@ TERMINATION_MESSAGES = {
     "bbox_growth": "the bounding box grew past its limit; the last good state is kept",
     "collapse": "one step shrank the cloud's length past its limit (a curve collapsing); the last good state is kept",
     "covariance": "the cloud's covariance shows a converged curve",
+    "torn": "the step tore the cloud apart (many one-rings widened); the last good state is kept",
 }
-RESTART_FIELDS = ("method", "k", "normalise")
+TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
+TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
+RESTART_FIELDS = ("method", "k", "normalise", "balance_density")
 
 
 @dataclass(frozen=True)
@@ -83,6 +98,8 @@ class RunStart:
     builder: LaplacianSystem
     sizes0: np.ndarray  # s^0, the input's ring sizes
     auto_wl0: float  # 1 / (5 * mean one-ring edge length), cloudcontr's W_L0
+    areas: np.ndarray  # (n,) the surface area each input point stands for, over their mean (density_weights;
+    # ones without params.balance_density, which is fixed for a run)
     extent0: np.ndarray  # robust extent of the input, for the growth check
     diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
@@ -97,14 +114,50 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     rings = one_rings(unit, params.k or default_k(len(points)))
     builder = LaplacianSystem(rings)
     rings_time = time.perf_counter() - started
-    auto_wl0 = 1.0 / (5.0 * rings.mean_edge_length(unit))
+    spacing = rings.mean_edge_length(unit)
+    auto_wl0 = 1.0 / (5.0 * spacing)
     ids = np.arange(len(points))
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
                            params=params, timings={"rings": rings_time})
     diagonal = object_diagonal(unit)
-    return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, robust_extent(unit),
+    # density at the scale the skeleton resolves: averaged over about one sample radius (a random walk of
+    # `passes` ring steps spreads over sqrt(passes) ring spacings)
+    passes = int(np.ceil((SkeletonParams.sample_radius * diagonal / max(spacing, 1e-300)) ** 2))
+    areas = density_weights(rings, unit, passes) if params.balance_density else np.ones(len(unit))
+    return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, areas, robust_extent(unit),
                     diagonal, state)
+
+
+def density_weights(rings: OneRings, points: np.ndarray, passes: int) -> np.ndarray:
+    """(n,) the surface area each point stands for, over their mean: a third of the area of its ring's fan
+    triangles (the barycentric cell), averaged with its ring neighbours' `passes` times, so that the sampling's
+    random jitter evens out and what remains is the density of the sampling."""
+    i, j, l = rings.triangles.T
+    fan = 0.5 * np.linalg.norm(np.cross(points[j] - points[i], points[l] - points[i]), axis=1)
+    area = np.bincount(i, weights=fan, minlength=rings.n_points) / 3.0
+    centres, members = rings.centres(), np.diff(rings.indptr) + 1
+    for _ in range(passes):
+        area = (np.bincount(centres, weights=area[rings.indices], minlength=rings.n_points) + area) / members
+    mean = area.mean()
+    return area / mean if mean > 0 else np.ones(rings.n_points)
+
+
+def represented(owner: np.ndarray, areas: np.ndarray, m: int, params: ContractionParams) -> np.ndarray:
+    """(m,) how much of the input each of the m present points stands for, the factor on its attraction W_H,i:
+    the summed areas of the input points it represents (params.balance_density, module docstring), else their
+    count. `owner`: for each input point, the row of the point that represents it."""
+    return np.bincount(owner, weights=areas if params.balance_density else None, minlength=m)
+
+
+def torn(iteration: int, sizes: np.ndarray, new_sizes: np.ndarray) -> tuple[str, str] | None:
+    """('torn', detail) when a step, from the second on, widened more than TEAR_SHARE of the one-rings past
+    TEAR_GROWTH times their size before it (module docstring); else None. `sizes`, `new_sizes`: the ring sizes
+    of the same rings before and after the step."""
+    share = float(np.mean(new_sizes > TEAR_GROWTH * sizes)) if len(sizes) else 0.0
+    if iteration > 1 and share > TEAR_SHARE:
+        return "torn", f"{share:.0%} of the one-rings grew past {TEAR_GROWTH:g} times their size"
+    return None
 
 
 def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,

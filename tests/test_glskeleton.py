@@ -71,15 +71,22 @@ def test_without_the_share_cap_the_first_step_merges_all_it_can(runs):
     assert uncapped[1].n_points < 0.65 * 3000 < capped[1].n_points
 
 
-def test_attraction_weights_count_the_represented_points(monkeypatch):
-    """With LBC's weights set to 1, each solve weighs a point by the input points it stands for."""
+@pytest.mark.parametrize("balance_density", [False, True])
+def test_attraction_weights_count_the_represented_points(monkeypatch, balance_density):
+    """With LBC's weights set to 1, each solve weighs a point by the input points it stands for: their count, or
+    with balance_density the areas they stand for (skelcore.step.density_weights)."""
+    from skelcore.step import start_run
+
     monkeypatch.setattr(glskeleton, "schedule", lambda params, auto, iteration, sizes0, sizes:
                         (auto * params.sl ** (iteration - 1), np.ones(len(sizes))))
-    states = run_contraction(make_shape("y_branch", 1500, seed=0).points, GLSKELETON.replace(max_iterations=3))
-    assert np.array_equal(states[1].wh, np.ones(states[1].n_points))
+    points = make_shape("y_branch", 1500, seed=0).points
+    params = GLSKELETON.replace(max_iterations=3, balance_density=balance_density)
+    areas = start_run(points, params).areas if balance_density else np.ones(len(points))
+    states = run_contraction(points, params)
+    assert np.allclose(states[1].wh, areas[states[1].point_ids])  # each point stood for itself in the first solve
     for previous, state in zip(states[1:], states[2:]):
         rows = np.searchsorted(previous.point_ids, state.point_ids)  # this state's points before its merges
-        assert np.array_equal(state.wh, np.bincount(previous.owner, minlength=previous.n_points)[rows])
+        assert np.allclose(state.wh, np.bincount(previous.owner, weights=areas, minlength=previous.n_points)[rows])
     assert states[-1].wh.max() > 1
 
 
@@ -206,3 +213,19 @@ def test_a_drilled_plate_contracts_past_its_sheet_and_keeps_its_hole():
     assert final.termination != "covariance" or state_curve_share(final, Cloud(shape.points)) >= GLSKELETON.curve_share
     skeleton = skeleton_of_state(final, shape.points, RunOptions(params=GLSKELETON).skeleton_params())
     assert skeleton.topology()["cycles"] == 1 and skeleton.topology()["components"] == 1
+
+
+def test_an_unevenly_sampled_drilled_plate_keeps_its_loops():
+    """A plate with three holes, 30% of its points kept on one half (bench-quality's density_30 variant). The
+    sparse half contracts ahead of the dense one, and at the W_L cap a step flings its ring neighbours apart:
+    its loops fold up (1 cycle of 3, 13 nodes, before the torn-step rule). The run now ends before that step."""
+    import skelcore
+    from skelcore.perturb import perturb
+    from skelcore.solids import solid_shape
+
+    shape = solid_shape("block_3_holes", 10_000)  # 6516 points once thinned
+    result = skelcore.skeletonize(perturb(shape.points, "density_30", seed=0, normals=shape.normals),
+                                  method="glskeleton")
+    assert result.states[-1].termination == "torn"
+    assert {key: result.skeleton.topology()[key] for key in ("cycles", "components")} == {"cycles": 3,
+                                                                                          "components": 1}
