@@ -68,7 +68,7 @@ def piece_counts(points: np.ndarray, unit: float, seed: int = 0) -> dict:
         joined = joined[joined[:, 0] != joined[:, 1]]
         graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(len(points),) * 2)
         piece = connected_components(graph, directed=False)[1][piece]
-        counts[f"{gap:g}"] = max(1, int(np.sum(np.bincount(piece) >= MIN_PIECE_SHARE * len(points))))
+        counts[f"{gap:g}"] = _held(piece)
     return {f"{gap:g}": counts[f"{gap:g}"] for gap in PIECE_GAPS}
 
 
@@ -91,5 +91,9 @@ def _pieces(joins: np.ndarray, lengths: np.ndarray, n: int) -> dict:
 def _count_pieces(joined: np.ndarray, n: int) -> int:
     """The pieces holding at least MIN_PIECE_SHARE of the n points that the edges `joined` (e,2) make."""
     graph = sp.csr_matrix((np.ones(len(joined)), (joined[:, 0], joined[:, 1])), shape=(n, n))
-    _, labels = connected_components(graph, directed=False)
-    return max(1, int(np.sum(np.bincount(labels) >= MIN_PIECE_SHARE * n)))
+    return _held(connected_components(graph, directed=False)[1])
+
+
+def _held(piece: np.ndarray) -> int:
+    """The pieces (`piece`: each point's) holding at least MIN_PIECE_SHARE of the points; at least 1."""
+    return max(1, int(np.sum(np.bincount(piece) >= MIN_PIECE_SHARE * len(piece))))
