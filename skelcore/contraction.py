@@ -17,7 +17,7 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, goes_on,
-                   hold_curves, record, represented, retune, rings_stalled, schedule, solve_stages, start_run, stopped,
+                   hold_curves, record, retune, rings_stalled, schedule, solve_stages, start_run, stopped,
                    torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
@@ -66,7 +66,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         iteration += 1
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
-        wh = np.minimum(wh * represented(ids, run.areas, len(ids), params), params.wh_max)
+        if params.balance_density:  # every input point stands for itself: its own area (skelcore.step.represented)
+            wh = np.minimum(wh * run.areas, params.wh_max)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
                                                               run.extent0, first_step=iteration == 1, stages=stages,
                                                               row_weights=contraction_rows(held, wl, weights, params))

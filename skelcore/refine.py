@@ -107,13 +107,12 @@ def absorb_specks(adj: Adjacency, xyz: list, parent: np.ndarray, node_of_point: 
     graph = nx.Graph((u, v) for u in adj for v in adj[u])
     graph.add_nodes_from(adj)
     pieces = [list(piece) for piece in nx.connected_components(graph)]
-    small = [piece for piece in pieces if counts[piece].sum() < share * len(node_of_point)]
+    specks = [node for piece in pieces if counts[piece].sum() < share * len(node_of_point) for node in piece]
     large = [node for piece in pieces if counts[piece].sum() >= share * len(node_of_point) for node in piece]
-    if not small or not large:
+    if not specks or not large:
         return
-    _, nearest = cKDTree(np.array([xyz[node] for node in large])).query(np.array([xyz[node] for node in
-                                                                                    sum(small, [])]))
-    for node, target in zip(sum(small, []), nearest.tolist()):
+    _, nearest = cKDTree(np.array([xyz[node] for node in large])).query(np.array([xyz[node] for node in specks]))
+    for node, target in zip(specks, nearest.tolist()):
         del adj[node]
         parent[node] = large[target]
 
