@@ -291,3 +291,22 @@ def test_thin_parts_stay_inside_their_own_surface():
     for state in run_contraction(points)[1:]:
         previous = reference.evaluate(state.points, state.point_ids, previous=previous, iteration=state.iteration)
         assert previous.boundedness["inside_share"] > 0.98
+
+
+def test_inside_grid_operations_match_scipy_ndimage():
+    """The inside test dilates and labels its voxel grid with numpy and csgraph (scipy.ndimage is slow to
+    import): the same cells and the same region numbers as ndimage's binary_dilation and label."""
+    from scipy import ndimage
+
+    from skelcore.inside import dilated, label_regions
+
+    rng = np.random.default_rng(0)
+    for shape in [(1, 1, 1), (1, 5, 3), (5, 6, 7), (46, 27, 18)]:
+        for density in (0.02, 0.1, 0.3, 0.6):
+            occupied = rng.random(shape) < density
+            shell = dilated(occupied)
+            assert np.array_equal(shell, ndimage.binary_dilation(occupied, np.ones((3, 3, 3), bool)))
+            for cells in (~shell, occupied):
+                labels, count = label_regions(cells)
+                expected, expected_count = ndimage.label(cells)
+                assert count == expected_count and np.array_equal(labels, expected)
