@@ -310,3 +310,19 @@ def test_inside_grid_operations_match_scipy_ndimage():
                 labels, count = label_regions(cells)
                 expected, expected_count = ndimage.label(cells)
                 assert count == expected_count and np.array_equal(labels, expected)
+
+
+def test_reference_uses_a_given_tree_only_over_its_own_samples():
+    """A run hands the metrics the tree of the skeleton's surface probe: the same reference as one built anew;
+    a tree over other points is not used."""
+    from scipy.spatial import cKDTree
+
+    from skelcore.shapes import make_shape
+
+    points = make_shape("torus", 2000, seed=0, noise=0.002).points
+    alone = MetricsReference.from_points(points)
+    for tree in (cKDTree(points), cKDTree(points[:-1]), cKDTree(points + 1e-9)):
+        shared = MetricsReference.from_points(points, tree=tree)
+        assert np.array_equal(shared.inside.cells, alone.inside.cells)
+        assert np.array_equal(shared.inside.normals, alone.inside.normals)
+        assert (shared.inside.tree is tree) == (tree.n == len(points) and np.array_equal(tree.data, points))
