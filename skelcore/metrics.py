@@ -136,10 +136,12 @@ class MetricsReference:
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
-                    reduction: Reduction | None = None) -> "MetricsReference":
+                    reduction: Reduction | None = None, tree: cKDTree | None = None) -> "MetricsReference":
         """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction
         of points0 at POINT_BUDGET when the caller has made it already (skelcore.multires.reduce_cloud); a
-        large cloud's inside test samples its surface by these voxel centroids."""
+        large cloud's inside test samples its surface by these voxel centroids. tree: a cKDTree (default
+        build) the caller has made already, used when it covers exactly those surface samples (points0, or
+        the centroids of a large cloud)."""
         points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
@@ -181,7 +183,8 @@ class MetricsReference:
                 reduction = reduce_cloud(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
             # One tree and one kNN query serve the normals, their orientation and the inside test's spacing.
-            tree = cKDTree(samples)
+            if tree is None or tree.data.shape != samples.shape or not np.array_equal(tree.data, samples):
+                tree = cKDTree(samples)
             distances, surface_idx = knn(samples, min(_SURFACE_NEIGHBOURS, len(samples)), tree)
             surface_normals, _, _ = pca_features(samples, surface_idx.shape[1], collapsed=_COLLAPSED * diagonal,
                                                  neighbours=surface_idx)

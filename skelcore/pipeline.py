@@ -141,11 +141,12 @@ class IterationMetricsCache:
     (each iteration's normals are oriented from the one before). A restarted run needs a new cache."""
 
     def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0, convention: str = NORMAL_CONVENTION,
-                 reduction: multires.Reduction | None = None) -> None:
+                 reduction: multires.Reduction | None = None, tree=None) -> None:
         """reduction: the cloud's voxel reduction at multires.POINT_BUDGET, when the run made it (the inside
-        test samples a large cloud's surface by it)."""
+        test samples a large cloud's surface by it). tree: a cKDTree over the cloud's points (or that
+        reduction's), when the run has one (MetricsReference.from_points)."""
         self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention,
-                                                      reduction=reduction)
+                                                      reduction=reduction, tree=tree)
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
@@ -240,7 +241,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         if reduction is None:
             states = run_states(cloud, options.params, progress, weights)
             clock.mark("contract")
-            skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params())
+            surface = original_surface(states[-1], cloud.points)
+            skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
             clock.mark("skeleton")
         else:
             _say(progress, f"{cloud.name}: {reduction.note()}")
@@ -248,15 +250,17 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
                                  None if weights is None else reduction.mean(weights))
             clock.mark("contract")
-            skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction)
+            surface = original_surface(reduced[-1], reduction.points)
+            skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
             clock.mark("skeleton")
             carrier = reduction.carrier(reduced[0].rings)
             states = [reduction.lift(state, carrier) for state in reduced]
             clock.mark("carry")
-        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one.
-        surface = reduction if options.point_budget == multires.POINT_BUDGET else None
+        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one,
+        # and the skeleton's probe of the original surface has a tree over the same points (a tree built once).
+        samples = reduction if options.point_budget == multires.POINT_BUDGET else None
         metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention,
-                                        surface).all(states)
+                                        samples, surface.probe.tree).all(states)
         clock.mark("metrics")
     except SkelError as error:
         raise named(error, cloud.name) from None

@@ -64,3 +64,14 @@ def _python_without_peer() -> str:
     if found:
         pytest.skip("pc-skeletor is installed in this interpreter")
     return sys.executable
+
+
+def test_bench_compiles_the_package_before_timing():
+    """The timed runs read skelcore's bytecode, as an installed package's do, whatever PYTHONDONTWRITEBYTECODE says."""
+    import importlib.util
+
+    import skelcore.pipeline
+    from skelcore.bench import compile_package
+
+    assert compile_package()
+    assert os.path.exists(importlib.util.cache_from_source(skelcore.pipeline.__file__))

@@ -291,3 +291,59 @@ def test_thin_parts_stay_inside_their_own_surface():
     for state in run_contraction(points)[1:]:
         previous = reference.evaluate(state.points, state.point_ids, previous=previous, iteration=state.iteration)
         assert previous.boundedness["inside_share"] > 0.98
+
+
+def test_inside_grid_operations_match_scipy_ndimage():
+    """The inside test dilates and labels its voxel grid with numpy and csgraph (scipy.ndimage is slow to
+    import): the same cells and the same region numbers as ndimage's binary_dilation and label."""
+    from scipy import ndimage
+
+    from skelcore.inside import dilated, label_regions
+
+    rng = np.random.default_rng(0)
+    for shape in [(1, 1, 1), (1, 5, 3), (5, 6, 7), (46, 27, 18)]:
+        for density in (0.02, 0.1, 0.3, 0.6):
+            occupied = rng.random(shape) < density
+            shell = dilated(occupied)
+            assert np.array_equal(shell, ndimage.binary_dilation(occupied, np.ones((3, 3, 3), bool)))
+            for cells in (~shell, occupied):
+                labels, count = label_regions(cells)
+                expected, expected_count = ndimage.label(cells)
+                assert count == expected_count and np.array_equal(labels, expected)
+
+
+def test_reference_uses_a_given_tree_only_over_its_own_samples():
+    """A run hands the metrics the tree of the skeleton's surface probe: the same reference as one built anew;
+    a tree over other points is not used."""
+    from scipy.spatial import cKDTree
+
+    from skelcore.shapes import make_shape
+
+    points = make_shape("torus", 2000, seed=0, noise=0.002).points
+    alone = MetricsReference.from_points(points)
+    for tree in (cKDTree(points), cKDTree(points[:-1]), cKDTree(points + 1e-9)):
+        shared = MetricsReference.from_points(points, tree=tree)
+        assert np.array_equal(shared.inside.cells, alone.inside.cells)
+        assert np.array_equal(shared.inside.normals, alone.inside.normals)
+        assert (shared.inside.tree is tree) == (tree.n == len(points) and np.array_equal(tree.data, points))
+
+
+def test_a_run_does_not_load_scipy_ndimage(tmp_path):
+    """scipy.ndimage costs 0.04-0.1 s to import: a whole run (metrics and the inside test included) does without."""
+    import os
+    import subprocess
+    import sys
+
+    from skelcore.export import write_points_ply
+    from skelcore.shapes import make_shape
+
+    cloud = tmp_path / "torus.ply"
+    write_points_ply(cloud, make_shape("torus", 1500, seed=0, noise=0.002).points)
+    script = ("import sys; from skelcore.pipeline import run_pipeline; "
+              f"run_pipeline({str(cloud)!r}, {str(tmp_path / 'out')!r}); "
+              "print('scipy.ndimage' in sys.modules)")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": root}, check=True)
+    assert done.stdout.split()[-1] == "False"
+    assert (tmp_path / "out" / "metrics.json").exists()
