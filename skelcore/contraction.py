@@ -16,7 +16,7 @@ from . import glskeleton
 from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, goes_on,
+from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, goes_on,
                    hold_curves, record, retune, rings_stalled, schedule, solve_stages, start_run, stopped,
                    torn)
 
@@ -68,6 +68,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         if params.balance_density:  # every input point stands for itself: its own area (skelcore.step.represented)
             wh = np.minimum(wh * run.areas, params.wh_max)
+        wh = anchored(wh, run.thin if params.hold_curves else None, params)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
                                                               run.extent0, first_step=iteration == 1, stages=stages,
                                                               row_weights=contraction_rows(held, wl, weights, params))

@@ -12,6 +12,15 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
+
+`thin_tubes` finds, on the input itself, the parts thinner than the skeleton resolves (a small handle, a twig):
+where the input's cross-section across the part is a closed curve within one sample radius of its centroid, the
+skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
+contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
+neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
+curve-shortening flow while the bulk beside it contracts (skelcore.step.anchor keeps it in place). The cross-section tells them from a sheet (its cross-section runs on
+past the radius), from a bulky part (no closed cross-section within it) and from an open scan's rim or a sheet's
+edge (the input lies on one side of the centre).
 """
 from __future__ import annotations
 
@@ -29,44 +38,57 @@ SURROUNDED = 0.5  # length of the mean unit direction to them, below which they 
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
 
 
-def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(probe ids, spread ratio across/along of each probe's neighbourhood, the probes within `radius`;
-    NaN where it has fewer than MIN_NEIGHBOURS)."""
+def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(probe ids, spread ratio across/along of each probe's neighbourhood, and with `among_all` its direction
+    along (unit, (p, 3); NaN without)). The neighbourhood is the probes within `radius`, or with `among_all` every
+    point within it; the ratio is NaN where it has fewer than MIN_NEIGHBOURS."""
     rng = np.random.default_rng(seed)
     probes = np.sort(rng.choice(len(points), PROBES, replace=False)) if len(points) > PROBES \
         else np.arange(len(points))
     sample = points[probes]
     tree = cKDTree(sample)
-    pairs = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
-    rows = np.concatenate([pairs.row, np.arange(len(sample))])  # each probe with every probe within radius
-    cols = np.concatenate([pairs.col, np.arange(len(sample))])
+    members = points if among_all else sample
+    pairs = tree.sparse_distance_matrix(cKDTree(points) if among_all else tree, radius, output_type="coo_matrix")
+    rows, cols = pairs.row, pairs.col
+    if not among_all:  # each probe with every probe within radius, itself included
+        rows, cols = np.concatenate([rows, np.arange(len(sample))]), np.concatenate([cols, np.arange(len(sample))])
     counts = np.bincount(rows, minlength=len(sample)).astype(float)
-    mean = np.stack([np.bincount(rows, sample[cols, axis], len(sample)) for axis in range(3)], 1) / counts[:, None]
-    offset = sample[cols] - mean[rows]
-    covariance = np.stack([np.bincount(rows, offset[:, i] * offset[:, j], len(sample))
-                           for i in range(3) for j in range(3)], 1).reshape(-1, 3, 3) / counts[:, None, None]
-    eigen = np.linalg.eigvalsh(covariance)  # ascending
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.stack([np.bincount(rows, members[cols, axis], len(sample)) for axis in range(3)], 1) / counts[:, None]
+        offset = members[cols] - mean[rows]
+        covariance = np.stack([np.bincount(rows, offset[:, i] * offset[:, j], len(sample))
+                               for i in range(3) for j in range(3)], 1).reshape(-1, 3, 3) / counts[:, None, None]
+    covariance[counts == 0] = 0.0
+    if among_all:
+        eigen, vectors = np.linalg.eigh(covariance)  # ascending
+    else:  # the figures every run reports: the eigenvalues alone
+        eigen, vectors = np.linalg.eigvalsh(covariance), np.full((len(sample), 3, 3), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(np.maximum(eigen[:, 1], 0) / eigen[:, 2])
     ratio[(counts < MIN_NEIGHBOURS) | ~(eigen[:, 2] > 0)] = np.nan
-    return probes, ratio
+    return probes, ratio, vectors[:, :, 2]
 
 
 def curve_like_points(points: np.ndarray, radius: float, seed: int = 0) -> np.ndarray:
     """(n,) whether each point is curve-like: the judgement of its nearest probe (the probes are an even
     random subset, so a point's nearest probe lies within a probe spacing and sees the same neighbourhood)."""
-    probes, ratio = curve_likeness(points, radius, seed)
-    curve = ratio <= CURVE_RATIO
+    probes, ratio, _ = curve_likeness(points, radius, seed)
+    return _nearest_probe(points, probes, ratio <= CURVE_RATIO)
+
+
+def _nearest_probe(points: np.ndarray, probes: np.ndarray, judged: np.ndarray) -> np.ndarray:
+    """(n,) the judgement of each point's nearest probe."""
     if len(probes) == len(points):
-        return curve
+        return judged
     _, nearest = cKDTree(points[probes]).query(points, workers=-1)
-    return curve[nearest]
+    return judged[nearest]
 
 
 def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
     """The share of measured points whose neighbourhood is curve-like (see the module); a point too isolated
     to be judged counts as not curve-like."""
-    _, ratio = curve_likeness(points, radius, seed)
+    _, ratio, _ = curve_likeness(points, radius, seed)
     return float((ratio <= CURVE_RATIO).mean()) if len(ratio) else 0.0
 
 
@@ -105,3 +127,61 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
     np.maximum.at(high, piece, axis_points)
     thin[candidates[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
     return thin
+
+
+def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
+    """(n,) whether each input point lies on a part thinner than the skeleton resolves (module docstring). Judged
+    at the probes (curve_likeness): the direction along a probe's part is the principal direction of the input
+    within `radius`, and its cross-section the input within twice the radius and within half a radius of the
+    plane through the probe across that direction. The part is thin where that cross-section lies within
+    `radius` of its centroid and surrounds it (seen from the centroid, no angular gap of half a turn or more).
+    Each point takes its nearest probe's judgement; thin pieces (points within `radius` of each other) spanning
+    less than MIN_CURVE_RADII radii are left out: a bump the skeleton could not draw as a curve."""
+    thin = np.zeros(len(points), dtype=bool)
+    probes, ratio, along = curve_likeness(points, radius, among_all=True)
+    judged = np.flatnonzero(np.isfinite(ratio))
+    closed = np.zeros(len(probes), dtype=bool)
+    closed[judged] = _closed_cross_sections(points, points[probes[judged]], along[judged], radius)
+    members = np.flatnonzero(_nearest_probe(points, probes, closed))
+    if len(members) == 0:
+        return thin
+    tree = cKDTree(points[members])
+    count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
+                                        directed=False)
+    low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
+    np.minimum.at(low, piece, points[members])
+    np.maximum.at(high, piece, points[members])
+    thin[members[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
+    return thin
+
+
+def _closed_cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float) -> np.ndarray:
+    """For each probe (m, 3) with its unit direction along: whether the input's cross-section there is closed
+    within `radius` of its centroid (thin_tubes)."""
+    pairs = cKDTree(probes).sparse_distance_matrix(cKDTree(points), 2 * radius, output_type="coo_matrix")
+    offset = points[pairs.col] - probes[pairs.row]
+    axial = np.einsum("ij,ij->i", offset, along[pairs.row])
+    in_slab = np.abs(axial) <= 0.5 * radius
+    rows = pairs.row[in_slab]
+    across = offset[in_slab] - axial[in_slab, None] * along[rows]
+    count = np.bincount(rows, minlength=len(probes))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
+    across -= centroid[rows]
+    closed = count >= 3
+    closed[rows[np.linalg.norm(across, axis=1) > radius]] = False
+    # angles round each centroid in a frame across its direction: u any unit vector across, v = along x u
+    helper = np.where(np.abs(along[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u = np.cross(along, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(along, u)
+    angle = np.arctan2(np.einsum("ij,ij->i", across, v[rows]), np.einsum("ij,ij->i", across, u[rows]))
+    order = np.lexsort((angle, rows))
+    rows, angle = rows[order], angle[order]
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    gap = np.diff(angle, append=0.0)
+    ends = (first + count - 1)[count > 0]
+    gap[ends] = angle[first[count > 0]] + 2 * np.pi - angle[ends]  # the gap that wraps round
+    widest = np.zeros(len(probes))
+    np.maximum.at(widest, rows, gap)
+    return closed & (widest < np.pi)

@@ -22,6 +22,7 @@ more than TEAR_SHARE of the one-rings past TEAR_GROWTH times their width before 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Generator
@@ -31,7 +32,7 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import skeleton_scale_share, thin_parts
+from .curveness import skeleton_scale_share, thin_parts, thin_tubes
 from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
@@ -103,6 +104,12 @@ class RunStart:
     extent0: np.ndarray  # robust extent of the input, for the growth check
     diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
+
+    @functools.cached_property
+    def thin(self) -> np.ndarray:
+        """(n,) the input points on parts thinner than the skeleton resolves (curveness.thin_tubes), found when a
+        step first asks (params.hold_curves)."""
+        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal)
 
 
 def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
@@ -216,6 +223,17 @@ def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
     and shrinks small handles to points while a bulky part beside them is still contracting. Only the first
     step decides: what becomes curve-like later was bulky at the input's scale and contracts with the rest."""
     return np.where(thin_parts(points, run.unit, SkeletonParams.sample_radius * run.diagonal), wl, np.inf)
+
+
+def anchored(wh: np.ndarray, thin: np.ndarray | None, params: ContractionParams) -> np.ndarray:
+    """W_H with the points of parts thinner than the skeleton resolves (RunStart.thin, of the present points) at
+    the cap W_H,max while params.hold_curves is on: the skeleton draws such a part as a curve through its
+    cross-sections whatever the contraction does, so it stays where it is; contracted, it would be shortened shut
+    or dragged into the bulk beside it (skelcore.curveness). Pulled onto its axis instead, its collapsed rings
+    turn its neighbours' cotangent weights negative and fling them out. `thin` may be None while the hold is off."""
+    if not params.hold_curves or not thin.any():
+        return wh
+    return np.where(thin, params.wh_max, wh)
 
 
 def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams
