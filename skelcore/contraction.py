@@ -17,7 +17,7 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, goes_on,
-                   hold_curves, record, retune, rings_stalled, schedule, solve_stages, start_run, stopped,
+                   hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped,
                    torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
@@ -68,7 +68,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         if params.balance_density:  # every input point stands for itself: its own area (skelcore.step.represented)
             wh = np.minimum(wh * run.areas, params.wh_max)
-        wh = anchored(wh, run.thin if params.hold_curves else None, params)
+        wh = anchored(wh, run, ids, params)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
                                                               run.extent0, first_step=iteration == 1, stages=stages,
                                                               row_weights=contraction_rows(held, wl, weights, params))
@@ -94,7 +94,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]
-        state = IterationState(iteration=iteration, points=run.normalisation.inverse(current), point_ids=ids,
+        state = IterationState(iteration=iteration, points=shown(current, run, ids, params), point_ids=ids,
                                owner=ids, rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                timings=timings, termination=termination, message=message)
 

@@ -18,7 +18,8 @@ where the input's cross-section across the part is a closed curve within one sam
 skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
 contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
 neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
-curve-shortening flow while the bulk beside it contracts (skelcore.step.anchor keeps it in place). The cross-section tells them from a sheet (its cross-section runs on
+curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
+shows it on its axis). The cross-section tells them from a sheet (its cross-section runs on
 past the radius), from a bulky part (no closed cross-section within it) and from an open scan's rim or a sheet's
 edge (the input lies on one side of the centre).
 """
@@ -130,34 +131,42 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
 
 
 def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
-    """(n,) whether each input point lies on a part thinner than the skeleton resolves (module docstring). Judged
-    at the probes (curve_likeness): the direction along a probe's part is the principal direction of the input
-    within `radius`, and its cross-section the input within twice the radius and within half a radius of the
-    plane through the probe across that direction. The part is thin where that cross-section lies within
-    `radius` of its centroid and surrounds it (seen from the centroid, no angular gap of half a turn or more).
-    Each point takes its nearest probe's judgement; thin pieces (points within `radius` of each other) spanning
-    less than MIN_CURVE_RADII radii are left out: a bump the skeleton could not draw as a curve."""
-    thin = np.zeros(len(points), dtype=bool)
+    """(n, 3) for each input point on a part thinner than the skeleton resolves (module docstring), the nearest
+    point of that part's axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
+    probe's part is the principal direction of the input within `radius`, and its cross-section the input within
+    twice the radius and within half a radius of the plane through the probe across that direction. The part is
+    thin where that cross-section lies within `radius` of its centroid and surrounds it (seen from the centroid,
+    no angular gap of half a turn or more). Each point takes its nearest probe's judgement and its axis, the
+    line along the direction through the centroid; thin pieces (axis points within `radius` of each other)
+    spanning less than MIN_CURVE_RADII radii are left out: a bump the skeleton could not draw as a curve."""
+    anchors = np.full(points.shape, np.nan)
     probes, ratio, along = curve_likeness(points, radius, among_all=True)
     judged = np.flatnonzero(np.isfinite(ratio))
-    closed = np.zeros(len(probes), dtype=bool)
-    closed[judged] = _closed_cross_sections(points, points[probes[judged]], along[judged], radius)
-    members = np.flatnonzero(_nearest_probe(points, probes, closed))
-    if len(members) == 0:
-        return thin
-    tree = cKDTree(points[members])
+    centroids, closed = _cross_sections(points, points[probes[judged]], along[judged], radius)
+    if not closed.any():
+        return anchors
+    thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
+    thin[judged], centroid[judged], axis[judged] = closed, centroids, along[judged]
+    nearest = np.arange(len(points)) if len(probes) == len(points) \
+        else cKDTree(points[probes]).query(points, workers=-1)[1]
+    members = np.flatnonzero(thin[nearest])
+    owner = nearest[members]
+    onto = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])[:, None] * axis[owner]
+    tree = cKDTree(onto)
     count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
                                         directed=False)
     low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
-    np.minimum.at(low, piece, points[members])
-    np.maximum.at(high, piece, points[members])
-    thin[members[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
-    return thin
+    np.minimum.at(low, piece, onto)
+    np.maximum.at(high, piece, onto)
+    long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
+    anchors[members[long_enough]] = onto[long_enough]
+    return anchors
 
 
-def _closed_cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float) -> np.ndarray:
-    """For each probe (m, 3) with its unit direction along: whether the input's cross-section there is closed
-    within `radius` of its centroid (thin_tubes)."""
+def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there, and
+    whether that cross-section is closed within `radius` of it (thin_tubes)."""
     pairs = cKDTree(probes).sparse_distance_matrix(cKDTree(points), 2 * radius, output_type="coo_matrix")
     offset = points[pairs.col] - probes[pairs.row]
     axial = np.einsum("ij,ij->i", offset, along[pairs.row])
@@ -184,4 +193,4 @@ def _closed_cross_sections(points: np.ndarray, probes: np.ndarray, along: np.nda
     gap[ends] = angle[first[count > 0]] + 2 * np.pi - angle[ends]  # the gap that wraps round
     widest = np.zeros(len(probes))
     np.maximum.at(widest, rows, gap)
-    return closed & (widest < np.pi)
+    return probes + centroid, closed & (widest < np.pi)

@@ -67,7 +67,7 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
-                   represented, retune, rings_stalled, schedule, solve_stages, start_run, stopped, torn)
+                   represented, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -116,7 +116,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # per point), so its attraction row is weighted by their area (their count without balance_density)
         # to keep eq. 2's balance of the input cloud.
         wh = np.minimum(wh * represented(owner, run.areas, len(ids), params), params.wh_max)
-        wh = anchored(wh, run.thin[ids] if params.hold_curves else None, params)
+        wh = anchored(wh, run, ids, params)
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else (np.bincount(owner, weights=weights, minlength=len(ids))
@@ -185,7 +185,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
         timings["rest"] = time.perf_counter() - step_start - sum(timings.values())
-        state = IterationState(iteration=iteration, points=normalisation.inverse(current), point_ids=ids,
+        state = IterationState(iteration=iteration, points=shown(current, run, ids, params), point_ids=ids,
                                owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                timings=timings, termination=termination, message=message)
 

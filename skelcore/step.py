@@ -106,9 +106,9 @@ class RunStart:
     state: IterationState  # iteration 0, the input
 
     @functools.cached_property
-    def thin(self) -> np.ndarray:
-        """(n,) the input points on parts thinner than the skeleton resolves (curveness.thin_tubes), found when a
-        step first asks (params.hold_curves)."""
+    def anchors(self) -> np.ndarray:
+        """(n, 3) the axis point of each input point on a part thinner than the skeleton resolves (NaN: free;
+        curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
         return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal)
 
 
@@ -225,15 +225,25 @@ def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
     return np.where(thin_parts(points, run.unit, SkeletonParams.sample_radius * run.diagonal), wl, np.inf)
 
 
-def anchored(wh: np.ndarray, thin: np.ndarray | None, params: ContractionParams) -> np.ndarray:
-    """W_H with the points of parts thinner than the skeleton resolves (RunStart.thin, of the present points) at
-    the cap W_H,max while params.hold_curves is on: the skeleton draws such a part as a curve through its
-    cross-sections whatever the contraction does, so it stays where it is; contracted, it would be shortened shut
-    or dragged into the bulk beside it (skelcore.curveness). Pulled onto its axis instead, its collapsed rings
-    turn its neighbours' cotangent weights negative and fling them out. `thin` may be None while the hold is off."""
-    if not params.hold_curves or not thin.any():
+def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+    """W_H of the present points (input ids `ids`) with those on parts thinner than the skeleton resolves
+    (RunStart.anchors) at the cap W_H,max while params.hold_curves is on: the skeleton draws such a part as the curve of its
+    cross-sections' centroids whatever the contraction does, so it stays where it is; contracted, it would be
+    shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its axis in the
+    solve: collapsed, its rings would turn its neighbours' cotangent weights negative and fling them out; the
+    states show it there (`shown`)."""
+    if not params.hold_curves:
         return wh
-    return np.where(thin, params.wh_max, wh)
+    return np.where(np.isfinite(run.anchors[ids, 0]), params.wh_max, wh)
+
+
+def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+    """The positions a state shows, in the user's coordinates, for the solve's `current` (present points of input
+    ids `ids`): the anchored points (`anchored`) on their axis."""
+    if params.hold_curves:
+        anchors = run.anchors[ids]
+        current = np.where(np.isfinite(anchors[:, :1]), anchors, current)
+    return run.normalisation.inverse(current)
 
 
 def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams
