@@ -13,15 +13,15 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 
-`thin_tubes` finds, on the input itself, the parts thinner than the skeleton resolves (a small handle, a twig):
-where the input's cross-section across the part is a closed curve within one sample radius of its centroid, the
+`thin_tubes` finds, on the input itself, the parts thinner than the skeleton resolves (a small handle, a thin limb):
+where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, the
 skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
 contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
 neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
 curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
-shows it on its axis). The cross-section tells them from a sheet (its cross-section runs on
-past the radius), from a bulky part (no closed cross-section within it) and from an open scan's rim or a sheet's
-edge (the input lies on one side of the centre).
+shows it on its axis). The cross-section tells them from a sheet or a bulky part (their cross-section runs on
+past the radius) and from a crease, a strip or a twig one point wide (their cross-section has points at its
+centroid).
 """
 from __future__ import annotations
 
@@ -37,6 +37,7 @@ MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread to
 NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
 SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
+HOLLOW = 1 / 3  # a closed cross-section's nearest point to its centroid, at least this share of their mean distance
 
 
 def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False
@@ -135,8 +136,8 @@ def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
     point of that part's axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
     probe's part is the principal direction of the input within `radius`, and its cross-section the input within
     twice the radius and within half a radius of the plane through the probe across that direction. The part is
-    thin where that cross-section lies within `radius` of its centroid and surrounds it (seen from the centroid,
-    no angular gap of half a turn or more). Each point takes its nearest probe's judgement and its axis, the
+    thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and
+    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its nearest probe's judgement and its axis, the
     line along the direction through the centroid; thin pieces (axis points within `radius` of each other)
     spanning less than MIN_CURVE_RADII radii are left out: a bump the skeleton could not draw as a curve."""
     anchors = np.full(points.shape, np.nan)
@@ -150,23 +151,23 @@ def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
     nearest = np.arange(len(points)) if len(probes) == len(points) \
         else cKDTree(points[probes]).query(points, workers=-1)[1]
     members = np.flatnonzero(thin[nearest])
-    owner = nearest[members]
-    onto = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])[:, None] * axis[owner]
-    tree = cKDTree(onto)
+    tree = cKDTree(points[members])
     count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
                                         directed=False)
     low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
-    np.minimum.at(low, piece, onto)
-    np.maximum.at(high, piece, onto)
-    long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
-    anchors[members[long_enough]] = onto[long_enough]
+    np.minimum.at(low, piece, points[members])
+    np.maximum.at(high, piece, points[members])
+    members = members[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]
+    owner = nearest[members]
+    anchors[members] = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner],
+                                                   axis[owner])[:, None] * axis[owner]
     return anchors
 
 
 def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float
                     ) -> tuple[np.ndarray, np.ndarray]:
     """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there, and
-    whether that cross-section is closed within `radius` of it (thin_tubes)."""
+    whether that cross-section is a hollow one within `radius` of it (thin_tubes)."""
     pairs = cKDTree(probes).sparse_distance_matrix(cKDTree(points), 2 * radius, output_type="coo_matrix")
     offset = points[pairs.col] - probes[pairs.row]
     axial = np.einsum("ij,ij->i", offset, along[pairs.row])
@@ -177,20 +178,13 @@ def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, r
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
     across -= centroid[rows]
-    closed = count >= 3
-    closed[rows[np.linalg.norm(across, axis=1) > radius]] = False
-    # angles round each centroid in a frame across its direction: u any unit vector across, v = along x u
-    helper = np.where(np.abs(along[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    u = np.cross(along, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(along, u)
-    angle = np.arctan2(np.einsum("ij,ij->i", across, v[rows]), np.einsum("ij,ij->i", across, u[rows]))
-    order = np.lexsort((angle, rows))
-    rows, angle = rows[order], angle[order]
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    gap = np.diff(angle, append=0.0)
-    ends = (first + count - 1)[count > 0]
-    gap[ends] = angle[first[count > 0]] + 2 * np.pi - angle[ends]  # the gap that wraps round
-    widest = np.zeros(len(probes))
-    np.maximum.at(widest, rows, gap)
-    return probes + centroid, closed & (widest < np.pi)
+    distance = np.linalg.norm(across, axis=1)
+    closed = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
+    closed[rows[distance > radius]] = False
+    # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
+    # crease or a strip has points at its centroid
+    nearest = np.full(len(probes), np.inf)
+    np.minimum.at(nearest, rows, distance)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.bincount(rows, distance, len(probes)) / count
+    return probes + centroid, closed & (nearest >= HOLLOW * mean)
