@@ -265,6 +265,35 @@ def test_small_handles_keep_their_loops_while_the_body_contracts():
     assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
 
 
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_handles_thinner_than_a_skeleton_ball_keep_their_loops(method):
+    """Handles one or two points across at 10k points: their one-rings lie flat over the tube, the first steps
+    barely contract them and the later ones shut them (no loop is left without the hold); anchored where the
+    input's cross-section is a hollow within one sample radius (skelcore.curveness.thin_tubes), all three stay."""
+    import skelcore
+    from skelcore.solids import solid_shape
+
+    shape = solid_shape("thin_handled_ball", 10_000)
+    assert skelcore.skeletonize(shape.points, method=method).skeleton.topology()["cycles"] == 3
+    if method == "lbc":
+        assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
+
+
+def test_anchored_tubes_are_shown_on_their_axis_and_stay():
+    """A ring tube thinner than the skeleton's ball: every step keeps its points where they are in the solve
+    (W_H at its cap) and shows them on the ring's axis."""
+    rng = np.random.default_rng(3)
+    u, v = rng.uniform(0, 2 * np.pi, 4000), rng.uniform(0, 2 * np.pi, 4000)
+    radius = 1.0 + 0.02 * np.cos(v)
+    ring = np.column_stack([radius * np.cos(u), radius * np.sin(u), 0.02 * np.sin(v)])
+    states = run_contraction(ring, ContractionParams(max_iterations=3))
+    for state in states[1:]:
+        assert np.abs(np.hypot(state.points[:, 0], state.points[:, 1]) - 1.0).max() < 0.01
+        assert np.abs(state.points[:, 2]).max() < 0.01
+        assert (state.wh == ContractionParams().wh_max).all()
+    assert (run_contraction(ring, ContractionParams(max_iterations=1, hold_curves=False))[-1].wh < 10).all()
+
+
 
 def _session_like(points, params, redo):
     """Drive a contraction as the inspector does: each state is computed ahead, then redone with redo(state)
