@@ -137,9 +137,10 @@ def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
     probe's part is the principal direction of the input within `radius`, and its cross-section the input within
     twice the radius and within half a radius of the plane through the probe across that direction. The part is
     thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and
-    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its nearest probe's judgement and its axis, the
-    line along the direction through the centroid; thin pieces (axis points within `radius` of each other)
-    spanning less than MIN_CURVE_RADII radii are left out: a bump the skeleton could not draw as a curve."""
+    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its
+    nearest probe's judgement and its axis, the line along the direction through the centroid; thin pieces
+    (points within `radius` of each other) spanning less than MIN_CURVE_RADII radii are left out: a bump the
+    skeleton could not draw as a curve."""
     anchors = np.full(points.shape, np.nan)
     probes, ratio, along = curve_likeness(points, radius, among_all=True)
     judged = np.flatnonzero(np.isfinite(ratio))

@@ -145,7 +145,8 @@ def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
         azimuth = np.degrees(2.39996 * i)
         tilt = np.degrees(np.arccos(height))
         # standing on the north pole (its inner arc sunk by half the ring), then turned to its direction
-        parts.append(handle.translate((0.0, 0.0, 1.0 + ring / 2)).rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
+        standing = handle.translate((0.0, 0.0, 1.0 + ring / 2))
+        parts.append(standing.rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 

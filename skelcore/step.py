@@ -227,11 +227,11 @@ def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
 
 def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
     """W_H of the present points (input ids `ids`) with those on parts thinner than the skeleton resolves
-    (RunStart.anchors) at the cap W_H,max while params.hold_curves is on: the skeleton draws such a part as the curve of its
-    cross-sections' centroids whatever the contraction does, so it stays where it is; contracted, it would be
-    shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its axis in the
-    solve: collapsed, its rings would turn its neighbours' cotangent weights negative and fling them out; the
-    states show it there (`shown`)."""
+    (RunStart.anchors) at the cap W_H,max while params.hold_curves is on. The skeleton draws such a part as the
+    curve of its cross-sections' centroids whatever the contraction does, so it stays where it is; contracted, it
+    would be shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its
+    axis in the solve: collapsed, its rings would turn its neighbours' cotangent weights negative and fling them
+    out; the states show it there (`shown`)."""
     if not params.hold_curves:
         return wh
     return np.where(np.isfinite(run.anchors[ids, 0]), params.wh_max, wh)
