@@ -17,7 +17,7 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, goes_on,
-                   hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped,
+                   free_points, hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped,
                    torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
@@ -76,7 +76,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             yield None
         if failure is None:
             new_sizes = run.rings.sizes(candidate)
-            new_ratio = float(new_sizes.sum() / sizes0.sum())
+            free = free_points(run, ids, params)
+            new_ratio = float(new_sizes[free].sum() / sizes0[free].sum())
             # cloudcontr: stop once a_{t-1} - a_t < threshold; while the rings still shrink, a cloud not yet
             # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
             # (thin parts pulled into a blob would not)

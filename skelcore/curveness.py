@@ -26,7 +26,8 @@ centroid).
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.csgraph import connected_components
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from .skeleton import SkeletonParams
@@ -131,7 +132,7 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
     return thin
 
 
-def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
+def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarray:
     """(n, 3) for each input point on a part thinner than the skeleton resolves (module docstring), the nearest
     point of that part's axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
     probe's part is the principal direction of the input within `radius`, and its cross-section the input within
@@ -140,7 +141,8 @@ def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
     is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its
     nearest probe's judgement and its axis, the line along the direction through the centroid; thin pieces
     (points within `radius` of each other) spanning less than MIN_CURVE_RADII radii are left out: a bump the
-    skeleton could not draw as a curve."""
+    skeleton could not draw as a curve; and so are those that close no loop of the input (`_closing_loops`, over
+    its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts) keeps its end."""
     anchors = np.full(points.shape, np.nan)
     probes, ratio, along = curve_likeness(points, radius, among_all=True)
     judged = np.flatnonzero(np.isfinite(ratio))
@@ -158,11 +160,53 @@ def thin_tubes(points: np.ndarray, radius: float) -> np.ndarray:
     low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
     np.minimum.at(low, piece, points[members])
     np.maximum.at(high, piece, points[members])
-    members = members[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]
+    long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
+    members, piece = members[long_enough], piece[long_enough]
+    members = members[_closing_loops(members, piece, points, edges, radius)[piece]]
     owner = nearest[members]
     anchors[members] = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner],
                                                    axis[owner])[:, None] * axis[owner]
     return anchors
+
+
+def _closing_loops(members: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float
+                   ) -> np.ndarray:
+    """For each piece (ids `piece` of the points `members`): whether it closes a loop of the input, as a handle
+    does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's root
+    touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece stands
+    for the input within `radius` of it (what the skeleton draws as it); its ends are the ends of its longest
+    shortest path (points within `radius` joined), and the rest touches an end where a surface edge (`edges`)
+    crosses into the piece within twice the radius of it."""
+    count = int(piece.max()) + 1 if len(piece) else 0
+    closes = np.zeros(count, dtype=bool)
+    if count == 0:
+        return closes
+    distance, nearest = cKDTree(points[members]).query(points, distance_upper_bound=radius, workers=-1)
+    label = np.where(np.isfinite(distance), piece[np.minimum(nearest, len(members) - 1)], -1)
+    inside = label[edges] >= 0
+    rest = edges[~inside.any(axis=1)]
+    _, component = connected_components(
+        coo_matrix((np.ones(len(rest)), (rest[:, 0], rest[:, 1])), shape=(len(points), len(points))), directed=False)
+    across = inside[:, 0] != inside[:, 1]
+    crossing, crossing_inside = edges[across], inside[across]
+    contact_piece = label[np.where(crossing_inside[:, 0], crossing[:, 0], crossing[:, 1])]
+    contact = np.where(crossing_inside[:, 0], crossing[:, 1], crossing[:, 0])
+    tree = cKDTree(points[members])
+    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix").tocsr()
+    for index in np.unique(piece):  # a handful of pieces
+        own = np.flatnonzero(piece == index)
+        touching = []
+        for end in _far_ends(graph[own][:, own]):
+            near_end = np.linalg.norm(points[contact] - points[members[own[end]]], axis=1) <= 2 * radius
+            touching.append(set(component[contact[(contact_piece == index) & near_end]].tolist()))
+        closes[index] = bool(touching[0] & touching[1])
+    return closes
+
+
+def _far_ends(graph) -> tuple[int, int]:
+    """The ends of a connected graph's longest shortest path, found by two sweeps of Dijkstra."""
+    start = int(np.argmax(np.nan_to_num(dijkstra(graph, indices=0), posinf=-1)))
+    return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
 
 
 def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float

@@ -67,7 +67,7 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
-                   represented, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped, torn)
+                   free_points, represented, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -135,9 +135,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             state = stopped(state, *failure, notes)
             continue
         new_sizes, nearest = _nearest_in_ring(rings, candidate)
-        new_ratio = float(new_sizes.sum() / sizes0.sum())
+        free = free_points(run, ids, params)
+        new_ratio = float(new_sizes[free].sum() / sizes0[free].sum())
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
-        drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
+        drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             state = stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",

@@ -109,7 +109,7 @@ class RunStart:
     def anchors(self) -> np.ndarray:
         """(n, 3) the axis point of each input point on a part thinner than the skeleton resolves (NaN: free;
         curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
-        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal)
+        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal, self.rings.edges())
 
 
 def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
@@ -235,6 +235,15 @@ def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: Contraction
     if not params.hold_curves:
         return wh
     return np.where(np.isfinite(run.anchors[ids, 0]), params.wh_max, wh)
+
+
+def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray | slice:
+    """Which present points (input ids `ids`) the contraction's progress, the rings' shrinking a_t, is measured
+    on: those not anchored (`anchored`), whose rings never shrink; all when none is free or the hold is off."""
+    if not params.hold_curves:
+        return slice(None)
+    free = np.isnan(run.anchors[ids, 0])
+    return free if free.any() else slice(None)
 
 
 def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
