@@ -279,20 +279,19 @@ def test_handles_thinner_than_a_skeleton_ball_keep_their_loops(method):
         assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
 
 
-def test_anchored_tubes_are_shown_on_their_axis_and_stay():
-    """A ring tube thinner than the skeleton's ball: every step keeps its points where they are in the solve
-    (W_H at its cap) and shows them on the ring's axis."""
-    rng = np.random.default_rng(3)
-    u, v = rng.uniform(0, 2 * np.pi, 4000), rng.uniform(0, 2 * np.pi, 4000)
-    radius = 1.0 + 0.02 * np.cos(v)
-    ring = np.column_stack([radius * np.cos(u), radius * np.sin(u), 0.02 * np.sin(v)])
-    states = run_contraction(ring, ContractionParams(max_iterations=3))
-    for state in states[1:]:
-        assert np.abs(np.hypot(state.points[:, 0], state.points[:, 1]) - 1.0).max() < 0.01
-        assert np.abs(state.points[:, 2]).max() < 0.01
-        assert (state.wh == ContractionParams().wh_max).all()
-    assert (run_contraction(ring, ContractionParams(max_iterations=1, hold_curves=False))[-1].wh < 10).all()
+def test_anchored_points_stay_and_are_shown_on_their_axis():
+    """Every step gives the anchored points of a thin handle the cap W_H,max and shows them at their anchors."""
+    from skelcore.solids import solid_shape
+    from skelcore.step import start_run
 
+    points = solid_shape("thin_handled_ball", 10_000).points
+    params = ContractionParams(max_iterations=2)
+    run = start_run(points, params)
+    anchored = np.isfinite(run.anchors[:, 0])
+    assert anchored.sum() > 100
+    for state in run_contraction(points, params)[1:]:
+        assert (state.wh[anchored] == params.wh_max).all() and (state.wh[~anchored] < params.wh_max).all()
+        assert np.allclose(state.points[anchored], run.normalisation.inverse(run.anchors[anchored]))
 
 
 def _session_like(points, params, redo):
