@@ -55,7 +55,8 @@ def test_thin_handles_are_anchored_on_their_axis():
     on_handles = np.linalg.norm(points, axis=1) > 1.01
     # the arcs that stand free of the ball (their feet, within a skeleton ball of it, contract with it)
     assert anchored[on_handles].mean() > 0.2 and not anchored[~on_handles].any()
-    assert (np.linalg.norm(anchors[anchored] - points[anchored], axis=1) < 0.06).all()  # the tube is 0.04 thick
+    # within the tube (0.04) and the straight axis line's offset from the curved one
+    assert (np.linalg.norm(anchors[anchored] - points[anchored], axis=1) < 0.08).all()
 
 
 def test_limbs_sheets_and_thick_parts_are_not_anchored():
