@@ -13,7 +13,7 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 
-`thin_tubes` finds, on the input itself, the parts thinner than the skeleton resolves (a small handle, a thin limb):
+`thin_tubes` finds, on the input itself, the handles thinner than the skeleton resolves:
 where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, the
 skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
 contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
@@ -21,7 +21,8 @@ neighbours) lie flat over it, so the first steps barely contract it, and later o
 curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
 shows it on its axis). The cross-section tells them from a sheet or a bulky part (their cross-section runs on
 past the radius) and from a crease, a strip or a twig one point wide (their cross-section has points at its
-centroid).
+centroid). Only thin parts that close a loop of the input are kept: a limb or a tail ends, and the hold above
+keeps its end.
 """
 from __future__ import annotations
 
