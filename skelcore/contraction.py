@@ -95,9 +95,11 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]
-        state = IterationState(iteration=iteration, points=shown(current, run, ids, params), point_ids=ids,
+        shown_points, anchored_count = shown(current, run, ids, params)
+        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
                                owner=ids, rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message)
+                               timings=timings, termination=termination, message=message,
+                               anchored=anchored_count)
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),

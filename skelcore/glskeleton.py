@@ -186,9 +186,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
         timings["rest"] = time.perf_counter() - step_start - sum(timings.values())
-        state = IterationState(iteration=iteration, points=shown(current, run, ids, params), point_ids=ids,
+        shown_points, anchored_count = shown(current, run, ids, params)
+        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
                                owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message)
+                               timings=timings, termination=termination, message=message,
+                               anchored=anchored_count)
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,

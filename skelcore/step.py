@@ -67,6 +67,7 @@ class IterationState:
     params: ContractionParams
     timings: dict = field(default_factory=dict)  # seconds: rings, laplacian, solve, rest
     termination: str | None = None  # set on the last state of a run (see TERMINATION_MESSAGES)
+    anchored: int = 0  # present points anchored on a thin handle's axis (skelcore.step.anchored)
     message: str = ""
 
     @property
@@ -246,13 +247,15 @@ def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np
     return free if free.any() else slice(None)
 
 
-def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> tuple[np.ndarray, int]:
     """The positions a state shows, in the user's coordinates, for the solve's `current` (present points of input
-    ids `ids`): the anchored points (`anchored`) on their axis."""
+    ids `ids`): the anchored points (`anchored`) on their axis; and how many those are."""
+    count = 0
     if params.hold_curves:
         anchors = run.anchors[ids]
-        current = np.where(np.isfinite(anchors[:, :1]), anchors, current)
-    return run.normalisation.inverse(current)
+        fixed = np.isfinite(anchors[:, :1])
+        current, count = np.where(fixed, anchors, current), int(fixed.sum())
+    return run.normalisation.inverse(current), count
 
 
 def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams
