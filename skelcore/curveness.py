@@ -152,9 +152,13 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
         return anchors
     thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
     thin[judged], centroid[judged], axis[judged] = closed, centroids, along[judged]
+    # each point by the probes judged within `radius` of it: where a part is near the limit the judgement
+    # flickers from probe to probe, and a flickering part is not anchored (its pieces would be fragments)
     nearest = np.arange(len(points)) if len(probes) == len(points) \
         else cKDTree(points[probes]).query(points, workers=-1)[1]
-    members = np.flatnonzero(thin[nearest])
+    votes = cKDTree(points[probes[judged]]).sparse_distance_matrix(cKDTree(points), radius, output_type="coo_matrix")
+    ayes = np.bincount(votes.col, thin[judged][votes.row], len(points))
+    members = np.flatnonzero(ayes > 0.5 * np.bincount(votes.col, minlength=len(points)))
     tree = cKDTree(points[members])
     count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
                                         directed=False)
