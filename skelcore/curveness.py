@@ -167,27 +167,29 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
     np.maximum.at(high, piece, points[members])
     long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
     members, piece = members[long_enough], piece[long_enough]
-    members = members[_closing_loops(members, piece, points, edges, radius)[piece]]
     owner = nearest[members]
-    anchors[members] = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner],
-                                                   axis[owner])[:, None] * axis[owner]
+    onto = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])[:, None] * axis[owner]
+    closing = _closing_loops(onto, piece, points, edges, radius)[piece]
+    anchors[members[closing]] = onto[closing]
     return anchors
 
 
-def _closing_loops(members: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float
+def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float
                    ) -> np.ndarray:
-    """For each piece (ids `piece` of the points `members`): whether it closes a loop of the input, as a handle
-    does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's root
-    touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece stands
-    for the input within `radius` of it (what the skeleton draws as it); its ends are the ends of its longest
-    shortest path (points within `radius` joined), and the rest touches an end where a surface edge (`edges`)
-    crosses into the piece within twice the radius of it."""
+    """For each piece (ids `piece` of its points' `axis` positions): whether it closes a loop of the input, as a
+    handle does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's
+    root touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece
+    stands for the input within `radius` of its axis (the tube the skeleton draws as it); its ends are the ends
+    of its axis's longest shortest path (positions within `radius` joined), and the rest touches an end where a surface edge (`edges`, of
+    those no longer than `radius`) crosses into the piece nearer that end than the other."""
     count = int(piece.max()) + 1 if len(piece) else 0
     closes = np.zeros(count, dtype=bool)
     if count == 0:
         return closes
-    distance, nearest = cKDTree(points[members]).query(points, distance_upper_bound=radius, workers=-1)
-    label = np.where(np.isfinite(distance), piece[np.minimum(nearest, len(members) - 1)], -1)
+    distance, nearest = cKDTree(axis).query(points, distance_upper_bound=radius, workers=-1)
+    label = np.where(np.isfinite(distance), piece[np.minimum(nearest, len(axis) - 1)], -1)
+    # the surface joined at the skeleton's scale: a long ring edge can reach past a thin piece along its tube
+    edges = edges[np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) <= radius]
     inside = label[edges] >= 0
     rest = edges[~inside.any(axis=1)]
     _, component = connected_components(
@@ -196,15 +198,17 @@ def _closing_loops(members: np.ndarray, piece: np.ndarray, points: np.ndarray, e
     crossing, crossing_inside = edges[across], inside[across]
     contact_piece = label[np.where(crossing_inside[:, 0], crossing[:, 0], crossing[:, 1])]
     contact = np.where(crossing_inside[:, 0], crossing[:, 1], crossing[:, 0])
-    tree = cKDTree(points[members])
+    tree = cKDTree(axis)
     graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix").tocsr()
     for index in np.unique(piece):  # a handful of pieces
         own = np.flatnonzero(piece == index)
-        touching = []
-        for end in _far_ends(graph[own][:, own]):
-            near_end = np.linalg.norm(points[contact] - points[members[own[end]]], axis=1) <= 2 * radius
-            touching.append(set(component[contact[(contact_piece == index) & near_end]].tolist()))
-        closes[index] = bool(touching[0] & touching[1])
+        ends = axis[own[list(_far_ends(graph[own][:, own]))]]
+        touches = contact[contact_piece == index]
+        # each contact goes to the end it is nearer
+        nearer_second = (np.linalg.norm(points[touches] - ends[1], axis=1)
+                         < np.linalg.norm(points[touches] - ends[0], axis=1))
+        closes[index] = bool(set(component[touches[nearer_second]].tolist())
+                             & set(component[touches[~nearer_second]].tolist()))
     return closes
 
 
