@@ -16,8 +16,8 @@ from . import glskeleton
 from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, goes_on,
-                   hold_curves, record, retune, rings_stalled, schedule, solve_stages, start_run, stopped,
+from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, goes_on,
+                   free_points, hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped,
                    torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
@@ -68,6 +68,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
         if params.balance_density:  # every input point stands for itself: its own area (skelcore.step.represented)
             wh = np.minimum(wh * run.areas, params.wh_max)
+        wh = anchored(wh, run, ids, params)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
                                                               run.extent0, first_step=iteration == 1, stages=stages,
                                                               row_weights=contraction_rows(held, wl, weights, params))
@@ -75,7 +76,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             yield None
         if failure is None:
             new_sizes = run.rings.sizes(candidate)
-            new_ratio = float(new_sizes.sum() / sizes0.sum())
+            free = free_points(run, ids, params)
+            new_ratio = float(new_sizes[free].sum() / sizes0[free].sum())
             # cloudcontr: stop once a_{t-1} - a_t < threshold; while the rings still shrink, a cloud not yet
             # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
             # (thin parts pulled into a blob would not)
@@ -93,9 +95,11 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]
-        state = IterationState(iteration=iteration, points=run.normalisation.inverse(current), point_ids=ids,
+        shown_points, anchored_count = shown(current, run, ids, params)
+        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
                                owner=ids, rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message)
+                               timings=timings, termination=termination, message=message,
+                               anchored=anchored_count)
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),

@@ -12,11 +12,23 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
+
+`thin_tubes` finds, on the input itself, the handles thinner than the skeleton resolves:
+where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, the
+skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
+contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
+neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
+curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
+shows it on its axis). The cross-section tells them from a sheet or a bulky part (their cross-section runs on
+past the radius) and from a crease, a strip or a twig one point wide (their cross-section has points at its
+centroid). Only thin parts that close a loop of the input are kept: a limb or a tail ends, and the hold above
+keeps its end.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse.csgraph import connected_components
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from .skeleton import SkeletonParams
@@ -27,46 +39,60 @@ MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread to
 NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
 SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
+HOLLOW = 1 / 3  # a closed cross-section's nearest point to its centroid, at least this share of their mean distance
 
 
-def curve_likeness(points: np.ndarray, radius: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(probe ids, spread ratio across/along of each probe's neighbourhood, the probes within `radius`;
-    NaN where it has fewer than MIN_NEIGHBOURS)."""
+def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(probe ids, spread ratio across/along of each probe's neighbourhood, and with `among_all` its direction
+    along (unit, (p, 3); NaN without)). The neighbourhood is the probes within `radius`, or with `among_all` every
+    point within it; the ratio is NaN where it has fewer than MIN_NEIGHBOURS."""
     rng = np.random.default_rng(seed)
     probes = np.sort(rng.choice(len(points), PROBES, replace=False)) if len(points) > PROBES \
         else np.arange(len(points))
     sample = points[probes]
     tree = cKDTree(sample)
-    pairs = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
-    rows = np.concatenate([pairs.row, np.arange(len(sample))])  # each probe with every probe within radius
-    cols = np.concatenate([pairs.col, np.arange(len(sample))])
+    members = points if among_all else sample
+    pairs = tree.sparse_distance_matrix(cKDTree(points) if among_all else tree, radius, output_type="coo_matrix")
+    rows, cols = pairs.row, pairs.col
+    if not among_all:  # each probe with every probe within radius, itself included
+        rows, cols = np.concatenate([rows, np.arange(len(sample))]), np.concatenate([cols, np.arange(len(sample))])
     counts = np.bincount(rows, minlength=len(sample)).astype(float)
-    mean = np.stack([np.bincount(rows, sample[cols, axis], len(sample)) for axis in range(3)], 1) / counts[:, None]
-    offset = sample[cols] - mean[rows]
-    covariance = np.stack([np.bincount(rows, offset[:, i] * offset[:, j], len(sample))
-                           for i in range(3) for j in range(3)], 1).reshape(-1, 3, 3) / counts[:, None, None]
-    eigen = np.linalg.eigvalsh(covariance)  # ascending
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.stack([np.bincount(rows, members[cols, axis], len(sample)) for axis in range(3)], 1) / counts[:, None]
+        offset = members[cols] - mean[rows]
+        covariance = np.stack([np.bincount(rows, offset[:, i] * offset[:, j], len(sample))
+                               for i in range(3) for j in range(3)], 1).reshape(-1, 3, 3) / counts[:, None, None]
+    covariance[counts == 0] = 0.0
+    if among_all:
+        eigen, vectors = np.linalg.eigh(covariance)  # ascending
+    else:  # the figures every run reports: the eigenvalues alone
+        eigen, vectors = np.linalg.eigvalsh(covariance), np.full((len(sample), 3, 3), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(np.maximum(eigen[:, 1], 0) / eigen[:, 2])
     ratio[(counts < MIN_NEIGHBOURS) | ~(eigen[:, 2] > 0)] = np.nan
-    return probes, ratio
+    return probes, ratio, vectors[:, :, 2]
 
 
 def curve_like_points(points: np.ndarray, radius: float, seed: int = 0) -> np.ndarray:
     """(n,) whether each point is curve-like: the judgement of its nearest probe (the probes are an even
     random subset, so a point's nearest probe lies within a probe spacing and sees the same neighbourhood)."""
-    probes, ratio = curve_likeness(points, radius, seed)
-    curve = ratio <= CURVE_RATIO
+    probes, ratio, _ = curve_likeness(points, radius, seed)
+    return _nearest_probe(points, probes, ratio <= CURVE_RATIO)
+
+
+def _nearest_probe(points: np.ndarray, probes: np.ndarray, judged: np.ndarray) -> np.ndarray:
+    """(n,) the judgement of each point's nearest probe."""
     if len(probes) == len(points):
-        return curve
+        return judged
     _, nearest = cKDTree(points[probes]).query(points, workers=-1)
-    return curve[nearest]
+    return judged[nearest]
 
 
 def curve_share(points: np.ndarray, radius: float, seed: int = 0) -> float:
     """The share of measured points whose neighbourhood is curve-like (see the module); a point too isolated
     to be judged counts as not curve-like."""
-    _, ratio = curve_likeness(points, radius, seed)
+    _, ratio, _ = curve_likeness(points, radius, seed)
     return float((ratio <= CURVE_RATIO).mean()) if len(ratio) else 0.0
 
 
@@ -105,3 +131,114 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
     np.maximum.at(high, piece, axis_points)
     thin[candidates[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
     return thin
+
+
+def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarray:
+    """(n, 3) for each input point on a part thinner than the skeleton resolves (module docstring), the nearest
+    point of that part's axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
+    probe's part is the principal direction of the input within `radius`, and its cross-section the input within
+    twice the radius and within half a radius of the plane through the probe across that direction. The part is
+    thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and
+    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its
+    nearest probe's judgement and its axis, the line along the direction through the centroid; thin pieces
+    (points within `radius` of each other) spanning less than MIN_CURVE_RADII radii are left out: a bump the
+    skeleton could not draw as a curve; and so are those that close no loop of the input (`_closing_loops`, over
+    its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts) keeps its end."""
+    anchors = np.full(points.shape, np.nan)
+    probes, ratio, along = curve_likeness(points, radius, among_all=True)
+    judged = np.flatnonzero(np.isfinite(ratio))
+    centroids, closed = _cross_sections(points, points[probes[judged]], along[judged], radius)
+    if not closed.any():
+        return anchors
+    thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
+    thin[judged], centroid[judged], axis[judged] = closed, centroids, along[judged]
+    # each point by the probes judged within `radius` of it: where a part is near the limit the judgement
+    # flickers from probe to probe, and a flickering part is not anchored (its pieces would be fragments)
+    nearest = np.arange(len(points)) if len(probes) == len(points) \
+        else cKDTree(points[probes]).query(points, workers=-1)[1]
+    votes = cKDTree(points[probes[judged]]).sparse_distance_matrix(cKDTree(points), radius, output_type="coo_matrix")
+    ayes = np.bincount(votes.col, thin[judged][votes.row], len(points))
+    members = np.flatnonzero(ayes > 0.5 * np.bincount(votes.col, minlength=len(points)))
+    tree = cKDTree(points[members])
+    count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
+                                        directed=False)
+    low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
+    np.minimum.at(low, piece, points[members])
+    np.maximum.at(high, piece, points[members])
+    long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
+    members, piece = members[long_enough], piece[long_enough]
+    owner = nearest[members]
+    onto = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])[:, None] * axis[owner]
+    closing = _closing_loops(onto, piece, points, edges, radius)[piece]
+    anchors[members[closing]] = onto[closing]
+    return anchors
+
+
+def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float
+                   ) -> np.ndarray:
+    """For each piece (ids `piece` of its points' `axis` positions): whether it closes a loop of the input, as a
+    handle does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's
+    root touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece
+    stands for the input within `radius` of its axis (the tube the skeleton draws as it); its ends are the ends
+    of its axis's longest shortest path (positions within `radius` joined), and the rest touches an end where a surface edge (`edges`, of
+    those no longer than `radius`) crosses into the piece nearer that end than the other."""
+    count = int(piece.max()) + 1 if len(piece) else 0
+    closes = np.zeros(count, dtype=bool)
+    if count == 0:
+        return closes
+    distance, nearest = cKDTree(axis).query(points, distance_upper_bound=radius, workers=-1)
+    label = np.where(np.isfinite(distance), piece[np.minimum(nearest, len(axis) - 1)], -1)
+    # the surface joined at the skeleton's scale: a long ring edge can reach past a thin piece along its tube
+    edges = edges[np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) <= radius]
+    inside = label[edges] >= 0
+    rest = edges[~inside.any(axis=1)]
+    _, component = connected_components(
+        coo_matrix((np.ones(len(rest)), (rest[:, 0], rest[:, 1])), shape=(len(points), len(points))), directed=False)
+    across = inside[:, 0] != inside[:, 1]
+    crossing, crossing_inside = edges[across], inside[across]
+    contact_piece = label[np.where(crossing_inside[:, 0], crossing[:, 0], crossing[:, 1])]
+    contact = np.where(crossing_inside[:, 0], crossing[:, 1], crossing[:, 0])
+    tree = cKDTree(axis)
+    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix").tocsr()
+    for index in np.unique(piece):  # a handful of pieces
+        own = np.flatnonzero(piece == index)
+        ends = axis[own[list(_far_ends(graph[own][:, own]))]]
+        touches = contact[contact_piece == index]
+        # each contact goes to the end it is nearer
+        nearer_second = (np.linalg.norm(points[touches] - ends[1], axis=1)
+                         < np.linalg.norm(points[touches] - ends[0], axis=1))
+        closes[index] = bool(set(component[touches[nearer_second]].tolist())
+                             & set(component[touches[~nearer_second]].tolist()))
+    return closes
+
+
+def _far_ends(graph) -> tuple[int, int]:
+    """The ends of a connected graph's longest shortest path, found by two sweeps of Dijkstra."""
+    start = int(np.argmax(np.nan_to_num(dijkstra(graph, indices=0), posinf=-1)))
+    return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
+
+
+def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there, and
+    whether that cross-section is a hollow one within `radius` of it (thin_tubes)."""
+    pairs = cKDTree(probes).sparse_distance_matrix(cKDTree(points), 2 * radius, output_type="coo_matrix")
+    offset = points[pairs.col] - probes[pairs.row]
+    axial = np.einsum("ij,ij->i", offset, along[pairs.row])
+    in_slab = np.abs(axial) <= 0.5 * radius
+    rows = pairs.row[in_slab]
+    across = offset[in_slab] - axial[in_slab, None] * along[rows]
+    count = np.bincount(rows, minlength=len(probes))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
+    across -= centroid[rows]
+    distance = np.linalg.norm(across, axis=1)
+    closed = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
+    closed[rows[distance > radius]] = False
+    # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
+    # crease or a strip has points at its centroid
+    nearest = np.full(len(probes), np.inf)
+    np.minimum.at(nearest, rows, distance)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.bincount(rows, distance, len(probes)) / count
+    return probes + centroid, closed & (nearest >= HOLLOW * mean)

@@ -66,8 +66,8 @@ from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, Redo, contraction_rows, curve_like, hold_curves, represented,
-                   retune, rings_stalled, schedule, solve_stages, start_run, stopped, torn)
+from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
+                   free_points, represented, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -116,6 +116,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # per point), so its attraction row is weighted by their area (their count without balance_density)
         # to keep eq. 2's balance of the input cloud.
         wh = np.minimum(wh * represented(owner, run.areas, len(ids), params), params.wh_max)
+        wh = anchored(wh, run, ids, params)
         # Per-point contraction weights: the mean over the input points a point stands for, so a point of
         # one label keeps its label's weight and a merge across labels blends them by point count.
         row_weights = None if weights is None else (np.bincount(owner, weights=weights, minlength=len(ids))
@@ -134,9 +135,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             state = stopped(state, *failure, notes)
             continue
         new_sizes, nearest = _nearest_in_ring(rings, candidate)
-        new_ratio = float(new_sizes.sum() / sizes0.sum())
+        free = free_points(run, ids, params)
+        new_ratio = float(new_sizes[free].sum() / sizes0[free].sum())
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
-        drop = float((start_sizes.sum() - new_sizes.sum()) / sizes0.sum())
+        drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             state = stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
@@ -184,9 +186,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
         timings["rest"] = time.perf_counter() - step_start - sum(timings.values())
-        state = IterationState(iteration=iteration, points=normalisation.inverse(current), point_ids=ids,
+        shown_points, anchored_count = shown(current, run, ids, params)
+        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
                                owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message)
+                               timings=timings, termination=termination, message=message,
+                               anchored=anchored_count)
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,

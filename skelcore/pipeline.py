@@ -297,7 +297,7 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
         iterations.append({
             "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
             "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
-            "ring_ratio": state.ring_ratio, "curve_share": measured.curve["curve_share"],
+            "ring_ratio": state.ring_ratio, "curve_share": measured.curve["curve_share"], "anchored": state.anchored,
             "timings": state.timings, **measured.to_dict(),
         })
     final = states[-1]

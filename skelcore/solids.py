@@ -133,19 +133,20 @@ def chain(links: int = 3):
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 
-def handled_ball(handles: int = 3):
-    """A ball of radius 1 with `handles` small ring handles (ring radius 0.3, tube 0.07) standing on it, half
+def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
+    """A ball of radius 1 with `handles` small ring handles (ring radius `ring`, tube `tube`) standing on it, half
     sunk, at spread-out directions: genus `handles`, with loops small beside the body (an elephant's handles)."""
     m3d = _manifold()
     ball = m3d.Manifold.sphere(1.0, SEGMENTS)
-    handle = _upright(_torus(0.3, 0.07))  # in the xz plane, around the y axis
+    handle = _upright(_torus(ring, tube))  # in the xz plane, around the y axis
     parts = [ball]
     for i in range(handles):  # golden-angle directions on the upper half: apart from each other
         height = 0.8 - 1.2 * i / max(handles - 1, 1)
         azimuth = np.degrees(2.39996 * i)
         tilt = np.degrees(np.arccos(height))
-        # standing on the north pole at 1.15 (its inner arc sunk), then turned to its direction
-        parts.append(handle.translate((0.0, 0.0, 1.15)).rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
+        # standing on the north pole (its inner arc sunk by half the ring), then turned to its direction
+        standing = handle.translate((0.0, 0.0, 1.0 + ring / 2))
+        parts.append(standing.rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 
@@ -185,6 +186,8 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "chain": (chain, 0, "three oval chain links"),
     "trefoil": (trefoil, 0, "tube along a trefoil knot"),
     "handled_ball": (handled_ball, None, "ball with 3 small ring handles (genus 3)"),
+    "thin_handled_ball": (lambda: handled_ball(3, 0.2, 0.04), None,
+                          "ball with 3 thin ring handles, one or two points across at 10k points (genus 3)"),
 }
 
 

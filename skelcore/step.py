@@ -22,6 +22,7 @@ more than TEAR_SHARE of the one-rings past TEAR_GROWTH times their width before 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Generator
@@ -31,7 +32,7 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import skeleton_scale_share, thin_parts
+from .curveness import skeleton_scale_share, thin_parts, thin_tubes
 from .normalise import Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
@@ -66,6 +67,7 @@ class IterationState:
     params: ContractionParams
     timings: dict = field(default_factory=dict)  # seconds: rings, laplacian, solve, rest
     termination: str | None = None  # set on the last state of a run (see TERMINATION_MESSAGES)
+    anchored: int = 0  # present points anchored on a thin handle's axis (skelcore.step.anchored)
     message: str = ""
 
     @property
@@ -103,6 +105,12 @@ class RunStart:
     extent0: np.ndarray  # robust extent of the input, for the growth check
     diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
+
+    @functools.cached_property
+    def anchors(self) -> np.ndarray:
+        """(n, 3) the axis point of each input point on a part thinner than the skeleton resolves (NaN: free;
+        curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
+        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal, self.rings.edges())
 
 
 def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
@@ -216,6 +224,38 @@ def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
     and shrinks small handles to points while a bulky part beside them is still contracting. Only the first
     step decides: what becomes curve-like later was bulky at the input's scale and contracts with the rest."""
     return np.where(thin_parts(points, run.unit, SkeletonParams.sample_radius * run.diagonal), wl, np.inf)
+
+
+def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+    """W_H of the present points (input ids `ids`) with those on parts thinner than the skeleton resolves
+    (RunStart.anchors) at the cap W_H,max while params.hold_curves is on. The skeleton draws such a part as the
+    curve of its cross-sections' centroids whatever the contraction does, so it stays where it is; contracted, it
+    would be shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its
+    axis in the solve: collapsed, its rings would turn its neighbours' cotangent weights negative and fling them
+    out; the states show it there (`shown`)."""
+    if not params.hold_curves:
+        return wh
+    return np.where(np.isfinite(run.anchors[ids, 0]), params.wh_max, wh)
+
+
+def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray | slice:
+    """Which present points (input ids `ids`) the contraction's progress, the rings' shrinking a_t, is measured
+    on: those not anchored (`anchored`), whose rings never shrink; all when none is free or the hold is off."""
+    if not params.hold_curves:
+        return slice(None)
+    free = np.isnan(run.anchors[ids, 0])
+    return free if free.any() else slice(None)
+
+
+def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> tuple[np.ndarray, int]:
+    """The positions a state shows, in the user's coordinates, for the solve's `current` (present points of input
+    ids `ids`): the anchored points (`anchored`) on their axis; and how many those are."""
+    count = 0
+    if params.hold_curves:
+        anchors = run.anchors[ids]
+        fixed = np.isfinite(anchors[:, :1])
+        current, count = np.where(fixed, anchors, current), int(fixed.sum())
+    return run.normalisation.inverse(current), count
 
 
 def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams

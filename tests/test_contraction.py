@@ -265,6 +265,34 @@ def test_small_handles_keep_their_loops_while_the_body_contracts():
     assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
 
 
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_handles_thinner_than_a_skeleton_ball_keep_their_loops(method):
+    """Handles one or two points across at 10k points: their one-rings lie flat over the tube, the first steps
+    barely contract them and the later ones shut them (no loop is left without the hold); anchored where the
+    input's cross-section is a hollow within one sample radius (skelcore.curveness.thin_tubes), all three stay."""
+    import skelcore
+    from skelcore.solids import solid_shape
+
+    shape = solid_shape("thin_handled_ball", 10_000)
+    assert skelcore.skeletonize(shape.points, method=method).skeleton.topology()["cycles"] == 3
+    if method == "lbc":
+        assert skelcore.skeletonize(shape.points, hold_curves=False).skeleton.topology()["cycles"] < 3
+
+
+def test_anchored_points_stay_and_are_shown_on_their_axis():
+    """Every step gives the anchored points of a thin handle the cap W_H,max and shows them at their anchors."""
+    from skelcore.solids import solid_shape
+    from skelcore.step import start_run
+
+    points = solid_shape("thin_handled_ball", 10_000).points
+    params = ContractionParams(max_iterations=2)
+    run = start_run(points, params)
+    anchored = np.isfinite(run.anchors[:, 0])
+    assert anchored.sum() > 100
+    for state in run_contraction(points, params)[1:]:
+        assert (state.wh[anchored] == params.wh_max).all() and (state.wh[~anchored] < params.wh_max).all()
+        assert np.allclose(state.points[anchored], run.normalisation.inverse(run.anchors[anchored]))
+
 
 def _session_like(points, params, redo):
     """Drive a contraction as the inspector does: each state is computed ahead, then redone with redo(state)

@@ -24,3 +24,48 @@ def test_a_step_past_the_stall_is_taken_only_towards_curves():
     assert goes_on(sheet, thinner, params, diagonal)  # a sheet narrowing towards its medial curve goes on
     assert not goes_on(thinner, sheet, params, diagonal)  # a step that leaves it less curve-like does not
     assert not goes_on(sheet, thinner, params.replace(curve_share=0), diagonal)  # cloudcontr's rule alone
+
+
+def _torus(count, major, minor, seed=0):
+    """Points on a torus round the z axis."""
+    rng = np.random.default_rng(seed)
+    u, v = rng.uniform(0, 2 * np.pi, count), rng.uniform(0, 2 * np.pi, count)
+    radius = major + minor * np.cos(v)
+    return np.column_stack([radius * np.cos(u), radius * np.sin(u), minor * np.sin(v)])
+
+
+def _thin_tubes(points):
+    from skelcore.curveness import thin_tubes
+    from skelcore.neighbours import one_rings
+    from skelcore.normalise import object_diagonal
+    from skelcore.params import default_k
+
+    radius = 0.02 * object_diagonal(points)
+    return thin_tubes(points, radius, one_rings(points, default_k(len(points))).edges()), radius
+
+
+def test_thin_handles_are_anchored_on_their_axis():
+    """A ball's handles one or two points across: their cross-section lies within a skeleton ball and is hollow,
+    and they close loops, so their points are anchored, on the handles' axes; no point of the ball is."""
+    from skelcore.solids import solid_shape
+
+    points = solid_shape("thin_handled_ball", 10_000).points
+    anchors, _ = _thin_tubes(points)
+    anchored = np.isfinite(anchors[:, 0])
+    on_handles = np.linalg.norm(points, axis=1) > 1.01
+    # the arcs that stand free of the ball (their feet, within a skeleton ball of it, contract with it)
+    assert anchored[on_handles].mean() > 0.2 and not anchored[~on_handles].any()
+    # within the tube (0.04) and the straight axis line's offset from the curved one
+    assert (np.linalg.norm(anchors[anchored] - points[anchored], axis=1) < 0.08).all()
+
+
+def test_limbs_sheets_and_thick_parts_are_not_anchored():
+    """The animal's tail is thin but closes no loop (the hold keeps its end); a thick tube, a sheet and a strip
+    narrower than a skeleton ball have no hollow cross-section within one."""
+    from skelcore.shapes import make_shape
+
+    rng = np.random.default_rng(2)
+    sheet = np.column_stack([rng.uniform(-1, 1, (4000, 2)), rng.normal(0, 0.002, 4000)])
+    strip = np.column_stack([rng.uniform(-1, 1, 3000), rng.uniform(-0.01, 0.01, 3000), np.zeros(3000)])
+    for cloud in (make_shape("animal", 3000, seed=0).points, _torus(6000, 1.0, 0.3), sheet, strip):
+        assert not np.isfinite(_thin_tubes(cloud)[0][:, 0]).any()
