@@ -139,11 +139,12 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
     probe's part is the principal direction of the input within `radius`, and its cross-section the input within
     twice the radius and within half a radius of the plane through the probe across that direction. The part is
     thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and
-    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). Each point takes its
-    nearest probe's judgement and its axis, the line along the direction through the centroid; thin pieces
-    (points within `radius` of each other) spanning less than MIN_CURVE_RADII radii are left out: a bump the
-    skeleton could not draw as a curve; and so are those that close no loop of the input (`_closing_loops`, over
-    its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts) keeps its end."""
+    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). A point is thin when most
+    probes judged within `radius` of it are, and its axis is its nearest probe's, the line along the direction
+    through the centroid. Thin pieces (points within `radius` of each other) spanning less than MIN_CURVE_RADII
+    radii are left out, a bump the skeleton could not draw as a curve; and so are those that close no loop of the
+    input (`_closing_loops`, over its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts)
+    keeps its end."""
     anchors = np.full(points.shape, np.nan)
     probes, ratio, along = curve_likeness(points, radius, among_all=True)
     judged = np.flatnonzero(np.isfinite(ratio))
@@ -180,8 +181,8 @@ def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edge
     handle does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's
     root touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece
     stands for the input within `radius` of its axis (the tube the skeleton draws as it); its ends are the ends
-    of its axis's longest shortest path (positions within `radius` joined), and the rest touches an end where a surface edge (`edges`, of
-    those no longer than `radius`) crosses into the piece nearer that end than the other."""
+    of its axis's longest shortest path (positions within `radius` joined), and the rest touches an end where a
+    surface edge (`edges`, of those no longer than `radius`) crosses into the piece nearer that end."""
     count = int(piece.max()) + 1 if len(piece) else 0
     closes = np.zeros(count, dtype=bool)
     if count == 0:
