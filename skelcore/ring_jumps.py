@@ -62,7 +62,7 @@ def jump_masks(points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray, 
     `points`; `tree`: a cKDTree over `points`."""
     jumps = find_jumps(points, np.column_stack([centres, neighbours]), normals[centres], reach, tree)
     while True:
-        keep_entry, keep_triangle = _without(jumps, len(points), centres, neighbours, triangles)
+        keep_entry, keep_triangle = _without(jumps, points, centres, neighbours, triangles)
         bridges = _bridges(jumps, points, triangles[keep_triangle])
         if not len(bridges):
             return keep_entry, keep_triangle
@@ -87,8 +87,11 @@ def find_jumps(points: np.ndarray, sides: np.ndarray, normals: np.ndarray, reach
     return candidates[gap > limit]  # inf: nothing within the largest limit
 
 
-def _without(jumps: np.ndarray, n: int, centres: np.ndarray, neighbours: np.ndarray, triangles: np.ndarray):
-    """Masks of the ring entries and triangles kept when `jumps` are dropped."""
+def _without(jumps: np.ndarray, points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray,
+             triangles: np.ndarray):
+    """Masks of the ring entries and triangles kept when `jumps` are dropped. No ring is emptied: a point all
+    of whose ring edges are jumps (a stray in empty space) keeps its nearest, so its ring size stays defined."""
+    n = len(points)
     keys = np.sort(jumps[:, 0] * n + jumps[:, 1])
     at_jump = np.zeros(n, dtype=bool)
     at_jump[jumps.ravel()] = True
@@ -102,7 +105,13 @@ def _without(jumps: np.ndarray, n: int, centres: np.ndarray, neighbours: np.ndar
         return found
 
     i, j, l = triangles.T
-    return ~is_jump(centres, neighbours), ~(is_jump(i, j) | is_jump(i, l) | is_jump(j, l))
+    keep_entry = ~is_jump(centres, neighbours)
+    emptied = np.flatnonzero(np.isin(centres, np.flatnonzero(np.bincount(centres[keep_entry], minlength=n) == 0)))
+    if len(emptied):
+        length = np.linalg.norm(points[centres[emptied]] - points[neighbours[emptied]], axis=1)
+        order = emptied[np.lexsort((length, centres[emptied]))]
+        keep_entry[order[np.flatnonzero(np.diff(centres[order], prepend=-1))]] = True  # each one's nearest
+    return keep_entry, ~(is_jump(i, j) | is_jump(i, l) | is_jump(j, l))
 
 
 def _bridges(jumps: np.ndarray, points: np.ndarray, kept: np.ndarray) -> np.ndarray:

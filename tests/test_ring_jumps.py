@@ -43,6 +43,7 @@ def test_two_parallel_strands_are_not_joined():
     rings = one_rings(points, 30, drop_jumps=True)
     assert joins(rings, far, 0, 1) == 0
     assert pieces(rings.triangles, len(points)) == 1
+    assert np.all(np.diff(rings.indptr) > 0)
 
 
 def test_a_gap_that_is_the_only_link_stays():
@@ -54,6 +55,7 @@ def test_a_gap_that_is_the_only_link_stays():
     halves = np.arange(len(points)) < 100
     assert joins(plain, halves.astype(int), 0, 1) > joins(rings, halves.astype(int), 0, 1) > 0
     assert pieces(rings.triangles, len(points)) == 1
+    assert np.all(np.diff(rings.indptr) > 0)
 
 
 def test_surfaces_keep_their_edges():
@@ -79,8 +81,8 @@ def test_surfaces_keep_their_edges():
 
 
 def test_the_rings_stay_consistent():
-    """Dropping keeps every ring's fan order (a subsequence of Cao's fan) and every triangle (i, j, l) with j
-    and l in i's ring; a stray point alone in empty space keeps a link to the rest."""
+    """Dropping keeps every ring's fan order (a subsequence of Cao's fan), every triangle (i, j, l) with j and l
+    in i's ring and every ring non-empty; a stray point alone in empty space keeps a link to the rest."""
     rng = np.random.default_rng(3)
     points = np.vstack([strand([0, 0, 0], [1, 0, 0], 150, rng), strand([0, 14 * SPACING, 0], [1, 0.1, 0], 150, rng),
                         strand([-SPACING, SPACING, 0], [0, 1, 0], 13, rng), [[0.7, 0.5, 0.0]]])
@@ -95,6 +97,7 @@ def test_the_rings_stay_consistent():
     i, j, l = rings.triangles.T
     assert all((a, b) in ring_pairs and (a, c) in ring_pairs for a, b, c in zip(i.tolist(), j.tolist(), l.tolist()))
     assert pieces(rings.triangles, len(points)) == 1
+    assert np.all(np.diff(rings.indptr) > 0)
 
 
 def test_the_tree_scan_has_no_false_loop(reference_dir):
@@ -108,3 +111,42 @@ def test_the_tree_scan_has_no_false_loop(reference_dir):
         outcome = run_case(shape.points, method, name="tree")
         assert "error" not in outcome, outcome.get("error")
         assert outcome["topology"]["cycles"] == 0 and outcome["topology"]["components"] == 1, (method, outcome)
+
+
+def test_the_switch_reaches_the_run_from_the_command_line_and_the_api():
+    """--no-drop-jumps (and drop_jumps=False in the API) gives cloudcontr's rings; the rings are fixed for a
+    run, so the switch changes only on restart."""
+    import pytest
+
+    from skelcore import api
+    from skelcore.cli import build_parser, contraction_params
+    from skelcore.errors import ParameterError
+    from skelcore.params import ContractionParams
+
+    parse = build_parser().parse_args
+    assert contraction_params(parse(["run", "in.ply", "--out", "o"])).drop_jumps is ContractionParams().drop_jumps
+    assert contraction_params(parse(["run", "in.ply", "--out", "o", "--no-drop-jumps"])).drop_jumps is False
+    rng = np.random.default_rng(4)
+    points = np.vstack([strand([0, 0, 0], [1, 0, 0], 200, rng), strand([0, 14 * SPACING, 0], [1, 0, 0], 200, rng),
+                        strand([-SPACING, SPACING, 0], [0, 1, 0], 13, rng)])
+    states = {drop: next(api.contract(points, k=30, drop_jumps=drop)) for drop in (False, True)}
+    assert len(states[True].rings.indices) < len(states[False].rings.indices)
+    steps = api.contract(points)
+    next(steps)
+    with pytest.raises(ParameterError, match="restart"):
+        steps.send(ContractionParams(drop_jumps=False))
+
+
+def test_no_ring_is_emptied():
+    """A point all of whose ring edges are jumps keeps its nearest ring neighbour (its ring size stays defined)."""
+    from skelcore.ring_jumps import _without
+
+    rng = np.random.default_rng(5)
+    points = np.column_stack([rng.uniform(0, 1, (400, 2)), np.zeros(400)])
+    rings = one_rings(points, 16)
+    ring = rings.indices[rings.indptr[7]:rings.indptr[8]]
+    jumps = np.sort(np.column_stack([np.full(len(ring), 7), ring]), axis=1)
+    keep_entry, keep_triangle = _without(jumps, points, rings.centres(), rings.indices, rings.triangles)
+    kept = rings.indices[rings.indptr[7]:rings.indptr[8]][keep_entry[rings.indptr[7]:rings.indptr[8]]]
+    assert list(kept) == [ring[np.argmin(np.linalg.norm(points[ring] - points[7], axis=1))]]
+    assert not np.any(keep_triangle & np.any(rings.triangles == 7, axis=1))
