@@ -23,8 +23,9 @@ edge along the plane's normal joins two sheets the projection laid onto each oth
 tube's front and back), which a ring spans on any part thinner than itself; that is how LBC contracts thin
 parts (their sheets merge). What the fan gets wrong lies in its plane: a gap there reads as surface.
 
-A ring entry (i, j) is dropped when its edge is a jump, a fan triangle when any of its three sides is one.
-Only ring edges are tested: a triangle's far side (j, l) spans the fan between two ring edges of the surface.
+Every side of a fan is tested in the fan's plane, its ring edges and each triangle's far side (j, l). A
+ring entry (i, j) is dropped when its edge is a jump, a fan triangle when any of its three sides is one (a
+triangle between two surface edges can still span a gap: at a fork, between the two branches).
 The rule removes loops and never splits the surface: a jump that is the only link between two pieces of the
 fans' triangles left (a gap of the sampling along one strand, or a stray point) stays, the shortest ones
 that join them (a minimum spanning forest of the pieces). A jump is dropped only where the surface joins its
@@ -60,7 +61,10 @@ def jump_masks(points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray, 
     """Which ring entries (centre, neighbour) and which fan triangles (i, j, l) to keep: masks over them
     (module docstring). `normals`: (n, 3) the normal of each point's fan plane; `reach`: sampling_reach of
     `points`; `tree`: a cKDTree over `points`."""
-    jumps = find_jumps(points, np.column_stack([centres, neighbours]), normals[centres], reach, tree)
+    jumps = find_jumps(points, np.concatenate([np.column_stack([centres, neighbours]), triangles[:, 1:]]),
+                       normals[np.concatenate([centres, triangles[:, 0]])], reach, tree)
+    if not len(jumps):
+        return np.ones(len(centres), dtype=bool), np.ones(len(triangles), dtype=bool)
     while True:
         keep_entry, keep_triangle = _without(jumps, points, centres, neighbours, triangles)
         bridges = _bridges(jumps, points, triangles[keep_triangle])
@@ -71,9 +75,9 @@ def jump_masks(points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray, 
 
 def find_jumps(points: np.ndarray, sides: np.ndarray, normals: np.ndarray, reach: np.ndarray,
                tree: cKDTree) -> np.ndarray:
-    """(j, 2) the pairs (a < b) among the ring edges `sides` (s, 2), of fans whose planes have the unit
-    `normals` (s, 3), that are jumps: longer within that plane than twice the larger reach of their ends, and
-    with no point within that reach of their middle (only the long ones are queried)."""
+    """(j, 2) the pairs (a < b) among `sides` (s, 2), sides of fans whose planes have the unit `normals`
+    (s, 3), that are jumps: longer within that plane than twice the larger reach of their ends, and with no
+    point within that reach of their middle (only the long ones are queried)."""
     limit = np.maximum(reach[sides[:, 0]], reach[sides[:, 1]])
     offset = points[sides[:, 0]] - points[sides[:, 1]]
     across = np.einsum("ec,ec->e", offset, normals)
@@ -106,7 +110,7 @@ def _without(jumps: np.ndarray, points: np.ndarray, centres: np.ndarray, neighbo
 
     i, j, l = triangles.T
     keep_entry = ~is_jump(centres, neighbours)
-    emptied = np.flatnonzero(np.isin(centres, np.flatnonzero(np.bincount(centres[keep_entry], minlength=n) == 0)))
+    emptied = np.flatnonzero((np.bincount(centres[keep_entry], minlength=n) == 0)[centres])
     if len(emptied):
         length = np.linalg.norm(points[centres[emptied]] - points[neighbours[emptied]], axis=1)
         order = emptied[np.lexsort((length, centres[emptied]))]
@@ -117,8 +121,6 @@ def _without(jumps: np.ndarray, points: np.ndarray, centres: np.ndarray, neighbo
 def _bridges(jumps: np.ndarray, points: np.ndarray, kept: np.ndarray) -> np.ndarray:
     """Rows of `jumps` that are the shortest links between the pieces of the `kept` triangles: a minimum
     spanning forest of the pieces over the jumps between them."""
-    if not len(jumps):
-        return np.zeros(0, dtype=np.int64)
     n = len(points)
     sides = np.concatenate([kept[:, [0, 1]], kept[:, [1, 2]]])
     graph = sp.csr_matrix((np.ones(len(sides), dtype=bool), (sides[:, 0], sides[:, 1])), shape=(n, n))
