@@ -61,7 +61,7 @@ def jump_masks(points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray, 
     """Which ring entries (centre, neighbour) and which fan triangles (i, j, l) to keep: masks over them
     (module docstring). `normals`: (n, 3) the normal of each point's fan plane; `reach`: sampling_reach of
     `points`; `tree`: a cKDTree over `points`."""
-    jumps = find_jumps(points, np.concatenate([np.column_stack([centres, neighbours]), triangles[:, 1:]]),
+    jumps = find_jumps(points, np.concatenate([centres, triangles[:, 1]]), np.concatenate([neighbours, triangles[:, 2]]),
                        normals[np.concatenate([centres, triangles[:, 0]])], reach, tree)
     if not len(jumps):
         return np.ones(len(centres), dtype=bool), np.ones(len(triangles), dtype=bool)
@@ -73,18 +73,18 @@ def jump_masks(points: np.ndarray, centres: np.ndarray, neighbours: np.ndarray, 
         jumps = np.delete(jumps, bridges, axis=0)
 
 
-def find_jumps(points: np.ndarray, sides: np.ndarray, normals: np.ndarray, reach: np.ndarray,
+def find_jumps(points: np.ndarray, first: np.ndarray, second: np.ndarray, normals: np.ndarray, reach: np.ndarray,
                tree: cKDTree) -> np.ndarray:
-    """(j, 2) the pairs (a < b) among `sides` (s, 2), sides of fans whose planes have the unit `normals`
-    (s, 3), that are jumps: longer within that plane than twice the larger reach of their ends, and with no
+    """(j, 2) the pairs (a < b) among the sides (first, second) of fans whose planes have the unit `normals`
+    (s, 3) that are jumps: longer within that plane than twice the larger reach of their ends, and with no
     point within that reach of their middle (only the long ones are queried)."""
-    limit = np.maximum(reach[sides[:, 0]], reach[sides[:, 1]])
-    offset = points[sides[:, 0]] - points[sides[:, 1]]
+    limit = np.maximum(reach[first], reach[second])
+    offset = points[first] - points[second]
     across = np.einsum("ec,ec->e", offset, normals)
     long = np.einsum("ec,ec->e", offset, offset) - across**2 > (2.0 * limit) ** 2
     if not long.any():
         return np.zeros((0, 2), dtype=np.int64)
-    candidates = np.unique(np.sort(sides[long], axis=1), axis=0)
+    candidates = np.unique(np.sort(np.column_stack([first[long], second[long]]), axis=1), axis=0)
     middle = 0.5 * (points[candidates[:, 0]] + points[candidates[:, 1]])
     limit = np.maximum(reach[candidates[:, 0]], reach[candidates[:, 1]])
     gap = tree.query(middle, k=1, distance_upper_bound=float(limit.max()), workers=-1)[0]

@@ -74,8 +74,8 @@ def test_surfaces_keep_their_edges():
     plain, kept = one_rings(wall, 30), one_rings(wall, 30, drop_jumps=True)
     tree = cKDTree(wall)
     distances, indices = knn(wall, 30, tree)
-    chords = np.column_stack([plain.centres(), plain.indices])
-    assert len(find_jumps(wall, chords, np.zeros((len(chords), 3)), sampling_reach(distances, indices), tree)) > 0
+    reach = sampling_reach(distances, indices)
+    assert len(find_jumps(wall, plain.centres(), plain.indices, np.zeros((len(plain.indices), 3)), reach, tree)) > 0
     assert np.array_equal(plain.indices, kept.indices)
     assert len(kept.triangles) >= 0.999 * len(plain.triangles)
 
