@@ -50,6 +50,10 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="weight each point's attraction by the surface area it stands for, so that a sparsely "
                             "sampled part contracts at the pace of a densely sampled one (--no-balance-density: every "
                             "point weighs the same, as in cloudcontr) (default: %(default)s)")
+    group.add_argument("--drop-jumps", action=argparse.BooleanOptionalAction, default=defaults.drop_jumps,
+                       help="drop the one-ring edges whose middle has no input point within the local sampling's "
+                            "reach, so that rings do not join parts across empty space (--no-drop-jumps: "
+                            "cloudcontr's one-rings) (default: %(default)s)")
     group.add_argument("--gl-merge", type=float, default=defaults.gl_merge,
                        help="glskeleton: a point absorbs its nearest ring neighbour when its merge score is below "
                             "this times its squared ring size (default: %(default)s)")
@@ -95,7 +99,8 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
     """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
-                             hold_curves=args.hold_curves, balance_density=args.balance_density, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
+                             hold_curves=args.hold_curves, balance_density=args.balance_density,
+                             drop_jumps=args.drop_jumps, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
 
 

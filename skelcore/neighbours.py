@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .ring_jumps import jump_masks, sampling_reach
+
 
 @dataclass(frozen=True)
 class OneRings:
@@ -85,25 +87,32 @@ NEAREST_FIRST = 16
 CHUNK = 16_384  # points per block: the (block, k, 3) temporaries stay small and cache-friendly
 
 
-def one_rings(points: np.ndarray, k: int) -> OneRings:
-    """The Delaunay fan of every point among its k nearest neighbours (itself included in k)."""
+def one_rings(points: np.ndarray, k: int, drop_jumps: bool = False) -> OneRings:
+    """The Delaunay fan of every point among its k nearest neighbours (itself included in k). `drop_jumps`:
+    without the edges that cross empty space, and the fan triangles they bound (skelcore.ring_jumps)."""
     n = len(points)
-    _, idx = knn(points, k)
-    rings, triangles = [], []
+    tree = cKDTree(points)
+    distances, idx = knn(points, k, tree)
+    rings, triangles, normals = [], [], []
     for start in range(0, n, CHUNK):
         block = idx[start:start + CHUNK]
         local = points[block]
         _, frames, _ = local_frames(local)
+        normals.append(frames[:, :, 0])
         neighbours = block[:, 1:]  # nearest first
         # Coordinates in the plane of the two largest principal components.
         planar = np.matmul(local[:, 1:] - local[:, :1], frames[:, :, [2, 1]])
         ring_row, ring_slot, centre, j_slot, l_slot = _fans_nearest_first(planar)
         rings.append((ring_row + start, neighbours[ring_row, ring_slot]))
         triangles.append(np.column_stack([centre + start, neighbours[centre, j_slot], neighbours[centre, l_slot]]))
-    ring_rows = np.concatenate([rows for rows, _ in rings])
+    ring_rows, ring_ids = np.concatenate([rows for rows, _ in rings]), np.concatenate([ids for _, ids in rings])
+    triangles = np.concatenate(triangles)
+    if drop_jumps:
+        keep_entry, keep_triangle = jump_masks(points, ring_rows, ring_ids, triangles, np.concatenate(normals),
+                                               sampling_reach(distances, idx), tree)
+        ring_rows, ring_ids, triangles = ring_rows[keep_entry], ring_ids[keep_entry], triangles[keep_triangle]
     indptr = np.concatenate([[0], np.cumsum(np.bincount(ring_rows, minlength=n))])
-    return OneRings(indptr=indptr, indices=np.concatenate([ids for _, ids in rings]),
-                    triangles=np.concatenate(triangles))
+    return OneRings(indptr=indptr, indices=ring_ids, triangles=triangles)
 
 
 def _fans_nearest_first(planar: np.ndarray):

@@ -46,6 +46,9 @@ class ContractionParams:
     # not in cloudcontr), so a sparsely sampled part contracts at the pace of a densely sampled one; off by
     # default: it also moves when thin handles are held (the hold decides after the first step)
     balance_density: bool = False
+    # one-ring edges whose middle lies off the sampled surface are dropped before the contraction
+    # (skelcore.ring_jumps; not in cloudcontr): a coarse sampling's rings do not join parts across empty space
+    drop_jumps: bool = True
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6

@@ -50,7 +50,7 @@ TERMINATION_MESSAGES = {
 }
 TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
 TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
-RESTART_FIELDS = ("method", "k", "normalise", "balance_density")
+RESTART_FIELDS = ("method", "k", "normalise", "balance_density", "drop_jumps")
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,7 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     normalisation = Normalisation.fit(points) if params.normalise else Normalisation.identity()
     unit = normalisation.forward(points)
     started = time.perf_counter()
-    rings = one_rings(unit, params.k or default_k(len(points)))
+    rings = one_rings(unit, params.k or default_k(len(points)), params.drop_jumps)
     builder = LaplacianSystem(rings)
     rings_time = time.perf_counter() - started
     spacing = rings.mean_edge_length(unit)

@@ -121,7 +121,7 @@ def test_cloudcontr_golden_case(reference_dir):
     """Cao's MATLAB on simplejoint_v4770: k=30, W_L0=9.621282, W_H0=1, s_L=3, 4 iterations."""
     reference = np.load(reference_dir / "cloudcontr_simplejoint_v4770_matlab_result.npz")
     params = ContractionParams(k=30, wl0=9.621282, wh0=1.0, sl=3.0, max_iterations=4, curve_share=0,
-                               hold_curves=False)
+                               hold_curves=False, drop_jumps=False)
     final = run_contraction(reference["pts"], params)[-1]
     diagonal = np.linalg.norm(np.ptp(reference["pts"], axis=0))
     distance = np.linalg.norm(final.points - reference["cpts"], axis=1) / diagonal

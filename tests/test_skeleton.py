@@ -396,7 +396,7 @@ def test_whole_pipeline_on_the_cloudcontr_golden_case(reference_dir):
     data = np.load(reference_dir / "cloudcontr_simplejoint_v4770_matlab_result.npz")
     cloud = load(reference_dir / "cloudcontr_simplejoint_v4770.off")
     final = run_contraction(cloud.points, ContractionParams(k=30, wl0=9.621282, wh0=1.0, sl=3.0, max_iterations=4, curve_share=0,
-                               hold_curves=False))[-1]
+                               hold_curves=False, drop_jumps=False))[-1]
     skeleton = skeleton_of_state(final, cloud.points, SkeletonParams())
     assert topology(skeleton) == {"components": 1, "cycles": 0, "junctions": 1, "ends": 3}
     nodes = Normalisation.fit(cloud.points).forward(skeleton.nodes_array())  # MATLAB's normalised frame
