@@ -16,9 +16,9 @@ from . import glskeleton
 from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
-from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, goes_on,
-                   free_points, hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped,
-                   torn)
+from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows,
+                   free_points, goes_on, hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages,
+                   start_run, stopped, torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
            "retune", "run_contraction"]

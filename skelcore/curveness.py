@@ -169,7 +169,8 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
     long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
     members, piece = members[long_enough], piece[long_enough]
     owner = nearest[members]
-    onto = centroid[owner] + np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])[:, None] * axis[owner]
+    along_axis = np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])
+    onto = centroid[owner] + along_axis[:, None] * axis[owner]
     closing = _closing_loops(onto, piece, points, edges, radius)[piece]
     anchors[members[closing]] = onto[closing]
     return anchors

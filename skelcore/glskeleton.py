@@ -67,7 +67,8 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
-                   free_points, represented, retune, rings_stalled, schedule, shown, solve_stages, start_run, stopped, torn)
+                   free_points, represented, retune, rings_stalled, schedule, shown, solve_stages, start_run,
+                   stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
