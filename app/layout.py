@@ -194,7 +194,7 @@ def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius
                           hint="stop when the ring-size ratio falls by less")
     hold_curves = gui.add_checkbox("Hold curves", params.hold_curves,
                                    hint="points the first step brought to a thin part's axis keep that W_L, and "
-                                        "parts thinner than a skeleton ball stay in place: small handles and "
+                                        "handles thinner than a skeleton ball stay in place: small handles and "
                                         "limb ends survive")
     radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
                             hint="skeleton ball radius, fraction of the bounding-box diagonal")

@@ -42,7 +42,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
                             "(0: cloudcontr's rule alone) (default: %(default)s)")
     group.add_argument("--hold-curves", action=argparse.BooleanOptionalAction, default=defaults.hold_curves,
-                       help="points that the first step brought to a thin part's axis keep that step's W_L, and parts "
+                       help="points that the first step brought to a thin part's axis keep that step's W_L, and handles "
                             "of the input thinner than a skeleton ball stay in place (shown on their axis), so small "
                             "handles and limbs' ends are not shortened away while bulkier parts contract "
                             "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")

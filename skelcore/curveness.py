@@ -134,8 +134,8 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
 
 
 def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarray:
-    """(n, 3) for each input point on a part thinner than the skeleton resolves (module docstring), the nearest
-    point of that part's axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
+    """(n, 3) for each input point on a handle thinner than the skeleton resolves (module docstring), the nearest
+    point of its axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
     probe's part is the principal direction of the input within `radius`, and its cross-section the input within
     twice the radius and within half a radius of the plane through the probe across that direction. The part is
     thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and

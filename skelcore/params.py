@@ -39,7 +39,7 @@ class ContractionParams:
     termination: float = 0.01  # stop when the ring-size ratio falls by less than this ...
     curve_share: float = 0.5  # ... and this share of the cloud is curve-like (0: cloudcontr's rule alone)
     # points that the first step brought to a thin part's axis keep that step's W_L (skelcore.step.hold_curves), and
-    # the input's parts thinner than a skeleton ball stay in place (skelcore.step.anchored; neither in cloudcontr):
+    # the input's handles thinner than a skeleton ball stay in place (skelcore.step.anchored; neither in cloudcontr):
     # small handles and limbs' ends are not shortened away while the bulk still contracts
     hold_curves: bool = True
     # each point's attraction W_H is weighted by the input surface area it stands for (skelcore.step.represented;

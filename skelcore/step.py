@@ -108,7 +108,7 @@ class RunStart:
 
     @functools.cached_property
     def anchors(self) -> np.ndarray:
-        """(n, 3) the axis point of each input point on a part thinner than the skeleton resolves (NaN: free;
+        """(n, 3) the axis point of each input point on a handle thinner than the skeleton resolves (NaN: free;
         curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
         return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal, self.rings.edges())
 
@@ -227,7 +227,7 @@ def hold_curves(wl: float, points: np.ndarray, run: RunStart) -> np.ndarray:
 
 
 def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
-    """W_H of the present points (input ids `ids`) with those on parts thinner than the skeleton resolves
+    """W_H of the present points (input ids `ids`) with those on handles thinner than the skeleton resolves
     (RunStart.anchors) at the cap W_H,max while params.hold_curves is on. The skeleton draws such a part as the
     curve of its cross-sections' centroids whatever the contraction does, so it stays where it is; contracted, it
     would be shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its
