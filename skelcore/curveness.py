@@ -42,18 +42,20 @@ MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two 
 HOLLOW = 1 / 3  # a closed cross-section's nearest point to its centroid, at least this share of their mean distance
 
 
-def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False,
+                   tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(probe ids, spread ratio across/along of each probe's neighbourhood, and with `among_all` its direction
     along (unit, (p, 3); NaN without)). The neighbourhood is the probes within `radius`, or with `among_all` every
-    point within it; the ratio is NaN where it has fewer than MIN_NEIGHBOURS."""
+    point within it (`tree`: a cKDTree over `points`, when the caller has one); the ratio is NaN where it has
+    fewer than MIN_NEIGHBOURS."""
     rng = np.random.default_rng(seed)
     probes = np.sort(rng.choice(len(points), PROBES, replace=False)) if len(points) > PROBES \
         else np.arange(len(points))
     sample = points[probes]
-    tree = cKDTree(sample)
+    probe_tree = cKDTree(sample)
     members = points if among_all else sample
-    pairs = tree.sparse_distance_matrix(cKDTree(points) if among_all else tree, radius, output_type="coo_matrix")
+    others = (cKDTree(points) if tree is None else tree) if among_all else probe_tree
+    pairs = probe_tree.sparse_distance_matrix(others, radius, output_type="coo_matrix")
     rows, cols = pairs.row, pairs.col
     if not among_all:  # each probe with every probe within radius, itself included
         rows, cols = np.concatenate([rows, np.arange(len(sample))]), np.concatenate([cols, np.arange(len(sample))])
@@ -122,15 +124,21 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
     candidates = candidates[np.linalg.norm(directions.mean(axis=1), axis=1) < SURROUNDED]
     if len(candidates) == 0:
         return thin
-    axis_points = contracted[candidates]
-    tree = cKDTree(axis_points)
+    long_enough, _ = _long_pieces(contracted[candidates], radius)
+    thin[candidates[long_enough]] = True
+    return thin
+
+
+def _long_pieces(positions: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(whether each position lies in a piece spanning at least MIN_CURVE_RADII radii, its piece): pieces are the
+    positions joined by steps within `radius`, their span the longest side of their bounding box."""
+    tree = cKDTree(positions)
     count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
                                         directed=False)
     low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
-    np.minimum.at(low, piece, axis_points)
-    np.maximum.at(high, piece, axis_points)
-    thin[candidates[(high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius]] = True
-    return thin
+    np.minimum.at(low, piece, positions)
+    np.maximum.at(high, piece, positions)
+    return (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius, piece
 
 
 def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarray:
@@ -146,9 +154,10 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
     input (`_closing_loops`, over its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts)
     keeps its end."""
     anchors = np.full(points.shape, np.nan)
-    probes, ratio, along = curve_likeness(points, radius, among_all=True)
+    tree = cKDTree(points)
+    probes, ratio, along = curve_likeness(points, radius, among_all=True, tree=tree)
     judged = np.flatnonzero(np.isfinite(ratio))
-    centroids, closed = _cross_sections(points, points[probes[judged]], along[judged], radius)
+    centroids, closed = _cross_sections(tree, points[probes[judged]], along[judged], radius)
     if not closed.any():
         return anchors
     thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
@@ -157,16 +166,10 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarr
     # flickers from probe to probe, and a flickering part is not anchored (its pieces would be fragments)
     nearest = np.arange(len(points)) if len(probes) == len(points) \
         else cKDTree(points[probes]).query(points, workers=-1)[1]
-    votes = cKDTree(points[probes[judged]]).sparse_distance_matrix(cKDTree(points), radius, output_type="coo_matrix")
+    votes = cKDTree(points[probes[judged]]).sparse_distance_matrix(tree, radius, output_type="coo_matrix")
     ayes = np.bincount(votes.col, thin[judged][votes.row], len(points))
     members = np.flatnonzero(ayes > 0.5 * np.bincount(votes.col, minlength=len(points)))
-    tree = cKDTree(points[members])
-    count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
-                                        directed=False)
-    low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
-    np.minimum.at(low, piece, points[members])
-    np.maximum.at(high, piece, points[members])
-    long_enough = (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius
+    long_enough, piece = _long_pieces(points[members], radius)
     members, piece = members[long_enough], piece[long_enough]
     owner = nearest[members]
     along_axis = np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])
@@ -220,11 +223,13 @@ def _far_ends(graph) -> tuple[int, int]:
     return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
 
 
-def _cross_sections(points: np.ndarray, probes: np.ndarray, along: np.ndarray, radius: float
+def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, radius: float
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there, and
-    whether that cross-section is a hollow one within `radius` of it (thin_tubes)."""
-    pairs = cKDTree(probes).sparse_distance_matrix(cKDTree(points), 2 * radius, output_type="coo_matrix")
+    """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there (the
+    input: the points of `tree`), and whether that cross-section is a hollow one within `radius` of it
+    (thin_tubes)."""
+    points = tree.data
+    pairs = cKDTree(probes).sparse_distance_matrix(tree, 2 * radius, output_type="coo_matrix")
     offset = points[pairs.col] - probes[pairs.row]
     axial = np.einsum("ij,ij->i", offset, along[pairs.row])
     in_slab = np.abs(axial) <= 0.5 * radius

@@ -233,29 +233,30 @@ def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: Contraction
     would be shortened shut or dragged into the bulk beside it (skelcore.curveness). It is not pulled onto its
     axis in the solve: collapsed, its rings would turn its neighbours' cotangent weights negative and fling them
     out; the states show it there (`shown`)."""
-    if not params.hold_curves:
-        return wh
-    return np.where(np.isfinite(run.anchors[ids, 0]), params.wh_max, wh)
+    return np.where(_fixed(run, ids, params), params.wh_max, wh)
 
 
-def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray | slice:
-    """Which present points (input ids `ids`) the contraction's progress, the rings' shrinking a_t, is measured
-    on: those not anchored (`anchored`), whose rings never shrink; all when none is free or the hold is off."""
-    if not params.hold_curves:
-        return slice(None)
-    free = np.isnan(run.anchors[ids, 0])
-    return free if free.any() else slice(None)
+def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+    """(m,) which present points (input ids `ids`) the contraction's progress, the rings' shrinking a_t, is
+    measured on: those not anchored (`anchored`), whose rings never shrink; all when none is free."""
+    free = ~_fixed(run, ids, params)
+    return free if free.any() else np.ones(len(ids), dtype=bool)
 
 
 def shown(current: np.ndarray, run: RunStart, ids: np.ndarray, params: ContractionParams) -> tuple[np.ndarray, int]:
     """The positions a state shows, in the user's coordinates, for the solve's `current` (present points of input
     ids `ids`): the anchored points (`anchored`) on their axis; and how many those are."""
-    count = 0
-    if params.hold_curves:
-        anchors = run.anchors[ids]
-        fixed = np.isfinite(anchors[:, :1])
-        current, count = np.where(fixed, anchors, current), int(fixed.sum())
-    return run.normalisation.inverse(current), count
+    fixed = _fixed(run, ids, params)
+    if fixed.any():
+        current = np.where(fixed[:, None], run.anchors[ids], current)
+    return run.normalisation.inverse(current), int(fixed.sum())
+
+
+def _fixed(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
+    """(m,) which present points (input ids `ids`) are anchored: none while params.hold_curves is off."""
+    if not params.hold_curves:
+        return np.zeros(len(ids), dtype=bool)
+    return np.isfinite(run.anchors[ids, 0])
 
 
 def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, params: ContractionParams
