@@ -32,7 +32,7 @@ from . import startup
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
 NOISE = 0.002  # Gaussian noise of the bench tori, a fraction of the bounding-box diagonal
-STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "write")
+STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "evidence", "write")
 
 
 def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,
