@@ -3,7 +3,7 @@ growing size, against a pc-skeletor-style LBC, with peak memory and the fitted g
 
 Each run is a fresh process (`skelcore run` as a user of an installed package starts it, its bytecode written
 first: interpreter, imports, PLY load, cleaning, multi-resolution above its budget, contraction, skeleton,
-metrics, writing), timed by wall clock from its
+metrics, the verdict's evidence, writing), timed by wall clock from its
 launch to its exit, its CPU time and peak resident memory read by the process itself. Runs are interleaved
 size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
 only those ratios mean much.
@@ -32,7 +32,7 @@ from . import startup
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
 NOISE = 0.002  # Gaussian noise of the bench tori, a fraction of the bounding-box diagonal
-STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "write")
+STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "evidence", "write")
 
 
 def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,

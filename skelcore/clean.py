@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from .errors import ParameterError
 from .io import Cloud
@@ -69,6 +70,7 @@ class CleaningReport:
     stray: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     # (n, neighbours + 1) kNN of every input point (itself first), which the denoising reuses (None: not queried)
     neighbours: np.ndarray | None = field(default=None, repr=False, compare=False)
+    tree: cKDTree | None = field(default=None, repr=False, compare=False)  # over the input points, for that kNN
 
     @property
     def kept(self) -> np.ndarray:
@@ -99,7 +101,8 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     report = CleaningReport(n)
     if n <= max(MIN_KEPT, params.neighbours + 1) or not (params.remove_outliers or params.remove_stray):
         return report
-    distance, index = knn(points, params.neighbours + 1)
+    tree = cKDTree(points)
+    distance, index = knn(points, params.neighbours + 1, tree)
     spacing = distance[:, 1:].mean(axis=1)
     keep = np.ones(n, dtype=bool)
     if params.remove_outliers:
@@ -110,9 +113,11 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     if params.remove_stray:
         gap = params.piece_gap * np.median(spacing[keep])
         near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
-        # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower)
-        indptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))])
-        graph = sp.csr_matrix((np.ones(indptr[-1], dtype=np.int8), index[:, 1:][near], indptr), shape=(n, n))
+        # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);
+        # float64 weights and 32-bit ids are what connected_components works on, so it copies nothing first
+        ids = np.int32 if n < np.iinfo(np.int32).max else np.int64
+        indptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))]).astype(ids)
+        graph = sp.csr_matrix((np.ones(indptr[-1]), index[:, 1:][near].astype(ids), indptr), shape=(n, n))
         _, piece = connected_components(graph, directed=False)
         sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
         stray = keep & (sizes[piece] < params.min_piece_share * keep.sum())
@@ -120,8 +125,8 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
         keep &= ~stray
     report.outliers = np.flatnonzero(~keep & ~np.isin(np.arange(n), report.stray))
     if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
-        return CleaningReport(n, neighbours=index)
-    report.neighbours = index
+        return CleaningReport(n, neighbours=index, tree=tree)
+    report.neighbours, report.tree = index, tree
     return report
 
 
@@ -141,20 +146,18 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
     points = cloud.points[kept]
     if params.denoise:
-        points = denoised(points, params.neighbours, _kept_neighbours(report, params.neighbours))
+        points = denoised(points, params.neighbours, _kept_neighbours(report, params.neighbours, cloud.points))
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
 
 def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None) -> np.ndarray:
     """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included).
-    `index`: those neighbours when known, (n, neighbours) rows into `points`, -1 where a row must be queried."""
+    `index`: those neighbours when known, (n, neighbours) rows into `points`."""
     if len(points) <= neighbours:
         return points
     if index is None:
         _, index = knn(points, neighbours)
-    elif (index[:, 0] < 0).any():
-        index = _requeried(points, index, neighbours)
     projected = np.empty_like(points)
     for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
         rows = slice(start, start + CHUNK)
@@ -165,31 +168,27 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     return projected
 
 
-def _kept_neighbours(report: CleaningReport, k: int) -> np.ndarray | None:
+def _kept_neighbours(report: CleaningReport, k: int, points: np.ndarray) -> np.ndarray | None:
     """The `k` nearest kept points of every kept point (itself first) as rows into the kept points, read from
-    cleaning's kNN: a row holding at least k kept points among its neighbours + 1 nearest has them in its
-    first k kept entries. The other rows are -1, to be queried (None: cleaning queried no kNN)."""
+    cleaning's kNN of the input `points`: a row holding at least k kept points among its neighbours + 1 nearest
+    has them in its first k kept entries. The few other rows ask cleaning's tree for more neighbours, until k
+    of them are kept (None: cleaning queried no kNN)."""
     if report.neighbours is None:
         return None
     kept = report.kept
     new_id = np.full(report.input_points, -1, dtype=np.int64)
     new_id[kept] = np.arange(len(kept))
     rows = new_id[report.neighbours[kept]]
-    present = rows >= 0
-    lost = np.flatnonzero(~present[:, :k].all(axis=1))  # the few rows with a removed point among the first k
-    shifted = np.argsort(~present[lost], axis=1, kind="stable")  # kept entries first, in distance order
-    rows[lost] = np.take_along_axis(rows[lost], shifted, axis=1)
-    rows = rows[:, :k]
-    rows[lost[present[lost].sum(axis=1) < k]] = -1
-    return rows
-
-
-def _requeried(points: np.ndarray, index: np.ndarray, k: int) -> np.ndarray:
-    """`index` with its rows of -1 filled by a kNN query among `points`."""
-    from scipy.spatial import cKDTree
-
-    missing = np.flatnonzero(index[:, 0] < 0)
-    _, found = cKDTree(points).query(points[missing], k=k, workers=-1)
-    index = index.copy()
-    index[missing] = found.reshape(len(missing), k)
-    return index
+    lost = np.flatnonzero(~(rows[:, :k] >= 0).all(axis=1))  # the few rows with a removed point among the first k
+    tree = report.tree if report.tree is not None else cKDTree(points)
+    width = rows.shape[1]
+    found = rows[lost]
+    while len(lost):
+        present = found >= 0
+        shifted = np.argsort(~present, axis=1, kind="stable")  # kept entries first, in distance order
+        rows[lost, :k] = np.take_along_axis(found, shifted, axis=1)[:, :k]
+        short = (present.sum(axis=1) < k) & (width < len(points))
+        lost, width = lost[short], min(2 * width, len(points))
+        if len(lost):
+            found = new_id[tree.query(points[kept[lost]], k=width, workers=-1)[1].reshape(len(lost), width)]
+    return rows[:, :k]

@@ -80,8 +80,10 @@ class Reduction:
         for start in range(0, self.n_input, CHUNK):  # bounded temporaries: (CHUNK, width, 3)
             rows = slice(start, start + CHUNK)
             mine, usable = candidates[self.voxel_of[rows]], valid[self.voxel_of[rows]]
-            distance2 = ((self.points[mine] - self.input_points[rows, None, :]) ** 2).sum(axis=-1)
-            distance2 = np.where(usable, distance2, np.inf)
+            # only the valid candidates are measured (a ring is about half as long as the longest one)
+            distance2 = np.full(mine.shape, np.inf)
+            point = start + np.nonzero(usable)[0]
+            distance2[usable] = ((self.points[mine[usable]] - self.input_points[point]) ** 2).sum(axis=-1)
             nearest = np.argpartition(distance2, keep - 1, axis=1)[:, :keep]
             near2 = np.take_along_axis(distance2, nearest, axis=1)
             columns[rows] = np.take_along_axis(mine, nearest, axis=1)

@@ -172,9 +172,12 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
     clock = StageClock()
     run = compute(input_path, options, progress, clock=clock)
+    # the verdict's skeleton checks (an alpha complex of the contracted cloud): timed apart from the writing
+    evidence = skeleton_evidence(run.skeleton, run.states[-1], run.cloud.points)
+    clock.mark("evidence")
     summary = write_results(out_dir, run.cloud, run.states, run.skeleton, run.metrics, options,
                             input_path=input_path, elapsed=clock.elapsed(), weights=run.weights,
-                            reduction=run.reduction)
+                            reduction=run.reduction, evidence=evidence)
     clock.mark("write")
     return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, clock.elapsed(), clock.stages)
 

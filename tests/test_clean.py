@@ -82,19 +82,24 @@ def test_a_sparsely_sampled_half_is_no_outlier():
 
 
 def test_denoising_reads_cleanings_neighbours_with_the_same_result():
-    """The denoising reuses cleaning's kNN (re-querying only rows that lost too many neighbours): the points are
-    exactly those of a fresh query among the kept points, outliers and a stray cluster removed."""
+    """The denoising reuses cleaning's kNN and its tree (asking the tree for more neighbours only for rows that
+    lost too many): the neighbours, and so the points, are exactly those of a fresh query among the kept
+    points, outliers and a stray cluster removed."""
     from skelcore.clean import _kept_neighbours, denoised
+    from skelcore.neighbours import knn
 
     rng = np.random.default_rng(5)
     points = np.vstack([make_shape("torus", 5000, seed=0, noise=0.002).points, rng.uniform(-2, 2, (80, 3)),
                         rng.normal(0, 0.01, (20, 3)) + [30.0, 0.0, 0.0]])
     report = clean(points)
     assert report.neighbours is not None and len(report.outliers) > 20 and len(report.stray) >= 20
-    rows = _kept_neighbours(report, CleaningParams().neighbours)
-    assert (rows[:, 0] < 0).any() and (rows[:, 0] >= 0).mean() > 0.9  # both paths: read and re-queried
+    k = CleaningParams().neighbours
+    kept_among = np.isin(report.neighbours[report.kept], report.kept).sum(axis=1)
+    assert (kept_among < k).any() and (kept_among >= k).mean() > 0.9  # both paths: read and asked again
+    rows = _kept_neighbours(report, k, points)
+    assert np.array_equal(rows, knn(points[report.kept], k)[1])
     shared = cleaned(Cloud(points=points, name="x"), CleaningParams(), report).points
-    assert np.array_equal(shared, denoised(points[report.kept], CleaningParams().neighbours))
+    assert np.array_equal(shared, denoised(points[report.kept], k))
 
 
 def test_far_strays_kept_by_cleaning_do_not_rescale_the_object():
