@@ -16,6 +16,10 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .errors import InputError
+from .neighbours import knn
+from .normals import orient_outward, pca_features
+
+SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,19 @@ class InsideTest:
         cells[split] = test._side(centres(split)) <= 0
         test.cells[...] = cells
         return test
+
+    @classmethod
+    def of_cloud(cls, samples: np.ndarray, band: float, collapsed: float, tree: cKDTree | None = None
+                 ) -> "InsideTest":
+        """The inside test of a point cloud taken as its own surface sample. Its normals are PCA normals of
+        SURFACE_NEIGHBOURS neighbours (k neighbours wrap around a thin tube, whose PCA normal then runs along its
+        axis, so a small neighbourhood gives them), oriented outward along a minimum spanning tree; collapsed:
+        the neighbourhood size below which a point has no normal. tree: a cKDTree over `samples`, if made."""
+        tree = cKDTree(samples) if tree is None else tree
+        # One kNN query serves the normals, their orientation and the test's spacing.
+        distances, idx = knn(samples, min(SURFACE_NEIGHBOURS, len(samples)), tree)
+        normals, _, _ = pca_features(samples, idx.shape[1], collapsed=collapsed, neighbours=idx)
+        return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1])
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """Boolean mask: inside the surface, or within `band` of it."""

@@ -14,6 +14,16 @@ A crossing is an original point within one point spacing of the disk whose PCA n
 CROSSING_ANGLE degrees with the disk's normal; a loop needs CROSSING_POINTS of them, so that one noisy
 point does not make a loop.
 
+The hole itself is the second half of the rule: the disk of a real loop spans it, so part of the disk lies
+outside the solid (the original cloud's inside test, skelcore.inside), while a cycle drawn through a bulky
+part can have a disk wholly inside it whose rim runs along the walls, crossed by them as a hole's would be (a
+bulky scan whose contraction left shards, a handle's foot). A loop needs OPEN_SHARE of its disk's area
+outside. It is small on purpose: a real loop's disk also covers the material around the hole (a drilled
+plate's skeleton runs midway between the holes, and the false pieces of the graph next to a loop are merged
+into its cycle as they are cut), so measured shares of real loops run down to 5%, and the rule only
+separates disks that do not reach outside at all. Where a scan is open (a single view), the space behind
+its surface joins the outside, so disks there mostly count as outside and the crossings decide.
+
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
 original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
 ends lie more than r from that middle too): it is a jump across a gap of the scan, where the k-nearest
@@ -34,11 +44,15 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .inside import InsideTest
 from .neighbours import pca_frames
+from .normals import COLLAPSED
 
 CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
 CROSSING_POINTS = 4  # crossing points a loop needs
 NORMAL_K = 16  # neighbours for a point's PCA normal
+OPEN_SHARE = 0.02  # share of a loop's disk that lies outside the solid, at least
+DISK_LATTICE = 8  # each fan triangle of a disk is sampled at the centres of DISK_LATTICE^2 equal triangles
 
 
 class SurfaceProbe:
@@ -50,6 +64,7 @@ class SurfaceProbe:
         self.spacing = spacing
         self._scale = float(np.abs(original).max(initial=0.0)) + spacing  # of the rounding in crossings
         self._normals: dict[int, np.ndarray] = {}
+        self._inside: InsideTest | None = None
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
         """(len(ids), 3) PCA normals of those original points (unsigned), each computed once."""
@@ -89,6 +104,33 @@ class SurfaceProbe:
         ids = np.fromiter(found, dtype=np.int64)
         across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
         return int(across.sum())
+
+    def open_share(self, corners: np.ndarray) -> float:
+        """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
+        original points bound (within one spacing of the surface counts as inside)."""
+        if self._inside is None:
+            diagonal = float(np.linalg.norm(np.ptp(self.points, axis=0)))
+            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * diagonal, self.tree)
+        centre = corners.mean(axis=0)
+        spokes = corners - centre
+        spokes_next = np.roll(spokes, -1, axis=0)
+        areas = np.linalg.norm(np.cross(spokes, spokes_next), axis=1)
+        if areas.sum() == 0:
+            return 0.0
+        samples = centre + _LATTICE[:, :1, None] * spokes + _LATTICE[:, 1:, None] * spokes_next  # (m^2, k, 3)
+        outside = ~self._inside.contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
+        return float(outside.mean(axis=0) @ areas / areas.sum())
+
+
+def _lattice(m: int) -> np.ndarray:
+    """(m^2, 2) barycentric centres of the m^2 equal triangles that split a triangle m times along each side."""
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    up = (i + j <= m - 1)
+    down = (i + j <= m - 2)
+    return np.concatenate([np.c_[i[up] + 1 / 3, j[up] + 1 / 3], np.c_[i[down] + 2 / 3, j[down] + 2 / 3]]) / m
+
+
+_LATTICE = _lattice(DISK_LATTICE)
 
 
 def _triangle_distance(points: np.ndarray, triangle: np.ndarray) -> np.ndarray:
@@ -149,7 +191,8 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
                 break
             key = frozenset(cycle)
             if key not in judged:
-                judged[key] = probe.crossings(np.array([xyz[node] for node in ordered])) >= CROSSING_POINTS
+                corners = np.array([xyz[node] for node in ordered])
+                judged[key] = probe.crossings(corners) >= CROSSING_POINTS and probe.open_share(corners) >= OPEN_SHARE
             if not judged[key]:
                 false = ordered
                 break

@@ -60,13 +60,10 @@ from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
 from .multires import POINT_BUDGET, Reduction, reduce_cloud
-from .neighbours import knn
 from .normalise import object_diagonal
-from .normals import away_from_centroid, orient_outward, pca_features
+from .normals import COLLAPSED, away_from_centroid, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
 
-_COLLAPSED = 1e-6  # a neighbourhood smaller than this fraction of the original diagonal has no frame
-_SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of the surface normals of the inside test
 NORMAL_CONVENTIONS = ("outward", "tracked")
 NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
 
@@ -167,30 +164,22 @@ class MetricsReference:
         rows = np.flatnonzero(evaluated)
         outward = convention == "outward"
         normals, kappa = np.full((len(points0), 3), np.nan), np.full(len(points0), np.nan)
-        normals[rows], kappa[rows], _ = pca_features(points0, k, rows, collapsed=_COLLAPSED * diagonal,
+        normals[rows], kappa[rows], _ = pca_features(points0, k, rows, collapsed=COLLAPSED * diagonal,
                                                      anchored=outward)
         if outward:
             normals[rows] = away_from_centroid(points0[rows], normals[rows], points0.mean(axis=0))
         band = thresholds.surface_tolerance * diagonal
-        known = {}  # what the inside test can take from the surface normals' kNN
         if faces is not None and len(faces):
-            samples, sample_normals = mesh_surface(points0, faces, band, seed)
+            inside = InsideTest.from_samples(*mesh_surface(points0, faces, band, seed), band)
         else:
-            # The inside test needs the surface's own normals: k neighbours wrap around a thin tube, whose
-            # PCA normal then runs along its axis, so a small neighbourhood gives them. A large cloud's
-            # surface is sampled by voxel centroids (multi-resolution's point budget, spacing far below band).
+            # A large cloud's surface is sampled by voxel centroids (multi-resolution's point budget, spacing
+            # far below band).
             if reduction is None or reduction.n_input != len(points0):
                 reduction = reduce_cloud(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
-            # One tree and one kNN query serve the normals, their orientation and the inside test's spacing.
             if tree is None or tree.data.shape != samples.shape or not np.array_equal(tree.data, samples):
-                tree = cKDTree(samples)
-            distances, surface_idx = knn(samples, min(_SURFACE_NEIGHBOURS, len(samples)), tree)
-            surface_normals, _, _ = pca_features(samples, surface_idx.shape[1], collapsed=_COLLAPSED * diagonal,
-                                                 neighbours=surface_idx)
-            sample_normals = orient_outward(samples, surface_normals, surface_idx)
-            known = {"tree": tree, "spacing": distances[:, 1]}
-        inside = InsideTest.from_samples(samples, sample_normals, band, **known)
+                tree = None
+            inside = InsideTest.of_cloud(samples, band, COLLAPSED * diagonal, tree)
         return cls(points0, normals, kappa, k, int(bins), thresholds, diagonal, inside, evaluated, convention,
                    _spread(points0))
 
@@ -229,7 +218,7 @@ class MetricsReference:
         if everyone and points is self.points:  # the input itself (iteration 0): its features are known
             normals, kappa = self.normals[ids], self.kappa[ids]
         else:
-            normals, kappa, _ = pca_features(points, self.k, rows, _COLLAPSED * self.diagonal, anchored=outward)
+            normals, kappa, _ = pca_features(points, self.k, rows, COLLAPSED * self.diagonal, anchored=outward)
         curve = {"curve_share": skeleton_scale_share(points, self.diagonal)}
         everything, points = points, (points if rows is None else points[rows])
         undefined = ~np.isfinite(normals).all(axis=1)

@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 
 from .neighbours import knn
 
+COLLAPSED = 1e-6  # a neighbourhood smaller than this fraction of the object's diagonal has no frame
 _ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
 _TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from skelcore import loops
 from skelcore import skeleton as skeleton_module
 from skelcore.errors import InputError, ParameterError, SkelError
 from skelcore.evaluate import load_graph
@@ -185,6 +186,29 @@ def test_a_ball_that_stopped_at_a_crowded_disk_is_no_loop():
     assert topology(skeleton_of(contracted, original)) == {"components": 1, "cycles": 0,
                                                            "junctions": topology(skeleton_of(contracted, original))["junctions"],
                                                            "ends": topology(skeleton_of(contracted, original))["ends"]}
+
+
+def test_a_cycle_inside_a_bulky_part_is_no_loop_though_walls_cross_its_disk(monkeypatch):
+    """A cycle of the skeleton graph just inside a ball's equator (a bulky part whose contraction left an
+    outline): the surface crosses its disk's rim along the equator, so the crossing test alone takes it for a
+    loop, but all of the disk lies inside the solid, and it is cut. The same cycle on a torus's centre circle
+    spans the hole and stays."""
+    rng = np.random.default_rng(0)
+    ball = rng.normal(size=(4000, 3))
+    ball /= np.linalg.norm(ball, axis=1, keepdims=True)
+    angle = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    circle = np.c_[np.cos(angle), np.sin(angle), np.zeros(12)]
+
+    def cuts(original, ring):
+        adj = {i: {(i - 1) % 12, (i + 1) % 12} for i in range(12)}
+        node_of_point = cKDTree(ring).query(original)[1]
+        probe = loops.SurfaceProbe(original, float(np.median(cKDTree(original).query(original, 2)[0][:, 1])))
+        return loops.cut_false_loops(adj, list(ring), node_of_point, knn_edges(original), probe)
+
+    assert cuts(ball, 0.99 * circle) == 1
+    assert cuts(torus(n=4000, minor=0.4)[1], circle) == 0
+    monkeypatch.setattr(loops, "OPEN_SHARE", 0.0)
+    assert cuts(ball, 0.99 * circle) == 0
 
 
 def test_ball_cover_sampling_covers_and_maps_to_the_nearest_sample():
