@@ -56,6 +56,7 @@ def status_markdown(session, index: int, *, run: str, notice: str, readiness: Re
         reduced,
         f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
         f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
+        state.anchored and f"{state.anchored:,} points on thin handles held in place (drawn on their axis)",
         skeleton and f"_{skeleton}_",
         session.pending and f"**Pending:** {session.pending}",
         f"Run {run}",

@@ -594,3 +594,22 @@ def test_the_status_says_what_was_computed_ahead():
     assert "iteration 2 computed ahead" in run_state(history, "", False, types.SimpleNamespace(iteration=2))
     assert "ends the run" in run_state(history, "", False, types.SimpleNamespace(iteration=1))
     assert run_state(history, "computing iteration 2", False, None) == "busy: computing iteration 2…"
+
+
+def test_the_status_counts_the_points_held_on_thin_handles():
+    """A ball with handles one or two points across: the points on the handles are held in place and drawn on
+    their axis (skelcore.step.anchored), and the status says how many; a torus has none and says nothing."""
+    from app.status import status_markdown
+    from skelcore.solids import solid_shape
+
+    def status_after_a_step(points, name):
+        session = Session(validate(points, name=name))
+        session.step()
+        return session, status_markdown(session, 1, run="paused", notice="", readiness=None, skeleton="",
+                                         following=True)
+
+    session, status = status_after_a_step(solid_shape("thin_handled_ball", 10000).points, "handles.xyz")
+    assert session.history[1].anchored > 0
+    assert f"{session.history[1].anchored:,} points on thin handles held in place" in status
+    _, status = status_after_a_step(make_shape("torus", 3000, seed=0).points, "torus.xyz")
+    assert "thin handles" not in status
