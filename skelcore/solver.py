@@ -3,7 +3,7 @@
 CHOLMOD through scikit-sparse when it is installed (the set-up builds it against Debian's SuiteSparse
 and OpenBLAS): the symbolic analysis is kept while the sparsity pattern stays the same, so an LBC
 iteration pays for the numeric factorisation only, and it refactorises in place into the factor of the
-analysis (a new factor per call would copy the symbolic one and allocate its values afresh: 13% more CPU
+analysis (a new factor per call would copy the symbolic one and allocate its values afresh: 13-17% more CPU
 per factor+solve at 43.5k points). Otherwise cholespy (a plain wheel; CHOLMOD inside, but it analyses and
 factorises anew every call).
 
@@ -13,7 +13,7 @@ CHOLMOD's simplicial LDL^T solves it to 2e-11 of the normal equations, but its f
 (3.6M entries with AMD, 2.8M with METIS, against 3.9M) and, without supernodes, it is slower: 0.22-0.52 s
 against 0.15 s per factor+solve. CHOLMOD's own A A^T + I factorisation (no scipy product) saves 5%.
 GLSkeleton reusing the last ordering after a reduction (restricted to the kept points, a merged pair at
-the later rank) fills 1.3-7x more than a new AMD, whose analysis costs a third of a factorisation.
+the later rank) fills 1.3-7.4x more than a new AMD, whose analysis costs a third of a factorisation.
 """
 from __future__ import annotations
 
