@@ -84,6 +84,22 @@ def test_one_factorisation_solves_all_coordinates():
     np.testing.assert_allclose(matrix @ solver.solve(matrix * 2, rhs), rhs / 2, atol=1e-8)
 
 
+def test_solver_refactorises_after_a_failed_factorisation():
+    """The factor is refilled in place; a factorisation that fails must not leave a broken factor behind."""
+    from skelcore.errors import SolverError
+
+    rng = np.random.default_rng(0)
+    a = sp.random(200, 200, density=0.03, random_state=2)
+    matrix = (a.T @ a + sp.identity(200)).tocsr()
+    rhs = rng.normal(size=(200, 3))
+    solver = CholeskySolver()
+    first = solver.solve(matrix, rhs)
+    with pytest.raises(SolverError):
+        solver.solve(-matrix, rhs)  # same pattern, not positive definite
+    np.testing.assert_allclose(solver.solve(matrix, rhs), first, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(matrix @ solver.solve(matrix * 3, rhs), rhs / 3, atol=1e-8)
+
+
 def test_capsule_contracts_onto_its_axis():
     shape = make_shape("capsule", 2000, seed=0)
     states = run_contraction(shape.points)
