@@ -41,7 +41,8 @@ def _thin_tubes(points):
     from skelcore.params import default_k
 
     radius = 0.02 * object_diagonal(points)
-    return thin_tubes(points, radius, one_rings(points, default_k(len(points))).edges()), radius
+    k = default_k(len(points))
+    return thin_tubes(points, radius, one_rings(points, k).edges(), k), radius
 
 
 def test_thin_handles_are_anchored_on_their_axis():
