@@ -13,16 +13,16 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 
-`thin_tubes` finds, on the input itself, the handles thinner than the skeleton resolves:
-where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, the
-skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
-contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
-neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
-curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
-shows it on its axis). The cross-section tells them from a sheet or a bulky part (their cross-section runs on
-past the radius) and from a crease, a strip or a twig one point wide (their cross-section has points at its
-centroid). Only thin parts that close a loop of the input are kept: a limb or a tail ends, and the hold above
-keeps its end.
+`thin_tubes` finds, on the input itself, the handles thinner than the skeleton or the contraction resolves:
+where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, or
+within the reach of the one-rings' neighbourhoods where the input is sparser, the skeleton draws the part as a
+curve through those centroids (recentred nodes) whatever the contraction does, so contraction there can only do
+harm: a few points around, such a tube's one-rings (the PCA plane of k neighbours) lie flat over it, so the
+first steps barely contract it, and later ones shorten it shut as a curve-shortening flow while the bulk beside
+it contracts (skelcore.step.anchored keeps it in place, and each state shows it on its axis). The cross-section
+tells them from a sheet or a bulky part (their cross-section runs on past the radius) and from a crease, a strip
+or a twig one point wide (their cross-section has points at its centroid). Only thin parts that close a loop of
+the input are kept: a limb or a tail ends, and the hold above keeps its end.
 """
 from __future__ import annotations
 
@@ -39,7 +39,8 @@ MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread to
 NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
 SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
-HOLLOW = 1 / 3  # a closed cross-section's nearest point to its centroid, at least this share of their mean distance
+HOLLOW = 1 / 3  # a closed cross-section's points lie at least this share of their mean distance from its centroid,
+STRAY = 0.1  # all but at most this share of them (noise scatters a few of a wall's points inwards)
 
 
 def probe_ids(count: int, seed: int = 0) -> np.ndarray:
@@ -161,8 +162,8 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     The direction along a probe's part is the principal direction of the input within its scale, and its
     cross-section the input within twice the scale and within half of it of the plane through the probe across
     that direction. The part is thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within
-    the scale of its centroid and is hollow (no point nearer the centroid than HOLLOW of their mean distance to
-    it). A point is thin when most probes judged within their scale of it are, and its axis is its nearest
+    the scale of its centroid and is hollow (at most a share STRAY of its points nearer the centroid than HOLLOW
+    of their mean distance to it). A point is thin when most probes judged within their scale of it are, and its axis is its nearest
     probe's, the line along the direction through the centroid. Thin pieces (points within their scale of each
     other) spanning less than MIN_CURVE_RADII radii are left out, a bump the skeleton could not draw as a curve;
     and so are those that close no loop of the input (`_closing_loops`, over its surface `edges` (e, 2)): a limb
@@ -269,9 +270,9 @@ def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, scale:
     closed = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
     closed[rows[distance > scale[rows]]] = False
     # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
-    # crease or a strip has points at its centroid
-    nearest = np.full(len(probes), np.inf)
-    np.minimum.at(nearest, rows, distance)
+    # crease or a strip has points at its centroid (a strip a sixth of them within HOLLOW of the mean, a twig
+    # most), while noise scatters only a few of a wall's points inwards
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.bincount(rows, distance, len(probes)) / count
-    return probes + centroid, closed & (nearest >= HOLLOW * mean)
+        inner = np.bincount(rows, distance < HOLLOW * mean[rows], len(probes)) / count
+    return probes + centroid, closed & (inner <= STRAY)
