@@ -13,16 +13,16 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 `thin_parts` finds the points a first contraction step has already brought to the axis of a thin part (a handle,
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 
-`thin_tubes` finds, on the input itself, the handles thinner than the skeleton resolves:
-where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, the
-skeleton draws the part as a curve through those centroids (recentred nodes) whatever the contraction does, so
-contraction there can only do harm: one or two points across, such a tube's one-rings (the PCA plane of 30
-neighbours) lie flat over it, so the first steps barely contract it, and later ones shorten it shut as a
-curve-shortening flow while the bulk beside it contracts (skelcore.step.anchored keeps it in place, and each state
-shows it on its axis). The cross-section tells them from a sheet or a bulky part (their cross-section runs on
-past the radius) and from a crease, a strip or a twig one point wide (their cross-section has points at its
-centroid). Only thin parts that close a loop of the input are kept: a limb or a tail ends, and the hold above
-keeps its end.
+`thin_tubes` finds, on the input itself, the handles thinner than the skeleton or the contraction resolves:
+where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, or
+within the reach of the one-rings' neighbourhoods where the input is sparser, the skeleton draws the part as a
+curve through those centroids (recentred nodes) whatever the contraction does, so contraction there can only do
+harm: a few points around, such a tube's one-rings (the PCA plane of k neighbours) lie flat over it, so the
+first steps barely contract it, and later ones shorten it shut as a curve-shortening flow while the bulk beside
+it contracts (skelcore.step.anchored keeps it in place, and each state shows it on its axis). The cross-section
+tells them from a sheet or a bulky part (their cross-section runs on past the radius) and from a crease, a strip
+or a twig one point wide (their cross-section has points at its centroid). Only thin parts that close a loop of
+the input are kept: a limb or a tail ends, and the hold above keeps its end.
 """
 from __future__ import annotations
 
@@ -39,24 +39,29 @@ MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread to
 NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
 SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
-HOLLOW = 1 / 3  # a closed cross-section's nearest point to its centroid, at least this share of their mean distance
+HOLLOW = 1 / 3  # a closed cross-section's points lie at least this share of their mean distance from its centroid,
+STRAY = 0.1  # all but at most this share of them (noise scatters a few of a wall's points inwards)
+
+
+def probe_ids(count: int, seed: int = 0) -> np.ndarray:
+    """The ids of the probes among `count` points: a fixed random subset of PROBES, all when fewer."""
+    rng = np.random.default_rng(seed)
+    return np.sort(rng.choice(count, PROBES, replace=False)) if count > PROBES else np.arange(count)
 
 
 def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: bool = False,
-                   tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   tree: cKDTree | None = None, radii: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(probe ids, spread ratio across/along of each probe's neighbourhood, and with `among_all` its direction
     along (unit, (p, 3); NaN without)). The neighbourhood is the probes within `radius`, or with `among_all` every
-    point within it (`tree`: a cKDTree over `points`, when the caller has one); the ratio is NaN where it has
-    fewer than MIN_NEIGHBOURS."""
-    rng = np.random.default_rng(seed)
-    probes = np.sort(rng.choice(len(points), PROBES, replace=False)) if len(points) > PROBES \
-        else np.arange(len(points))
+    point within it (`tree`: a cKDTree over `points`, when the caller has one; `radii`: each probe's own radius
+    instead, (p,) for the probes of probe_ids); the ratio is NaN where it has fewer than MIN_NEIGHBOURS."""
+    probes = probe_ids(len(points), seed)
     sample = points[probes]
     probe_tree = cKDTree(sample)
     members = points if among_all else sample
     others = (cKDTree(points) if tree is None else tree) if among_all else probe_tree
-    pairs = probe_tree.sparse_distance_matrix(others, radius, output_type="coo_matrix")
-    rows, cols = pairs.row, pairs.col
+    rows, cols = _within(probe_tree, others, np.full(len(probes), radius) if radii is None else radii)
     if not among_all:  # each probe with every probe within radius, itself included
         rows, cols = np.concatenate([rows, np.arange(len(sample))]), np.concatenate([cols, np.arange(len(sample))])
     counts = np.bincount(rows, minlength=len(sample)).astype(float)
@@ -129,72 +134,94 @@ def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> n
     return thin
 
 
-def _long_pieces(positions: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+def _long_pieces(positions: np.ndarray, radius: float, reach: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """(whether each position lies in a piece spanning at least MIN_CURVE_RADII radii, its piece): pieces are the
-    positions joined by steps within `radius`, their span the longest side of their bounding box."""
+    positions joined by steps within `radius` (or within the larger `reach` (m,) of a step's two ends), their span
+    the longest side of their bounding box."""
     tree = cKDTree(positions)
-    count, piece = connected_components(tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix"),
-                                        directed=False)
+    joins = np.full(len(positions), radius) if reach is None else reach
+    pairs = tree.sparse_distance_matrix(tree, float(joins.max(initial=radius)), output_type="coo_matrix")
+    near = pairs.data <= np.maximum(joins[pairs.row], joins[pairs.col])
+    count, piece = connected_components(
+        coo_matrix((pairs.data[near], (pairs.row[near], pairs.col[near])), shape=pairs.shape), directed=False)
     low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
     np.minimum.at(low, piece, positions)
     np.maximum.at(high, piece, positions)
     return (high - low).max(axis=1)[piece] >= MIN_CURVE_RADII * radius, piece
 
 
-def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray) -> np.ndarray:
-    """(n, 3) for each input point on a handle thinner than the skeleton resolves (module docstring), the nearest
-    point of its axis; NaN for the others. Judged at the probes (curve_likeness): the direction along a
-    probe's part is the principal direction of the input within `radius`, and its cross-section the input within
-    twice the radius and within half a radius of the plane through the probe across that direction. The part is
-    thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within `radius` of its centroid and
-    is hollow (no point nearer the centroid than HOLLOW of their mean distance to it). A point is thin when most
-    probes judged within `radius` of it are, and its axis is its nearest probe's, the line along the direction
-    through the centroid. Thin pieces (points within `radius` of each other) spanning less than MIN_CURVE_RADII
-    radii are left out, a bump the skeleton could not draw as a curve; and so are those that close no loop of the
-    input (`_closing_loops`, over its surface `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts)
-    keeps its end."""
+def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> np.ndarray:
+    """(n, 3) for each input point on a handle thinner than the skeleton or the contraction resolves (module
+    docstring), the nearest point of its axis; NaN for the others. Judged at the probes (curve_likeness), each at
+    its own scale: `radius`, or where the input is sparser, the reach of its one-ring's neighbourhood (the distance
+    to its `k`-th nearest input point, the run's k), capped at MIN_CURVE_RADII radii (a part is drawn as a curve
+    only when it is longer than that). A tube within that reach is one the one-rings' PCA planes lie flat over,
+    so the contraction cannot draw it whatever the skeleton's radius; and the judgement sees the same number of
+    points, at least k, on a sparse part as on a dense one (a fixed radius counts fewer there, too few to judge).
+    The direction along a probe's part is the principal direction of the input within its scale, and its
+    cross-section the input within twice the scale and within half of it of the plane through the probe across
+    that direction. The part is thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within
+    the scale of its centroid and is hollow (at most a share STRAY of its points nearer the centroid than HOLLOW
+    of their mean distance to it). A point is thin when most probes judged within their scale of it are, and its
+    axis is its nearest probe's, the line along the direction through the centroid. Thin pieces (points within their scale of each
+    other) spanning less than MIN_CURVE_RADII radii are left out, a bump the skeleton could not draw as a curve;
+    and so are those that close no loop of the input (`_closing_loops`, over its surface `edges` (e, 2)): a limb
+    or a tail ends, and the hold (thin_parts) keeps its end."""
     anchors = np.full(points.shape, np.nan)
     tree = cKDTree(points)
-    probes, ratio, along = curve_likeness(points, radius, among_all=True, tree=tree)
+    probes = probe_ids(len(points))
+    reach = tree.query(points[probes], min(k, len(points)), workers=-1)[0].reshape(len(probes), -1)[:, -1]
+    scale = np.clip(reach, radius, MIN_CURVE_RADII * radius)
+    _, ratio, along = curve_likeness(points, radius, among_all=True, tree=tree, radii=scale)
     judged = np.flatnonzero(np.isfinite(ratio))
-    centroids, closed = _cross_sections(tree, points[probes[judged]], along[judged], radius)
+    centroids, closed = _cross_sections(tree, points[probes[judged]], along[judged], scale[judged])
     if not closed.any():
         return anchors
     thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
     thin[judged], centroid[judged], axis[judged] = closed, centroids, along[judged]
-    # each point by the probes judged within `radius` of it: where a part is near the limit the judgement
+    # each point by the probes judged within their scale of it: where a part is near the limit the judgement
     # flickers from probe to probe, and a flickering part is not anchored (its pieces would be fragments)
     nearest = np.arange(len(points)) if len(probes) == len(points) \
         else cKDTree(points[probes]).query(points, workers=-1)[1]
-    votes = cKDTree(points[probes[judged]]).sparse_distance_matrix(tree, radius, output_type="coo_matrix")
-    ayes = np.bincount(votes.col, thin[judged][votes.row], len(points))
-    members = np.flatnonzero(ayes > 0.5 * np.bincount(votes.col, minlength=len(points)))
-    long_enough, piece = _long_pieces(points[members], radius)
+    rows, cols = _within(cKDTree(points[probes[judged]]), tree, scale[judged])
+    ayes = np.bincount(cols, thin[judged][rows], len(points))
+    members = np.flatnonzero(ayes > 0.5 * np.bincount(cols, minlength=len(points)))
+    point_scale = scale[nearest]
+    long_enough, piece = _long_pieces(points[members], radius, point_scale[members])
     members, piece = members[long_enough], piece[long_enough]
     owner = nearest[members]
     along_axis = np.einsum("ij,ij->i", points[members] - centroid[owner], axis[owner])
     onto = centroid[owner] + along_axis[:, None] * axis[owner]
-    closing = _closing_loops(onto, piece, points, edges, radius)[piece]
+    closing = _closing_loops(onto, piece, points, edges, radius, point_scale)[piece]
     anchors[members[closing]] = onto[closing]
     return anchors
 
 
-def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float
-                   ) -> np.ndarray:
+def _within(near: cKDTree, far: cKDTree, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols): the pairs of a point of `near` and one of `far` within that near point's radius (`radii`)."""
+    pairs = near.sparse_distance_matrix(far, float(radii.max(initial=0.0)), output_type="coo_matrix")
+    keep = pairs.data <= radii[pairs.row]
+    return pairs.row[keep], pairs.col[keep]
+
+
+def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edges: np.ndarray, radius: float,
+                   reach: np.ndarray) -> np.ndarray:
     """For each piece (ids `piece` of its points' `axis` positions): whether it closes a loop of the input, as a
     handle does: the rest of the input touches both its ends, and one piece of the rest touches both. A limb's
     root touches the body and its tip, if anything of it is left, only a piece of the rest of its own. A piece
-    stands for the input within `radius` of its axis (the tube the skeleton draws as it); its ends are the ends
-    of its axis's longest shortest path (positions within `radius` joined), and the rest touches an end where a
-    surface edge (`edges`, of those no longer than `radius`) crosses into the piece nearer that end."""
+    stands for the input within `reach` (n,) of its axis, each input point's scale (thin_tubes; the tube the
+    skeleton draws as it); its ends are the ends of its axis's longest shortest path (positions within `radius`
+    joined), and the rest touches an end where a surface edge (`edges`, of those no longer than the scale of
+    either end) crosses into the piece nearer that end."""
     count = int(piece.max()) + 1 if len(piece) else 0
     closes = np.zeros(count, dtype=bool)
     if count == 0:
         return closes
-    distance, nearest = cKDTree(axis).query(points, distance_upper_bound=radius, workers=-1)
-    label = np.where(np.isfinite(distance), piece[np.minimum(nearest, len(axis) - 1)], -1)
+    distance, nearest = cKDTree(axis).query(points, distance_upper_bound=float(reach.max()), workers=-1)
+    label = np.where(distance <= reach, piece[np.minimum(nearest, len(axis) - 1)], -1)
     # the surface joined at the skeleton's scale: a long ring edge can reach past a thin piece along its tube
-    edges = edges[np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) <= radius]
+    edges = edges[np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) <= reach[edges].max(axis=1)]
     inside = label[edges] >= 0
     rest = edges[~inside.any(axis=1)]
     _, component = connected_components(
@@ -223,17 +250,17 @@ def _far_ends(graph) -> tuple[int, int]:
     return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
 
 
-def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, radius: float
+def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, scale: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """For each probe (m, 3) with its unit direction along: the centroid of the input's cross-section there (the
-    input: the points of `tree`), and whether that cross-section is a hollow one within `radius` of it
-    (thin_tubes)."""
+    """For each probe (m, 3) with its unit direction along and its scale (m,): the centroid of the input's
+    cross-section there (the input: the points of `tree`), and whether that cross-section is a hollow one within
+    the scale of it (thin_tubes)."""
     points = tree.data
-    pairs = cKDTree(probes).sparse_distance_matrix(tree, 2 * radius, output_type="coo_matrix")
-    offset = points[pairs.col] - probes[pairs.row]
-    axial = np.einsum("ij,ij->i", offset, along[pairs.row])
-    in_slab = np.abs(axial) <= 0.5 * radius
-    rows = pairs.row[in_slab]
+    pair_rows, pair_cols = _within(cKDTree(probes), tree, 2 * scale)
+    offset = points[pair_cols] - probes[pair_rows]
+    axial = np.einsum("ij,ij->i", offset, along[pair_rows])
+    in_slab = np.abs(axial) <= 0.5 * scale[pair_rows]
+    rows = pair_rows[in_slab]
     across = offset[in_slab] - axial[in_slab, None] * along[rows]
     count = np.bincount(rows, minlength=len(probes))
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -241,11 +268,11 @@ def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, radius
     across -= centroid[rows]
     distance = np.linalg.norm(across, axis=1)
     closed = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
-    closed[rows[distance > radius]] = False
+    closed[rows[distance > scale[rows]]] = False
     # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
-    # crease or a strip has points at its centroid
-    nearest = np.full(len(probes), np.inf)
-    np.minimum.at(nearest, rows, distance)
+    # crease or a strip has points at its centroid (a strip a sixth of them within HOLLOW of the mean, a twig
+    # most), while noise scatters only a few of a wall's points inwards
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.bincount(rows, distance, len(probes)) / count
-    return probes + centroid, closed & (nearest >= HOLLOW * mean)
+        inner = np.bincount(rows, distance < HOLLOW * mean[rows], len(probes)) / count
+    return probes + centroid, closed & (inner <= STRAY)

@@ -110,7 +110,8 @@ class RunStart:
     def anchors(self) -> np.ndarray:
         """(n, 3) the axis point of each input point on a handle thinner than the skeleton resolves (NaN: free;
         curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
-        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal, self.rings.edges())
+        return thin_tubes(self.unit, SkeletonParams.sample_radius * self.diagonal, self.rings.edges(),
+                          self.state.params.k or default_k(len(self.unit)))
 
 
 def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:

@@ -41,7 +41,8 @@ def _thin_tubes(points):
     from skelcore.params import default_k
 
     radius = 0.02 * object_diagonal(points)
-    return thin_tubes(points, radius, one_rings(points, default_k(len(points))).edges()), radius
+    k = default_k(len(points))
+    return thin_tubes(points, radius, one_rings(points, k).edges(), k), radius
 
 
 def test_thin_handles_are_anchored_on_their_axis():
@@ -50,13 +51,38 @@ def test_thin_handles_are_anchored_on_their_axis():
     from skelcore.solids import solid_shape
 
     points = solid_shape("thin_handled_ball", 10_000).points
-    anchors, _ = _thin_tubes(points)
+    anchors, radius = _thin_tubes(points)
     anchored = np.isfinite(anchors[:, 0])
     on_handles = np.linalg.norm(points, axis=1) > 1.01
     # the arcs that stand free of the ball (their feet, within a skeleton ball of it, contract with it)
     assert anchored[on_handles].mean() > 0.2 and not anchored[~on_handles].any()
-    # within the tube (0.04) and the straight axis line's offset from the curved one
-    assert (np.linalg.norm(anchors[anchored] - points[anchored], axis=1) < 0.08).all()
+    # within the tube (0.04) and the straight axis line's offset from the curved one; at a foot, where the ball
+    # enters the cross-section, a centroid may lean towards it, but never past the judging scale (two radii)
+    offsets = np.linalg.norm(anchors[anchored] - points[anchored], axis=1)
+    assert np.quantile(offsets, 0.99) < 0.08 and (offsets < 2 * radius).all()
+
+
+def _handle_of(points, handles=3):
+    """0 on the ball of solids.handled_ball, else 1 + the handle a point stands on (the solid's directions)."""
+    height = 0.8 - 1.2 * np.arange(handles) / (handles - 1)
+    azimuth, tilt = 2.39996 * np.arange(handles), np.arccos(height)
+    directions = np.column_stack([np.sin(tilt) * np.cos(azimuth), np.sin(tilt) * np.sin(azimuth), height])
+    return np.where(np.linalg.norm(points, axis=1) > 1.01, np.argmax(points @ directions.T, axis=1) + 1, 0)
+
+
+def test_handles_on_the_sparse_half_of_a_scan_are_anchored():
+    """Handles of tube 0.07 (over a sample radius) on a ball with 30% of the points kept on one half: on the
+    sparse half a handle is a few points around, its one-rings lie flat over it and a sample radius holds too
+    few points to judge it; judged at the reach of its one-ring's neighbourhood every handle is anchored (with a
+    fixed radius none was), and no point of the ball is."""
+    from skelcore.perturb import thin_half
+    from skelcore.solids import solid_shape
+
+    points = thin_half(solid_shape("handled_ball", 10_000).points, 0.3, np.random.default_rng(0))
+    anchors, _ = _thin_tubes(points)
+    anchored, handle = np.isfinite(anchors[:, 0]), _handle_of(points)
+    assert np.bincount(handle)[3] < 0.5 * np.bincount(handle)[2]  # the third handle is on the sparse half
+    assert all(anchored[handle == h].mean() > 0.3 for h in (1, 2, 3)) and not anchored[handle == 0].any()
 
 
 def test_limbs_sheets_and_thick_parts_are_not_anchored():
@@ -69,3 +95,16 @@ def test_limbs_sheets_and_thick_parts_are_not_anchored():
     strip = np.column_stack([rng.uniform(-1, 1, 3000), rng.uniform(-0.01, 0.01, 3000), np.zeros(3000)])
     for cloud in (make_shape("animal", 3000, seed=0).points, _torus(6000, 1.0, 0.3), sheet, strip):
         assert not np.isfinite(_thin_tubes(cloud)[0][:, 0]).any()
+
+
+def test_noisy_thin_handles_are_anchored_and_the_ball_is_not():
+    """Noise of 0.5% of the diagonal scatters a few of a thin handle's points into its cross-section (the tube is
+    0.04, the noise 0.018): the wall is still hollow but for those strays, so all three handles are anchored
+    (judged by the single nearest point, none was); no point of the ball is."""
+    from skelcore.perturb import perturb
+    from skelcore.solids import solid_shape
+
+    clean = solid_shape("thin_handled_ball", 10_000).points
+    anchors, _ = _thin_tubes(perturb(clean, "noise_0.5", seed=0))
+    anchored, handle = np.isfinite(anchors[:, 0]), _handle_of(clean)
+    assert all(anchored[handle == h].mean() > 0.3 for h in (1, 2, 3)) and not anchored[handle == 0].any()
