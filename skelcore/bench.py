@@ -93,7 +93,8 @@ def _print_run(row: dict, out) -> None:
         f"(CPU {row['cpu']:.2f} s), peak {row['peak_mb']:.0f} MB, "
         f"{row['iterations']} iterations; {row['topology']}")
     out(f"{'':>12}stages: {stages}")
-    out(f"{'':>12}inside contract: {inner}; share of set-up, metrics (with the evidence) and skeleton {row['overhead_share']:.0%}")
+    out(f"{'':>12}inside contract: {inner}; share of set-up, metrics (with the evidence) and skeleton "
+        f"{row['overhead_share']:.0%}")
 
 
 def _print_summary(rows: list[dict], sizes, methods, out) -> None:

@@ -164,10 +164,10 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     that direction. The part is thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within
     the scale of its centroid and is hollow (at most a share STRAY of its points nearer the centroid than HOLLOW
     of their mean distance to it). A point is thin when most probes judged within their scale of it are, and its
-    axis is its nearest probe's, the line along the direction through the centroid. Thin pieces (points within their scale of each
-    other) spanning less than MIN_CURVE_RADII radii are left out, a bump the skeleton could not draw as a curve;
-    and so are those that close no loop of the input (`_closing_loops`, over its surface `edges` (e, 2)): a limb
-    or a tail ends, and the hold (thin_parts) keeps its end."""
+    axis is its nearest probe's, the line along the direction through the centroid. Thin pieces (points within
+    their scale of each other) spanning less than MIN_CURVE_RADII radii are left out, a bump the skeleton could
+    not draw as a curve; and so are those that close no loop of the input (`_closing_loops`, over its surface
+    `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts) keeps its end."""
     anchors = np.full(points.shape, np.nan)
     tree = cKDTree(points)
     probes = probe_ids(len(points))
