@@ -74,11 +74,14 @@ def test_degenerate_triangles_stay_finite():
     assert np.isfinite(values).all()
 
 
+def spd_system(n: int, density: float, seed: int) -> tuple[sp.csr_matrix, np.ndarray]:
+    """A sparse symmetric positive-definite matrix (A^T A + I of a random sparse A) and three right-hand sides."""
+    a = sp.random(n, n, density=density, random_state=seed)
+    return (a.T @ a + sp.identity(n)).tocsr(), np.random.default_rng(0).normal(size=(n, 3))
+
+
 def test_one_factorisation_solves_all_coordinates():
-    rng = np.random.default_rng(0)
-    a = sp.random(300, 300, density=0.02, random_state=1)
-    matrix = (a.T @ a + sp.identity(300)).tocsr()
-    rhs = rng.normal(size=(300, 3))
+    matrix, rhs = spd_system(300, 0.02, seed=1)
     solver = CholeskySolver()
     np.testing.assert_allclose(matrix @ solver.solve(matrix, rhs), rhs, atol=1e-8)
     np.testing.assert_allclose(matrix @ solver.solve(matrix * 2, rhs), rhs / 2, atol=1e-8)
@@ -88,10 +91,7 @@ def test_solver_refactorises_after_a_failed_factorisation():
     """The factor is refilled in place; a factorisation that fails must not leave a broken factor behind."""
     from skelcore.errors import SolverError
 
-    rng = np.random.default_rng(0)
-    a = sp.random(200, 200, density=0.03, random_state=2)
-    matrix = (a.T @ a + sp.identity(200)).tocsr()
-    rhs = rng.normal(size=(200, 3))
+    matrix, rhs = spd_system(200, 0.03, seed=2)
     solver = CholeskySolver()
     first = solver.solve(matrix, rhs)
     with pytest.raises(SolverError):
