@@ -91,7 +91,7 @@ class Presenter:
         """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""
         run = self.session.run
         ahead = run.ahead
-        if ahead is not None and ahead.iteration != run.history[-1].iteration:
+        if ahead is not None and ahead.iteration > run.history[-1].iteration:
             self.analyses.plots(run, len(run.history))
 
     def reanalyse(self) -> None:

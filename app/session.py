@@ -228,6 +228,7 @@ class Session:
             if run.reduction is not None:
                 record(run.reduced, reduced)
             record(run.history, state)
+            self._forget_from(len(run.history))  # a run that ends on an earlier state drops the states after it
         if state.termination:
             self.note(f"ended at iteration {state.iteration}: {state.message}")
         return state
@@ -250,7 +251,7 @@ class Session:
                     return False
                 run.ahead, run.ahead_reduced = advanced
             ahead, index = run.ahead, len(run.history)
-        if ahead.iteration == run.history[-1].iteration:  # a rejected step: the last state again, measured as such
+        if ahead.iteration <= run.history[-1].iteration:  # a rejected step: a state of the run again, measured as such
             return True
         if paused():
             return False
@@ -294,14 +295,19 @@ class Session:
         run = self.run
         if run.ahead is None:
             return
-        index = len(run.history)
+        self._forget_from(len(run.history))
+        run.ahead = run.ahead_reduced = None
+
+    def _forget_from(self, index: int) -> None:
+        """Forget what was derived from the states at `index` and after (the state ahead's, or those of states
+        the run dropped)."""
+        run = self.run
         with self._lock:
             if run.metrics is not None:
                 run.metrics.forget(index)
         for cache in (run.skeletons, run.evidence):
-            for key in [key for key in list(cache) if key[0] == index]:
+            for key in [key for key in list(cache) if key[0] >= index]:
                 cache.pop(key, None)
-        run.ahead = run.ahead_reduced = None
 
     # -- derived data of history[index], cached per run
     def run_options(self, run: Run | None = None) -> pipeline.RunOptions:

@@ -18,7 +18,7 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
     state = "paused" if len(history) > 1 else "ready"
     if ahead is None:
         return state
-    if ahead.iteration == latest.iteration:  # the next step was rejected: Step ends the run
+    if ahead.iteration <= latest.iteration:  # the next step was rejected: Step ends the run
         return f"{state}; the next step, computed ahead, ends the run"
     return f"{state}; iteration {ahead.iteration} computed ahead (Step shows it at once)"
 

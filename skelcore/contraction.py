@@ -17,8 +17,8 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows,
-                   free_points, goes_on, hold_curves, record, retune, rings_stalled, schedule, shown, solve_stages,
-                   start_run, stopped, torn)
+                   free_points, goes_on, hold_curves, record, rejected, retune, rings_stalled, schedule, shown,
+                   solve_stages, start_run, torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
            "retune", "run_contraction"]
@@ -31,7 +31,8 @@ def contract(points: np.ndarray, params: ContractionParams = ContractionParams()
 
     The last state yielded carries `termination`. When a rule rejects the candidate of a step (NaN,
     solver failure, bounding-box growth, ring ratio no longer falling: cloudcontr discards that step),
-    the last accepted state is yielded again with the reason set.
+    the last accepted state is yielded again with the reason set, or after a bounding-box growth that began
+    in it, the one before it (skelcore.step.rejected; `record` then drops the last).
     weights: optional (n,) positive per-point contraction weights; point i's Laplacian row of eq. 2 is
     W_L w_i L_i (see skelcore.labels). None: every weight is 1.
     stages: also yield None between the stages of a step (Laplacian, solve, checks), so that a caller
@@ -53,16 +54,16 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
     current, sizes, ratio = run.unit, sizes0, 1.0
     solver = CholeskySolver()
     held = np.full(len(points), np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    iteration = 0
-    before = (iteration, state, current, sizes, ratio, held)  # what the last step started from, for a Redo
+    iteration, earlier = 0, None  # earlier: the accepted state before `state`
+    before = (iteration, state, earlier, current, sizes, ratio, held)  # what the last step started from, for a Redo
     while True:
         sent = yield state
         if isinstance(sent, Redo):
-            (iteration, state, current, sizes, ratio, held), sent = before, sent.params
+            (iteration, state, earlier, current, sizes, ratio, held), sent = before, sent.params
         elif state.termination:
             return
         params, notes = retune(params, sent)
-        before = (iteration, state, current, sizes, ratio, held)
+        before = (iteration, state, earlier, current, sizes, ratio, held)
         iteration += 1
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
@@ -87,7 +88,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             else:
                 failure = torn(iteration, sizes, new_sizes)
         if failure is not None:
-            state = stopped(state, *failure, notes)
+            state = rejected(state, earlier, run, *failure, notes)
             continue
         current, sizes, ratio = candidate, new_sizes, new_ratio
         if iteration == 1:
@@ -96,10 +97,10 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]
         shown_points, anchored_count = shown(current, run, ids, params)
-        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
-                               owner=ids, rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message,
-                               anchored=anchored_count)
+        earlier, state = state, IterationState(iteration=iteration, points=shown_points, point_ids=ids, owner=ids,
+                                               rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
+                                               timings=timings, termination=termination, message=message,
+                                               anchored=anchored_count)
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),

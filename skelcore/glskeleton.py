@@ -67,8 +67,8 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
-                   free_points, represented, retune, rings_stalled, schedule, shown, solve_stages, start_run,
-                   stopped, torn)
+                   free_points, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
+                   start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -94,18 +94,18 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
     held = np.full(n, np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    iteration = 0
+    iteration, earlier = 0, None  # earlier: the accepted state before `state`
 
     def carried():  # what the loop carries from step to step: a Redo restores it
-        return (iteration, state, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing, held,
-                ids, owner)
+        return (iteration, state, earlier, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing,
+                held, ids, owner)
 
     before = carried()
     while True:
         sent = yield state
         if isinstance(sent, Redo):
-            (iteration, state, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing, held, ids,
-             owner), sent = before, sent.params
+            (iteration, state, earlier, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing,
+             held, ids, owner), sent = before, sent.params
         elif state.termination:
             return
         params, notes = retune(params, sent)
@@ -133,7 +133,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if stages:
             yield None
         if failure is not None:
-            state = stopped(state, *failure, notes)
+            state = rejected(state, earlier, run, *failure, notes)
             continue
         new_sizes, nearest = _nearest_in_ring(rings, candidate)
         free = free_points(run, ids, params)
@@ -188,10 +188,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
         timings["rest"] = time.perf_counter() - step_start - sum(timings.values())
         shown_points, anchored_count = shown(current, run, ids, params)
-        state = IterationState(iteration=iteration, points=shown_points, point_ids=ids,
-                               owner=owner, rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
-                               timings=timings, termination=termination, message=message,
-                               anchored=anchored_count)
+        earlier, state = state, IterationState(iteration=iteration, points=shown_points, point_ids=ids, owner=owner,
+                                               rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
+                                               timings=timings, termination=termination, message=message,
+                                               anchored=anchored_count)
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,

@@ -27,11 +27,13 @@ ISLAND_SHARE = 0.02  # largest share of the visible points a view may lose as is
 LINEAR = 0.8
 
 
-def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray | None = None) -> np.ndarray:
+def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray | None = None,
+            loops: bool = False) -> np.ndarray:
     """The `variant` (one of VARIANTS) of a clean cloud; the same inputs give the same points.
 
     normals: outward unit normals at the points (from the mesh), used by 'partial'; without them PCA normals
-    are estimated and oriented outward.
+    are estimated and oriented outward. loops: the shape has loops, so the partial view keeps every patch it
+    sees (see `partial_scan`).
     """
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 20:
@@ -47,7 +49,7 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
     if variant == "density_30":
         return thin_half(points, DENSITY_KEPT, rng)
     if variant == "partial":
-        return points[partial_scan(points, normals)[0]]
+        return points[partial_scan(points, normals, ISLAND_SHARE if not loops else 0.0)[0]]
     raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(VARIANTS)})")
 
 
@@ -61,7 +63,8 @@ def thin_half(points: np.ndarray, kept: float, rng: np.random.Generator) -> np.n
     return points[keep]
 
 
-def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def partial_scan(points: np.ndarray, normals: np.ndarray | None = None,
+                 island_share: float = ISLAND_SHARE) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the points one orthographic view sees, and the unit direction towards the viewer: those
     whose outward normal has a positive component towards the viewer (back faces dropped, as a scanner sees
     one side), and of those, per piece of the input, only the largest connected patch (a scan keeps its main
@@ -70,7 +73,9 @@ def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple
     view does not cut the piece apart.
 
     The view: the first of a fixed list of directions in the cloud's principal frame whose islands hold at
-    most ISLAND_SHARE of the visible points, else the one that loses the fewest. The list starts along the
+    most `island_share` of the visible points, else the one that loses the fewest. On a shape with loops pass
+    0: there an island can be the whole visible arc of a handle whose feet face away, and dropping it would
+    take a loop from the truth. The list starts along the
     thinnest principal axis (the view that shows the most surface) tilted by about 30 and 15 degrees
     towards the other two: a ring lying exactly edge-on to the view would be cut into two arcs.
 
@@ -95,7 +100,7 @@ def partial_scan(points: np.ndarray, normals: np.ndarray | None = None) -> tuple
             continue
         kept = seen[_largest_patches(points[seen], piece_of[seen], radius)]
         lost = 1.0 - len(kept) / len(seen)
-        if lost <= ISLAND_SHARE:
+        if lost <= island_share:
             return kept, direction
         if lost < best_lost:
             best, best_lost = (kept, direction), lost

@@ -92,7 +92,8 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
     for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
         expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
         for variant in variants:
-            cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals)
+            cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals,
+                            loops=shape.cycles > 0)
             for method in methods:
                 cases.append((CaseResult(shape.name, variant, method, expected, len(cloud)), cloud))
     keep = Path(keep_dir) if keep_dir is not None else None

@@ -1,7 +1,8 @@
 """Refinements of the curve skeleton graph, each switchable: merge junctions joined by a short path, prune
-short spurs, drop nearly collinear degree-2 nodes, give stray specks to the skeleton beside them. None of them
-can remove a loop of the object or shrink a curve by more than its stated length: a merge is refused when it
-would fold a loop away, and only end branches shorter than the spur length are pruned.
+short spurs, split edges longer than the sampling's spacing, drop nearly collinear degree-2 nodes, give stray
+specks to the skeleton beside them. None of them can remove a loop of the object or shrink a curve by more than
+its stated length: a merge is refused when it would fold a loop away, and only end branches shorter than the
+spur length are pruned.
 
 The graph is a dict node -> neighbours with positions `xyz` (list of tuples); `parent` is the merge forest
 (a merged node points at the node that absorbed it).
@@ -96,6 +97,57 @@ def prune_spurs(adj: Adjacency, xyz: list, parent: np.ndarray, limit: float) -> 
             if tips:
                 gaps = np.abs(_arclength(xyz, path)[1:, None] - _arclength(xyz, tips[0])[None, :])
                 parent[pruned] = np.asarray(tips[0])[gaps.argmin(axis=1)]
+
+
+def split_long_edges(adj: Adjacency, xyz: list, node_of_point: np.ndarray, contracted: np.ndarray,
+                     max_length: float) -> np.ndarray:
+    """Split every edge longer than `max_length` into equal pieces with new degree-2 nodes (appended to `xyz`
+    and `adj`), and return the points' nodes with each point of a split edge's end moved to the nearest of
+    that end and the new nodes on its edges (by its contracted position); a new node that no point chose is
+    taken out again.
+
+    Why: contracting the sample complex merges runs of samples where the contracted points stayed thick
+    (noise, a sheet), so one edge can span many ball radii and cut across a bending curve as a chord. Split
+    to the ball cover's spacing, the curve has the same resolution however thick its points stayed, and the
+    new nodes, given their points, are recentred like any other."""
+    long_edges = [(u, v) for u in adj for v in adj[u] if u < v and math.dist(xyz[u], xyz[v]) > max_length]
+    if not long_edges:
+        return node_of_point
+    pos = np.asarray(xyz, dtype=float)
+    candidates: dict[int, list[int]] = {}  # old node -> the new nodes on its split edges
+    for u, v in long_edges:
+        pieces = math.ceil(math.dist(xyz[u], xyz[v]) / max_length)
+        new = list(range(len(xyz), len(xyz) + pieces - 1))
+        xyz.extend(tuple(p) for p in (pos[u] + np.outer(np.arange(1, pieces) / pieces, pos[v] - pos[u])).tolist())
+        chain = [u, *new, v]
+        adj[u].discard(v)
+        adj[v].discard(u)
+        for node in new:
+            adj[node] = set()
+        for a, b in zip(chain, chain[1:]):
+            adj[a].add(b)
+            adj[b].add(a)
+        candidates.setdefault(u, []).extend(new)
+        candidates.setdefault(v, []).extend(new)
+    node_of_point = node_of_point.copy()
+    order = np.argsort(node_of_point, kind="stable")
+    starts = np.searchsorted(node_of_point[order], np.arange(len(pos) + 1))
+    everywhere = np.asarray(xyz, dtype=float)
+    for node, new in candidates.items():
+        points = order[starts[node]:starts[node + 1]]
+        choice = np.array([node, *new])
+        gaps = np.linalg.norm(contracted[points, None, :] - everywhere[choice][None, :, :], axis=2)
+        node_of_point[points] = choice[gaps.argmin(axis=1)]
+    # A new node no point chose lies over a gap of the contracted points: it goes, so every node holds points.
+    held = np.bincount(node_of_point, minlength=len(xyz)) > 0
+    for node in range(len(pos), len(xyz)):
+        if not held[node]:
+            a, b = adj.pop(node)
+            adj[a].discard(node)
+            adj[b].discard(node)
+            adj[a].add(b)
+            adj[b].add(a)
+    return node_of_point
 
 
 def absorb_specks(adj: Adjacency, xyz: list, parent: np.ndarray, node_of_point: np.ndarray, share: float) -> None:

@@ -8,9 +8,9 @@ After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topol
    2-complex on the samples with the loops of the shape; it is reduced to a graph by elementary collapses
    and link-condition edge contractions, which keep its loops exactly (skelcore.collapse);
 3. refinements, each switchable, in this order: merge junctions joined by a short path, prune short spurs,
-   recentre degree-2 nodes on the cross-section of their ORIGINAL points, give components of less than the
-   cleaning's stray share of the points to the nearest node of the rest, drop nearly collinear degree-2
-   nodes (skelcore.refine, skelcore.recentre). Their lengths are in units of r, so they follow the sampling.
+   split edges longer than the cover's spacing (two radii), recentre degree-2 nodes on the cross-section of
+   their ORIGINAL points, give components of less than the cleaning's stray share of the points to the
+   nearest node of the rest, drop nearly collinear degree-2 nodes (skelcore.refine, skelcore.recentre). Their lengths are in units of r, so they follow the sampling.
 
 Invariants: every loop of the sample complex is a loop of the skeleton and the skeleton has no other; no
 curve is merged to a point (only triangles are ever contracted, and a refinement shortens a branch by at
@@ -31,7 +31,7 @@ from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
 from .loops import cut_false_loops
 from .recentre import recentre
-from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs
+from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs, split_long_edges
 from .sampling import ball_cover_by_piece
 from .surface import OriginalSurface
 
@@ -48,6 +48,9 @@ class SkeletonParams:
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
     prune_spurs: bool = True
     spur_length: float = 3.0  # in sample radii: end branches shorter than this are removed
+    split_long_edges: bool = True
+    # in sample radii: longer edges are split into equal pieces (the ball cover spaces its samples 1-2 radii apart)
+    edge_length: float = 2.0
     # components holding less than the cleaning's stray share of the points join the nearest larger one
     absorb_specks: bool = True
     drop_collinear: bool = False
@@ -56,7 +59,7 @@ class SkeletonParams:
 
     def validated(self) -> "SkeletonParams":
         """These parameters, or a ParameterError naming the first out of range."""
-        for name in ("sample_radius", "junction_distance", "spur_length"):
+        for name in ("sample_radius", "junction_distance", "spur_length", "edge_length"):
             value = getattr(self, name)
             if not _real(value) or not math.isfinite(value) or value <= 0:
                 raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
@@ -139,11 +142,14 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     if params.prune_spurs:
         prune_spurs(adj, xyz, parent, params.spur_length * radius)
     node_of_point = _roots(parent)[owner]
+    if params.split_long_edges:
+        node_of_point = split_long_edges(adj, xyz, node_of_point, contracted, params.edge_length * radius)
+        parent = np.r_[parent, np.arange(len(parent), len(xyz))]
     if params.recentre:
         recentre(adj, xyz, node_of_point, original)
     if params.absorb_specks:  # after recentring: a speck's far points would pull its new node's centre
         absorb_specks(adj, xyz, parent, node_of_point, CleaningParams.min_piece_share)
-        node_of_point = _roots(parent)[owner]
+        node_of_point = _roots(parent)[node_of_point]
     if params.drop_collinear:
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle)
     return _finish(adj, xyz, node_of_point, radius)

@@ -33,7 +33,7 @@ from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
 from .curveness import skeleton_scale_share, thin_parts, thin_tubes
-from .normalise import Normalisation, object_diagonal, robust_extent
+from .normalise import ROBUST_SHARE, Normalisation, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
@@ -300,11 +300,36 @@ def stopped(state: IterationState, reason: str, detail: str, notes: list[str]) -
     return dataclasses.replace(state, termination=reason, message=message)
 
 
+def rejected(state: IterationState, earlier: IterationState | None, run: RunStart, reason: str, detail: str,
+             notes: list[str]) -> IterationState:
+    """The state a run ends on when the candidate of its next step is rejected: the last good state, carrying
+    the reason. When the bounding box grew, and the last good state had sent more of its points out of the
+    input's bounding box than the state before it, by more than the share the growth check trims
+    (normalise.ROBUST_SHARE: it reads the middle 98%, so such a state passes it), that earlier state: the
+    fling that blew the box up had begun there, and a point outside the input's box is outside the shape.
+    Never the input itself."""
+    if reason == "bbox_growth" and earlier is not None and earlier.iteration >= 1:
+        low, high = run.state.points.min(axis=0), run.state.points.max(axis=0)
+        now, then = _outside_share(state.points, low, high), _outside_share(earlier.points, low, high)
+        if now - then > ROBUST_SHARE:
+            detail = (f"iteration {state.iteration} is dropped too: {now:.1%} of its points had left the input's "
+                      f"box, against {then:.1%} at iteration {earlier.iteration}")
+            state = earlier
+    return stopped(state, reason, detail, notes)
+
+
+def _outside_share(points: np.ndarray, low: np.ndarray, high: np.ndarray) -> float:
+    return float(np.mean(np.any((points < low) | (points > high), axis=1)))
+
+
 def record(history: list[IterationState], state: IterationState) -> bool:
-    """Add a yielded state to a run's history; False when it repeats the last one (a rejected step:
-    the last good state again, now with the reason), which it then replaces."""
-    if history and history[-1].iteration == state.iteration:
-        history[-1] = state
+    """Add a yielded state to a run's history; False when it repeats one already there (a rejected step: the
+    last good state again, now with the reason, or the one before it, see `rejected`), which then replaces
+    that state and ends the history."""
+    same = [i for i, kept in enumerate(history) if kept.iteration == state.iteration]
+    if same:
+        del history[same[0]:]
+        history.append(state)
         return False
     history.append(state)
     return True

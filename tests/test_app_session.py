@@ -613,3 +613,29 @@ def test_the_status_counts_the_points_held_on_thin_handles():
     assert f"{session.history[1].anchored:,} points on thin handles held in place" in status
     _, status = status_after_a_step(make_shape("torus", 3000, seed=0).points, "torus.xyz")
     assert "thin handles" not in status
+
+
+def test_a_run_that_ends_a_step_back_drops_that_step_and_what_came_of_it():
+    """The partial gear's GLSkeleton run blows its box up after iteration 5, whose step had begun the fling:
+    the run ends on iteration 4 (skelcore.step.rejected). The session drops iteration 5 with its metrics
+    and skeletons, computed ahead or shown, and the status and skeleton are iteration 4's."""
+    from app.status import run_state
+    from skelcore.perturb import perturb
+    from skelcore.solids import solid_shape
+
+    gear = solid_shape("gear", 10_000, seed=0)
+    cloud = validate(perturb(gear.points, "partial", normals=gear.normals, loops=True), name="gear.xyz")
+    session = Session(cloud, ContractionParams(method="glskeleton"))
+    while not session.finished:
+        session.look_ahead(skeleton=True, provisional=True)
+        session.skeleton(len(session.history) - 1)
+        session.metrics(len(session.history) - 1)
+        session.step()
+    iterations = [state.iteration for state in session.history]
+    assert iterations == list(range(5)) and session.latest.termination == "bbox_growth"
+    assert "iteration 5 is dropped too" in session.latest.message
+    run = session.run
+    assert all(index < len(session.history) for index, _ in [*run.skeletons, *run.evidence])
+    assert session.skeleton(4).topology()["cycles"] == 5
+    assert len(session.metrics_upto(4, run)) == 5
+    assert run_state(session.history, "", False).startswith("ended at iteration 4")

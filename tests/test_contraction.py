@@ -407,3 +407,34 @@ def test_density_weights_are_one_on_even_sampling_and_follow_the_spacing():
     left, right = inner & (grid[:, 0] > 4) & (grid[:, 0] < 24), inner & (grid[:, 0] > 36) & (grid[:, 0] < 54)
     assert np.ptp(weights[left]) < 0.1 * weights[left].mean()
     assert 3.6 < weights[right].mean() / weights[left].mean() < 4.4
+
+
+def test_a_box_blow_up_that_began_in_the_last_step_ends_on_the_step_before():
+    """skelcore.step.rejected: after a bounding-box growth, the last good state gives way to the one before it
+    when it had sent more than the growth check's trimmed share (1%) of its points out of the input's box
+    beyond what that one had; never to the input, and only for that reason. `record` then ends the history
+    there."""
+    import dataclasses
+
+    from skelcore.step import rejected, start_run
+
+    run = start_run(make_shape("torus", 500, seed=0).points, ContractionParams())
+    centre = run.state.points.mean(axis=0)
+    inside = centre + 0.5 * (run.state.points - centre)
+    first = dataclasses.replace(run.state, iteration=1, points=inside)
+
+    def flung(share):
+        points = inside.copy()
+        points[: round(share * len(points))] += 10 * np.ptp(run.state.points, axis=0)
+        return dataclasses.replace(run.state, iteration=2, points=points)
+
+    ended = rejected(flung(0.05), first, run, "bbox_growth", "", [])
+    assert ended.iteration == 1 and ended.termination == "bbox_growth"
+    assert "iteration 2 is dropped too: 5.0% of its points had left the input's box" in ended.message
+    assert rejected(flung(0.006), first, run, "bbox_growth", "", []).iteration == 2  # within the trimmed share
+    assert rejected(flung(0.05), first, run, "ring_ratio", "", []).iteration == 2
+    assert rejected(dataclasses.replace(flung(0.05), iteration=1), run.state, run, "bbox_growth", "", []).iteration == 1
+
+    history = [run.state, first, flung(0.05)]
+    assert not record(history, ended)
+    assert [state.iteration for state in history] == [0, 1] and history[-1] is ended

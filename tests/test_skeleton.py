@@ -301,7 +301,8 @@ def test_recentre_moves_nodes_onto_the_centroid_of_their_original_points():
 # --- errors ---
 
 @pytest.mark.parametrize("params", [dict(sample_radius=0), dict(sample_radius=float("nan")), dict(sample_radius=2),
-                                    dict(spur_length=-1), dict(junction_distance=0), dict(collinear_angle=180)])
+                                    dict(spur_length=-1), dict(junction_distance=0), dict(collinear_angle=180),
+                                    dict(edge_length=0)])
 def test_bad_parameters_raise_parameter_error(params):
     contracted, original = y_shape(n=200)
     with pytest.raises(ParameterError, match=next(iter(params))):
@@ -461,3 +462,18 @@ def test_no_curve_collapses_the_skeleton_keeps_the_centreline_length():
     skeleton = skeleton_of(contracted, original)
     length = sum(d["length"] for _, _, d in skeleton.graph.edges(data=True))
     assert length >= 3.0 - 3 * skeleton.radius * 3  # three arms of 1, each end short of at most a few radii
+
+
+def test_a_thick_contracted_curve_keeps_the_resolution_of_a_thin_one():
+    """Where the contracted points stay thick, the collapse contracts runs of samples into one node; the
+    split gives the curve back its samples' spacing: no edge much over two radii, every node holding points,
+    about as many nodes as the thin curve. Without it the thick torus keeps under half of them."""
+    thin = skeleton_of(*torus(3000, jitter=0.01))
+    contracted, original = torus(3000, jitter=0.03)
+    thick = skeleton_of(contracted, original)
+    lengths = [d["length"] for _, _, d in thick.graph.edges(data=True)]
+    assert max(lengths) <= 2.5 * thick.radius
+    assert thick.graph.number_of_nodes() >= 0.9 * thin.graph.number_of_nodes()
+    check_correspondence(thick, len(original))
+    unsplit = skeleton_of(contracted, original, split_long_edges=False)
+    assert unsplit.graph.number_of_nodes() < 0.5 * thin.graph.number_of_nodes()
