@@ -13,7 +13,7 @@ import dataclasses
 import functools
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Generator
 
@@ -58,6 +58,7 @@ class Result:
     elapsed: float | None = None  # seconds the run took (None: not timed)
     input_path: str | None = None  # the file it came from, if any
     reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
+    evidence: dict | None = field(default=None, repr=False)  # the skeleton checks' evidence, when the run made it
 
     @property
     def graph(self):
@@ -93,7 +94,9 @@ class Result:
     @functools.cached_property
     def _evidence(self) -> dict:
         """The skeleton checks' evidence (skelcore.pipeline.skeleton_evidence), which the verdict and every file
-        written read: computed once (its complex is a quarter of a 10k-point run)."""
+        written read: the run's, or computed once (its complex is a quarter of a 10k-point run)."""
+        if self.evidence is not None:
+            return self.evidence
         return pipeline.skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
 
     @property
@@ -182,7 +185,7 @@ def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *,
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
-                  time.perf_counter() - started, input_path, computed.reduction)
+                  time.perf_counter() - started, input_path, computed.reduction, computed.evidence)
 
 
 def cleaning_params(cleaning: CleaningParams | bool) -> CleaningParams:

@@ -6,7 +6,9 @@ first: interpreter, imports, PLY load, cleaning, multi-resolution above its budg
 metrics, the verdict's evidence, writing), timed by wall clock from its
 launch to its exit, its CPU time and peak resident memory read by the process itself. Runs are interleaved
 size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
-only those ratios mean much.
+only those ratios mean much. A stage's seconds are the run's own wall clock: the metrics and the verdict's
+evidence are computed on helper threads beside the contraction and the skeleton (skelcore.pipeline.compute), so
+their stages count only the time the run still waits for them.
 
 The pc-skeletor baseline is pc-skeletor's own whole LBC run when an interpreter with pc-skeletor installed is
 given (`--pc-skeletor PYTHON`, or the current one if it imports `pc_skeletor`): a fresh process that imports it,

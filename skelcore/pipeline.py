@@ -10,6 +10,7 @@ import errno
 import json
 import os
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -123,17 +124,24 @@ def original_surface(state: IterationState, original: np.ndarray) -> OriginalSur
     return OriginalSurface.of(original, state.point_ids[state.rings.triangles])
 
 
-def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None) -> dict:
+def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
+                      cloud: dict | None = None) -> dict:
     """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the pieces and loops
     of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
     (only the contracted cloud's loops need a complex: the input's pieces come from piece_counts).
-    source: {"pieces": piece_counts of `original` at that radius}, when already known."""
+    source: {"pieces": piece_counts of `original` at that radius}, and cloud: persistence_summary of the
+    state's points at that radius, when already known (see `cloud_evidence`)."""
     topology = skeleton.topology()
-    cloud = persistence_summary(state.points, skeleton.radius)
+    cloud = cloud or persistence_summary(state.points, skeleton.radius)
     source = source or {"pieces": piece_counts(original, skeleton.radius)}
     return {"nodes": skeleton.graph.number_of_nodes(), "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
             "input_pieces": source["pieces"]}
+
+
+def cloud_evidence(state: IterationState, original: np.ndarray, radius: float) -> tuple[dict, dict]:
+    """The parts of skeleton_evidence that need no skeleton, only its radius: (source, cloud) as it takes them."""
+    return {"pieces": piece_counts(original, radius)}, persistence_summary(state.points, radius)
 
 
 class IterationMetricsCache:
@@ -152,11 +160,14 @@ class IterationMetricsCache:
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
         """The metrics of states[index], computing those before it first."""
         while len(self._metrics) <= index:
-            state = states[len(self._metrics)]
-            previous = self._metrics[-1] if self._metrics else None
-            self._metrics.append(self.reference.evaluate(state.points, state.point_ids, previous=previous,
-                                                         iteration=state.iteration))
+            self.append(states[len(self._metrics)])
         return self._metrics[index]
+
+    def append(self, state: IterationState) -> None:
+        """Measure the state that follows the last one measured."""
+        previous = self._metrics[-1] if self._metrics else None
+        self._metrics.append(self.reference.evaluate(state.points, state.point_ids, previous=previous,
+                                                     iteration=state.iteration))
 
     def forget(self, index: int) -> None:
         """Drop the metrics of states[index:] (a state that was replaced, and those after it)."""
@@ -172,12 +183,9 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
     """Load INPUT, contract it to the end, and write the result files into OUT_DIR."""
     clock = StageClock()
     run = compute(input_path, options, progress, clock=clock)
-    # the verdict's skeleton checks (an alpha complex of the contracted cloud): timed apart from the writing
-    evidence = skeleton_evidence(run.skeleton, run.states[-1], run.cloud.points)
-    clock.mark("evidence")
     summary = write_results(out_dir, run.cloud, run.states, run.skeleton, run.metrics, options,
                             input_path=input_path, elapsed=clock.elapsed(), weights=run.weights,
-                            reduction=run.reduction, evidence=evidence)
+                            reduction=run.reduction, evidence=run.evidence)
     clock.mark("write")
     return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, clock.elapsed(), clock.stages)
 
@@ -200,6 +208,44 @@ class StageClock:
         return time.perf_counter() - self.start
 
 
+class _Helpers:
+    """A run's two helper threads: one measures the states in order (the paper's metrics, after carrying a reduced
+    run's states to every input point), the other computes the parts of the skeleton evidence that need only the
+    last state. Their numpy, LAPACK, k-d tree and gudhi work releases the GIL, so they use the second core while
+    the contraction and the skeleton's graph step (Python) run on the first. An error in a task is raised where
+    its result is read, or by `wait`; leaving the block cancels what has not started."""
+
+    def __enter__(self) -> "_Helpers":
+        self._measure = ThreadPoolExecutor(1, thread_name_prefix="skelcore-metrics")
+        self._judge = ThreadPoolExecutor(1, thread_name_prefix="skelcore-evidence")
+        self._measuring: list[Future] = []
+        return self
+
+    def measuring(self, task: Callable, *args) -> Future:
+        """Queue `task(*args)` behind the measuring tasks queued before it."""
+        self._measuring.append(self._measure.submit(task, *args))
+        return self._measuring[-1]
+
+    def judging(self, task: Callable, *args) -> Future:
+        """Run `task(*args)` on the evidence thread."""
+        return self._judge.submit(task, *args)
+
+    def wait(self) -> None:
+        """Wait until every measuring task is done; the first error of one is raised."""
+        for task in self._measuring:
+            task.result()
+
+    def __exit__(self, *exc) -> None:
+        for pool in (self._measure, self._judge):
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _lift(reduction: multires.Reduction, reduced: list[IterationState]) -> list[IterationState]:
+    """The states of a reduced run carried to every input point."""
+    carrier = reduction.carrier(reduced[0].rings)
+    return [reduction.lift(state, carrier) for state in reduced]
+
+
 @dataclass
 class Computed:
     """What a run computes, before anything is written."""
@@ -209,6 +255,7 @@ class Computed:
     skeleton: Skeleton
     weights: np.ndarray | None  # the per-point contraction weights used (None: all 1)
     reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
+    evidence: dict | None = None  # skeleton_evidence of the skeleton
 
 
 def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
@@ -241,41 +288,60 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
         reduction = multires.reduce_cloud(cloud.points, options.point_budget)
-        if reduction is None:
-            states = run_states(cloud, options.params, progress, weights)
-            clock.mark("contract")
-            surface = original_surface(states[-1], cloud.points)
-            skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
-            clock.mark("skeleton")
-        else:
-            _say(progress, f"{cloud.name}: {reduction.note()}")
-            clock.mark("reduce")
-            reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
-                                 None if weights is None else reduction.mean(weights))
-            clock.mark("contract")
-            surface = original_surface(reduced[-1], reduction.points)
-            skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
-            clock.mark("skeleton")
-            carrier = reduction.carrier(reduced[0].rings)
-            states = [reduction.lift(state, carrier) for state in reduced]
-            clock.mark("carry")
-        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one,
-        # and the skeleton's probe of the original surface has a tree over the same points (a tree built once).
+        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one.
         samples = reduction if options.point_budget == multires.POINT_BUDGET else None
-        metrics = IterationMetricsCache(cloud, options.metrics_k, options.seed, options.normal_convention,
-                                        samples, surface.probe.tree).all(states)
-        clock.mark("metrics")
+        with _Helpers() as helpers:
+            cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
+                                      options.normal_convention, samples)
+            if reduction is None:
+                # each state is measured on the second core while the contraction goes on
+                states = run_states(cloud, options.params, progress, weights,
+                                    lambda state: helpers.measuring(lambda: cache.result().append(state)))
+                clock.mark("contract")
+                surface = original_surface(states[-1], cloud.points)
+                radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
+                evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius)
+                skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
+                clock.mark("skeleton")
+            else:
+                _say(progress, f"{cloud.name}: {reduction.note()}")
+                clock.mark("reduce")
+                reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
+                                     None if weights is None else reduction.mean(weights))
+                clock.mark("contract")
+                lifted = helpers.measuring(_lift, reduction, reduced)
+                helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
+                surface = original_surface(reduced[-1], reduction.points)
+                radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
+                evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
+                skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
+                clock.mark("skeleton")
+                states = lifted.result()
+                clock.mark("carry")
+            helpers.wait()
+            cache.result().forget(len(states))  # a run that ended on an earlier state drops the later ones
+            metrics = cache.result().all(states)
+            clock.mark("metrics")
+            source, cloud_parts = evidence.result() if radius == skeleton.radius else (None, None)
+            evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts)
+            clock.mark("evidence")
     except SkelError as error:
         raise named(error, cloud.name) from None
-    return Computed(cloud, states, metrics, skeleton, weights, reduction)
+    return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence)
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,
-               weights: np.ndarray | None = None) -> list[IterationState]:
-    """Contract a cloud to the end; its states, with a progress line per accepted iteration."""
+               weights: np.ndarray | None = None, new_state: Callable[[IterationState], object] | None = None
+               ) -> list[IterationState]:
+    """Contract a cloud to the end; its states, with a progress line per accepted iteration. new_state: called
+    with each state as it joins the run (the input first; not the repeat a rejected step yields)."""
     states: list[IterationState] = []
     for state in contract(cloud.points, params, weights):
-        if record(states, state) and state.iteration > 0:
+        if not record(states, state):
+            continue
+        if new_state is not None:
+            new_state(state)
+        if state.iteration > 0:
             seconds = sum(state.timings.values())
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
                            f"points={state.n_points} ({seconds:.2f} s)")

@@ -1,4 +1,5 @@
-"""Multi-resolution (skelcore.multires): a reduced cloud is contracted and every input point carried along."""
+"""Multi-resolution (skelcore.multires): a reduced cloud is contracted and every input point carried along; the
+run's helper thread that measures its states."""
 import json
 
 import numpy as np
@@ -7,6 +8,7 @@ import pytest
 from skelcore import multires
 from skelcore.evaluate import evaluate, make_graph
 from skelcore.export import write_points_ply
+from skelcore.io import validate
 from skelcore.pipeline import RunOptions, run_pipeline
 from skelcore.shapes import EXPECTED_TOPOLOGY, centreline, make_shape
 
@@ -89,3 +91,52 @@ def test_cli_run_says_in_metrics_json_that_it_reduced(tmp_path):
     written = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert written["multiresolution"]["input_points"] == written["n_points"]
     assert written["multiresolution"]["contracted_points"] <= 1000
+
+
+@pytest.mark.parametrize("budget", [None, 2000])
+def test_metrics_and_evidence_made_beside_the_run_are_those_made_after_it(budget):
+    """compute() measures each state on a helper thread while the contraction goes on (a reduced run: while its
+    skeleton is drawn) and starts the skeleton evidence before the skeleton: the same metrics and evidence as
+    computing them one after the other from the finished run."""
+    from skelcore.pipeline import IterationMetricsCache, compute, skeleton_evidence
+
+    cloud = validate(make_shape("two_hole", 4000, seed=0).points, name="two_hole.xyz")
+    run = compute(cloud, RunOptions(point_budget=budget))
+    assert (run.reduction is not None) == (budget is not None)
+    again = IterationMetricsCache(run.cloud).all(run.states)
+    assert len(run.metrics) == len(run.states) == len(again)
+    for made, remade in zip(run.metrics, again):
+        assert made.iteration == remade.iteration
+        np.testing.assert_array_equal(made.d_theta, remade.d_theta)
+        np.testing.assert_array_equal(made.delta_kappa, remade.delta_kappa)
+    assert run.evidence == skeleton_evidence(run.skeleton, run.states[-1], run.cloud.points)
+
+
+def test_a_run_that_ends_a_step_back_keeps_the_metrics_of_the_states_it_keeps():
+    """The partial gear's GLSkeleton run measures iteration 5 on the helper thread before it drops it
+    (skelcore.step.rejected): its metrics go with it."""
+    from skelcore.params import ContractionParams
+    from skelcore.perturb import perturb
+    from skelcore.pipeline import IterationMetricsCache, compute
+    from skelcore.solids import solid_shape
+
+    gear = solid_shape("gear", 10_000, seed=0)
+    cloud = validate(perturb(gear.points, "partial", normals=gear.normals, loops=True), name="gear.xyz")
+    run = compute(cloud, RunOptions(params=ContractionParams(method="glskeleton")))
+    assert [state.iteration for state in run.states] == list(range(5))
+    assert [measured.iteration for measured in run.metrics] == list(range(5))
+    np.testing.assert_array_equal(run.metrics[-1].d_theta, IterationMetricsCache(run.cloud).all(run.states)[-1].d_theta)
+
+
+def test_an_error_on_the_helper_thread_is_the_runs_one_line_error(monkeypatch):
+    from skelcore.errors import InputError
+    from skelcore.metrics import MetricsReference
+    from skelcore.pipeline import compute
+
+    def broken(*args, **kwargs):
+        raise InputError("points: something the metrics refuse")
+
+    monkeypatch.setattr(MetricsReference, "evaluate", broken)
+    cloud = validate(make_shape("capsule", 1500, seed=0).points, name="capsule.xyz")
+    with pytest.raises(InputError, match="^capsule.xyz: points: something the metrics refuse$"):
+        compute(cloud, RunOptions())
