@@ -49,7 +49,7 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
     if variant == "density_30":
         return thin_half(points, DENSITY_KEPT, rng)
     if variant == "partial":
-        return points[partial_scan(points, normals, ISLAND_SHARE if not loops else 0.0)[0]]
+        return points[partial_scan(points, normals, 0.0 if loops else ISLAND_SHARE)[0]]
     raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(VARIANTS)})")
 
 
