@@ -46,6 +46,7 @@ from scipy.spatial import cKDTree
 
 from .inside import InsideTest
 from .neighbours import pca_frames
+from .normalise import object_diagonal
 from .normals import COLLAPSED
 
 CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
@@ -105,12 +106,19 @@ class SurfaceProbe:
         across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
         return int(across.sum())
 
+    def share_surface(self, test: InsideTest) -> None:
+        """Take the oriented normals of `test` (the run's metrics' inside test, InsideTest.of_cloud) when it samples
+        these very points, each with a normal: the ones open_share would compute again, to a grid of its own band."""
+        if self._inside is None and test.samples.shape == self.points.shape and np.array_equal(test.samples,
+                                                                                               self.points):
+            self._inside = test.with_band(self.spacing)
+
     def open_share(self, corners: np.ndarray) -> float:
         """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
         original points bound (within one spacing of the surface counts as inside)."""
         if self._inside is None:
-            diagonal = float(np.linalg.norm(np.ptp(self.points, axis=0)))
-            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * diagonal, self.tree)
+            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
+                                               self.tree)
         centre = corners.mean(axis=0)
         spokes = corners - centre
         spokes_next = np.roll(spokes, -1, axis=0)
