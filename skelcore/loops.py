@@ -113,12 +113,17 @@ class SurfaceProbe:
                                                                                                self.points):
             self._inside = test.with_band(self.spacing)
 
-    def open_share(self, corners: np.ndarray) -> float:
-        """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
-        original points bound (within one spacing of the surface counts as inside)."""
+    def inside(self) -> InsideTest:
+        """The solid the original points bound, within one spacing of the surface counting as inside; made once
+        (or taken, see share_surface)."""
         if self._inside is None:
             self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
                                                self.tree)
+        return self._inside
+
+    def open_share(self, corners: np.ndarray) -> float:
+        """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
+        original points bound (within one spacing of the surface counts as inside)."""
         centre = corners.mean(axis=0)
         spokes = corners - centre
         spokes_next = np.roll(spokes, -1, axis=0)
@@ -126,7 +131,7 @@ class SurfaceProbe:
         if areas.sum() == 0:
             return 0.0
         samples = centre + _LATTICE[:, :1, None] * spokes + _LATTICE[:, 1:, None] * spokes_next  # (m^2, k, 3)
-        outside = ~self._inside.contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
+        outside = ~self.inside().contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
         return float(outside.mean(axis=0) @ areas / areas.sum())
 
 
