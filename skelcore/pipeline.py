@@ -374,7 +374,8 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
     final = states[-1]
     return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,
             "iterations": iterations,
-            "termination": final.termination, "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),
+            "termination": final.termination,
+            "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),
             "multiresolution": None if reduction is None else reduction.describe(),
             "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
 
