@@ -41,6 +41,7 @@ class InsideTest:
     normals: np.ndarray
     tree: cKDTree
     band: float
+    spacing: np.ndarray  # each sample's distance to its nearest other sample
 
     @classmethod
     def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float, tree: cKDTree | None = None,
@@ -64,7 +65,7 @@ class InsideTest:
         occupied[tuple(np.floor((samples - origin) / size).astype(int).T)] = True
         shell = dilated(occupied)
         regions, count = label_regions(~shell)
-        test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band)
+        test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing)
         centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
         voters = ~shell & dilated(shell)
         votes = test._side(centres(voters)) <= 0
@@ -96,6 +97,11 @@ class InsideTest:
         distances, idx = knn(samples, min(SURFACE_NEIGHBOURS, len(samples)), tree)
         normals, _, _ = pca_features(samples, idx.shape[1], collapsed=collapsed, neighbours=idx)
         return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1])
+
+    def with_band(self, band: float) -> "InsideTest":
+        """The same surface (samples, oriented normals, tree) tested with another band: only the grid is made
+        again, which the band sizes."""
+        return InsideTest.from_samples(self.samples, self.normals, band, self.tree, self.spacing)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """Boolean mask: inside the surface, or within `band` of it."""

@@ -46,6 +46,7 @@ from scipy.spatial import cKDTree
 
 from .inside import InsideTest
 from .neighbours import pca_frames
+from .normalise import object_diagonal
 from .normals import COLLAPSED
 
 CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
@@ -105,12 +106,24 @@ class SurfaceProbe:
         across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
         return int(across.sum())
 
+    def share_surface(self, test: InsideTest) -> None:
+        """Take the oriented normals of `test` (the run's metrics' inside test, InsideTest.of_cloud) when it samples
+        these very points, each with a normal: the ones open_share would compute again, to a grid of its own band."""
+        if self._inside is None and test.samples.shape == self.points.shape and np.array_equal(test.samples,
+                                                                                               self.points):
+            self._inside = test.with_band(self.spacing)
+
+    def inside(self) -> InsideTest:
+        """The solid the original points bound, within one spacing of the surface counting as inside; made once
+        (or taken, see share_surface)."""
+        if self._inside is None:
+            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
+                                               self.tree)
+        return self._inside
+
     def open_share(self, corners: np.ndarray) -> float:
         """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
         original points bound (within one spacing of the surface counts as inside)."""
-        if self._inside is None:
-            diagonal = float(np.linalg.norm(np.ptp(self.points, axis=0)))
-            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * diagonal, self.tree)
         centre = corners.mean(axis=0)
         spokes = corners - centre
         spokes_next = np.roll(spokes, -1, axis=0)
@@ -118,7 +131,7 @@ class SurfaceProbe:
         if areas.sum() == 0:
             return 0.0
         samples = centre + _LATTICE[:, :1, None] * spokes + _LATTICE[:, 1:, None] * spokes_next  # (m^2, k, 3)
-        outside = ~self._inside.contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
+        outside = ~self.inside().contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
         return float(outside.mean(axis=0) @ areas / areas.sum())
 
 

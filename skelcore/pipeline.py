@@ -301,6 +301,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 surface = original_surface(states[-1], cloud.points)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius)
+                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
                 clock.mark("skeleton")
             else:
@@ -314,6 +315,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 surface = original_surface(reduced[-1], reduction.points)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
+                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
                 clock.mark("skeleton")
                 states = lifted.result()
@@ -372,7 +374,8 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
     final = states[-1]
     return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,
             "iterations": iterations,
-            "termination": final.termination, "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),
+            "termination": final.termination,
+            "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),
             "multiresolution": None if reduction is None else reduction.describe(),
             "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
 
