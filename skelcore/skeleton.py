@@ -10,7 +10,8 @@ After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topol
 3. refinements, each switchable, in this order: merge junctions joined by a short path, prune short spurs,
    split edges longer than the cover's spacing (two radii), recentre degree-2 nodes on the cross-section of
    their ORIGINAL points, give components of less than the cleaning's stray share of the points to the
-   nearest node of the rest, drop nearly collinear degree-2 nodes (skelcore.refine, skelcore.recentre). Their lengths are in units of r, so they follow the sampling.
+   nearest node of the rest, drop nearly collinear degree-2 nodes (skelcore.refine, skelcore.recentre). Their
+   lengths are in units of r, so they follow the sampling.
 
 Invariants: every loop of the sample complex is a loop of the skeleton and the skeleton has no other; no
 curve is merged to a point (only triangles are ever contracted, and a refinement shortens a branch by at
@@ -49,7 +50,7 @@ class SkeletonParams:
     prune_spurs: bool = True
     spur_length: float = 3.0  # in sample radii: end branches shorter than this are removed
     split_long_edges: bool = True
-    # in sample radii: longer edges are split into equal pieces (the ball cover spaces its samples 1-2 radii apart)
+    # in sample radii: longer edges are split into equal pieces (the ball cover puts its samples 1-2 radii apart)
     edge_length: float = 2.0
     # components holding less than the cleaning's stray share of the points join the nearest larger one
     absorb_specks: bool = True

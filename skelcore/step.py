@@ -326,13 +326,11 @@ def record(history: list[IterationState], state: IterationState) -> bool:
     """Add a yielded state to a run's history; False when it repeats one already there (a rejected step: the
     last good state again, now with the reason, or the one before it, see `rejected`), which then replaces
     that state and ends the history."""
-    same = [i for i, kept in enumerate(history) if kept.iteration == state.iteration]
-    if same:
-        del history[same[0]:]
-        history.append(state)
-        return False
+    at = next((i for i, kept in enumerate(history) if kept.iteration == state.iteration), len(history))
+    new = at == len(history)
+    del history[at:]
     history.append(state)
-    return True
+    return new
 
 
 def retune(current: ContractionParams, sent: ContractionParams | None) -> tuple[ContractionParams, list[str]]:
