@@ -333,7 +333,8 @@ class Session:
             kept = run.surface
             if kept is None or kept[0] is not state.rings or not np.array_equal(kept[1], state.point_ids):
                 original = run.cloud.points if run.reduction is None else run.reduction.points
-                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original))
+                inside = None if run.metrics is None else run.metrics.reference.inside  # none yet: the probe's own
+                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original, inside))
             run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
 

@@ -22,6 +22,7 @@ from .clean import CleaningParams, clean, cleaned
 from .curveness import skeleton_scale_share
 from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
 from .errors import InputError, OutputError, ParameterError, SkelError
+from .inside import InsideTest
 from .labels import check_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .params import ContractionParams, default_k
@@ -87,8 +88,8 @@ class RunResult:
         final = self.states[-1]
         return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
                 f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
-                f"{topology['junctions']} junctions, {topology['ends']} ends; verdict {self.metrics['verdict']['label']}; "
-                f"{self.elapsed:.1f} s -> {self.out_dir}")
+                f"{topology['junctions']} junctions, {topology['ends']} ends; "
+                f"verdict {self.metrics['verdict']['label']}; {self.elapsed:.1f} s -> {self.out_dir}")
 
 
 def provisional_target(state: IterationState) -> float:
@@ -118,10 +119,13 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
                             original_surface(state, original) if surface is None else surface, params)
 
 
-def original_surface(state: IterationState, original: np.ndarray) -> OriginalSurface:
+def original_surface(state: IterationState, original: np.ndarray, inside: InsideTest | None = None
+                     ) -> OriginalSurface:
     """What a state's skeleton reads of the original points and surface (skelcore.surface): the same for every
-    state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run)."""
-    return OriginalSurface.of(original, state.point_ids[state.rings.triangles])
+    state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run).
+    inside: the run's metrics' inside test (MetricsReference.inside), whose oriented normals the false-loop
+    probe takes when it samples the same points."""
+    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside)
 
 
 def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
@@ -298,10 +302,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 states = run_states(cloud, options.params, progress, weights,
                                     lambda state: helpers.measuring(lambda: cache.result().append(state)))
                 clock.mark("contract")
-                surface = original_surface(states[-1], cloud.points)
+                surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius)
-                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
                 clock.mark("skeleton")
             else:
@@ -312,10 +315,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 clock.mark("contract")
                 lifted = helpers.measuring(_lift, reduction, reduced)
                 helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
-                surface = original_surface(reduced[-1], reduction.points)
+                surface = original_surface(reduced[-1], reduction.points, cache.result().reference.inside)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
-                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
                 clock.mark("skeleton")
                 states = lifted.result()

@@ -128,6 +128,28 @@ def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
     assert verdicts[-1] == session.verdict(3, with_skeleton=True)
 
 
+def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
+    """A skeleton drawn after its metrics judges its loops on the metrics' inside test of the same points: the
+    oriented normals of the cloud are computed once for both, and the result is the one the probe's own gives."""
+    from skelcore.inside import InsideTest
+
+    session = Session(validate(make_shape("torus", 3000).points, name="torus.xyz"))
+    while session.step() is not None:
+        pass
+    last = len(session.history) - 1
+    own = session.skeleton(last)
+    session.restart()
+    while session.step() is not None:
+        pass
+    session.metrics_upto(last)
+    made = []
+    real = InsideTest.of_cloud
+    monkeypatch.setattr(InsideTest, "of_cloud", lambda *args, **kwargs: made.append(args) or real(*args, **kwargs))
+    shared = session.skeleton(last)
+    assert not made and shared.topology() == own.topology() and own.topology()["cycles"] == 1  # a loop was judged
+    np.testing.assert_array_equal(shared.nodes_array(), own.nodes_array())
+
+
 def test_bad_upload_leaves_the_session_alone(session):
     before = session.run
     with pytest.raises(InputError, match="garbage.ply"):
