@@ -209,7 +209,8 @@ def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) ->
     """In the child: the whole pipeline as `skelcore run` does it, process start and exit included (with
     skelcore.cli.main's start-up and exit, skelcore.startup)."""
     from .params import ContractionParams
-    from .pipeline import RunOptions, run_pipeline
+    from .options import RunOptions
+    from .pipeline import run_pipeline
 
     startup.loaded()
     options = RunOptions(params=ContractionParams(method=method),

@@ -86,7 +86,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     input points it stands for."""
     run = start_run(points, params)
     state, rings, builder, auto_wl0, extent0 = run.state, run.rings, run.builder, run.auto_wl0, run.extent0
-    unit, sizes0, normalisation = run.unit, run.sizes0, run.normalisation
+    unit, sizes0 = run.unit, run.sizes0
     n = len(unit)
     ids = owner = state.point_ids
     priority = np.random.default_rng(PRIORITY_SEED).permutation(n)  # merge order, by input id
