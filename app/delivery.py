@@ -13,7 +13,7 @@ from typing import Callable
 import viser
 
 from skelcore.errors import InputError
-from skelcore.pipeline import write_atomic
+from skelcore.results import write_atomic
 
 from . import export
 from .layout import FileWidgets

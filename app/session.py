@@ -21,9 +21,11 @@ from skelcore.clean import clean, cleaned
 from skelcore.api import Result
 from skelcore.contraction import IterationState, record
 from skelcore.errors import ParameterError
+from skelcore.evidence import skeleton_evidence
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
+from skelcore.options import RunOptions
 from skelcore.persistence import piece_counts
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
@@ -71,7 +73,7 @@ class Session:
     look_ahead: whether the inspector has the next iteration computed while the run waits for Step."""
 
     def __init__(self, cloud: Cloud, params: ContractionParams = ContractionParams(),
-                 sample_radius: float = pipeline.RunOptions.sample_radius, *, label_weights=None, weights=None,
+                 sample_radius: float = RunOptions.sample_radius, *, label_weights=None, weights=None,
                  history: list[IterationState] | None = None, point_budget: int | None = multires.POINT_BUDGET,
                  look_ahead: bool = True):
         self.sample_radius = sample_radius
@@ -133,7 +135,7 @@ class Session:
         so); explicit per-point weights follow the points kept."""
         if cloud.cleaning is not None:
             return cloud
-        options = pipeline.RunOptions().cleaning
+        options = RunOptions().cleaning
         report = clean(cloud.points, options)
         if self._point_weights is not None:
             self._point_weights = self._point_weights[report.kept]
@@ -310,10 +312,10 @@ class Session:
                 cache.pop(key, None)
 
     # -- derived data of history[index], cached per run
-    def run_options(self, run: Run | None = None) -> pipeline.RunOptions:
+    def run_options(self, run: Run | None = None) -> RunOptions:
         """What `skelcore run` would be given for this run: the one owner of the skeleton parameters."""
         run = run or self.run
-        return pipeline.RunOptions(params=run.start_params, sample_radius=self.sample_radius,
+        return RunOptions(params=run.start_params, sample_radius=self.sample_radius,
                                    label_weights=tuple(sorted(run.label_weights.items())))
 
     @property
@@ -321,7 +323,7 @@ class Session:
         return self.run_options().skeleton_params()
 
     def set_sample_radius(self, radius: float) -> None:
-        pipeline.RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius, keeping the old one
+        RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius, keeping the old one
         self.sample_radius = radius
         self.note(f"skeleton sample radius {radius:g} of the diagonal")
 
@@ -333,7 +335,8 @@ class Session:
             kept = run.surface
             if kept is None or kept[0] is not state.rings or not np.array_equal(kept[1], state.point_ids):
                 original = run.cloud.points if run.reduction is None else run.reduction.points
-                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original))
+                inside = None if run.metrics is None else run.metrics.reference.inside  # none yet: the probe's own
+                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original, inside))
             run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
 
@@ -360,7 +363,7 @@ class Session:
                 skeleton = self.skeleton(index, run)
                 if skeleton.radius not in run.input_topology:  # the same at every iteration: computed once
                     run.input_topology[skeleton.radius] = {"pieces": piece_counts(run.cloud.points, skeleton.radius)}
-                run.evidence[key] = pipeline.skeleton_evidence(skeleton, run.history[index], run.cloud.points,
+                run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
                                                                run.input_topology[skeleton.radius])
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)

@@ -24,9 +24,12 @@ from .clean import CleaningParams
 from .contraction import IterationState
 from .contraction import contract as _contract
 from .errors import ParameterError
+from .evidence import skeleton_evidence
 from .labels import as_labels, check_label_weights, check_weights
 from .metrics import IterationMetrics
+from .options import RunOptions
 from .params import ContractionParams
+from .results import write_results
 from .skeleton import Skeleton
 from .verdict import run_verdict
 
@@ -53,7 +56,7 @@ class Result:
     states: list[IterationState]  # iteration 0 (the input) to the last; states[-1].termination says why it ended
     skeleton: Skeleton  # the curve skeleton of the last state
     metrics: list[IterationMetrics]  # the paper's metrics of each state (D_theta, delta_kappa, boundedness)
-    options: pipeline.RunOptions  # every parameter of the run
+    options: RunOptions  # every parameter of the run
     weights: np.ndarray | None = None  # the per-point contraction weights (None: all 1)
     elapsed: float | None = None  # seconds the run took (None: not timed)
     input_path: str | None = None  # the file it came from, if any
@@ -93,11 +96,11 @@ class Result:
 
     @functools.cached_property
     def _evidence(self) -> dict:
-        """The skeleton checks' evidence (skelcore.pipeline.skeleton_evidence), which the verdict and every file
+        """The skeleton checks' evidence (skelcore.skeleton_evidence), which the verdict and every file
         written read: the run's, or computed once (its complex is a quarter of a 10k-point run)."""
         if self.evidence is not None:
             return self.evidence
-        return pipeline.skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
+        return skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
 
     @property
     def topology(self) -> dict:
@@ -107,7 +110,7 @@ class Result:
     def save(self, out_dir) -> Path:
         """Write the files of `skelcore run` into `out_dir` (created if needed): skeleton.json, skeleton.ply,
         contracted.ply, metrics.json, params.json. Returns the folder."""
-        pipeline.write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
+        write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
                                input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
                                reduction=self.reduction, evidence=self._evidence)
         return Path(out_dir)
@@ -122,7 +125,7 @@ class Result:
             source = self.input_path
             if source is None:  # an array: the report reads the original cloud back from a file
                 source = write_points_ply(Path(tmp) / "input.ply", self.cloud.points)
-            pipeline.write_results(folder, self.cloud, self.states, self.skeleton, self.metrics, self.options,
+            write_results(folder, self.cloud, self.states, self.skeleton, self.metrics, self.options,
                                    input_path=source, elapsed=self.elapsed, weights=self.weights,
                                    evidence=self._evidence)
             return write_report([folder], path)
@@ -141,7 +144,7 @@ class Result:
 
 def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=None, label_weights=None,
                 cleaning: CleaningParams | bool = True,
-                sample_radius: float = pipeline.RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
+                sample_radius: float = RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
                 voxel_size: float | None = None, max_points: int = io.MAX_POINTS,
                 progress: Callable[[str], None] | None = None, **params) -> Result:
     """Contract a cloud into its curve skeleton and judge the contraction; the pipeline of `skelcore run`.
@@ -164,7 +167,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       max_iterations, termination, ...); unset ones take their defaults.
     progress: called with one line per iteration (e.g. print).
     """
-    options = pipeline.RunOptions(
+    options = RunOptions(
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
         voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
@@ -174,9 +177,9 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
     return run(points_or_path, options, progress=progress, labels=labels, weights=weights)
 
 
-def run(points_or_path, options: pipeline.RunOptions = pipeline.RunOptions(), *, labels=None, weights=None,
+def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weights=None,
         progress: Callable[[str], None] | None = None) -> Result:
-    """`skeletonize` with its options gathered in a skelcore.pipeline.RunOptions (what `skelcore run` calls).
+    """`skeletonize` with its options gathered in a skelcore.RunOptions (what `skelcore run` calls).
     labels: an (n,) array of labels (a label file or property goes in options.labels)."""
     started = time.perf_counter()
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None

@@ -1,6 +1,6 @@
 """Batch runs: the pipeline over many objects, resumable, serial or on a Dask cluster, with a summary and a report.
 
-Layout of OUT: OUT/<name>/ holds what `skelcore run` writes (pipeline.RESULT_FILES) and, last, `done.json`;
+Layout of OUT: OUT/<name>/ holds what `skelcore run` writes (skelcore.results.RESULT_FILES) and, last, `done.json`;
 OUT/summary.csv, OUT/summary.json (one row per object, SUMMARY_COLUMNS) and OUT/report.html (skelcore.report).
 
 Each object is resumable (skelcore.batch_object: its `done.json` marker) and may run on Dask workers
@@ -26,7 +26,8 @@ from . import __version__, io
 from .batch_object import (DONE_FILE, RUN_COLUMNS, SUMMARY_COLUMNS, Job, one_line, options_digest, run_object,
                            write_text_atomic)
 from .errors import InputError
-from .pipeline import RESULT_FILES, RunOptions
+from .options import RunOptions
+from .results import RESULT_FILES
 
 __all__ = ["DONE_FILE", "RUN_COLUMNS", "SUMMARY_COLUMNS", "BatchResult", "collect_inputs", "object_names", "plan",
            "run_batch", "write_summary"]

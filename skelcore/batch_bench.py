@@ -9,7 +9,7 @@ from pathlib import Path
 from .batch import run_batch
 from .batch_dask import cpus, local_cluster
 from .errors import SkelError
-from .pipeline import RunOptions
+from .options import RunOptions
 
 
 def bench_batch(n_objects: int = 20, workers: int = 2, n_points: int = 10_000, max_iterations: int | None = None,

@@ -17,7 +17,9 @@ from pathlib import Path
 
 from . import __version__
 from .errors import SkelError
-from .pipeline import RESULT_FILES, RunOptions, run_pipeline, write_atomic
+from .options import RunOptions
+from .pipeline import run_pipeline
+from .results import RESULT_FILES, write_atomic
 from .verdict import StabilityThresholds
 
 DONE_FILE = "done.json"
@@ -135,5 +137,5 @@ def one_line(error: BaseException) -> str:
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """Write `text` to `path` through a temporary file renamed into place (skelcore.pipeline.write_atomic)."""
+    """Write `text` to `path` through a temporary file renamed into place (skelcore.results.write_atomic)."""
     write_atomic(path, lambda temporary: temporary.write_text(text))

@@ -8,7 +8,10 @@ launch to its exit, its CPU time and peak resident memory read by the process it
 size by size, so the ratios printed come from one bench run on the same machine state; on a shared machine
 only those ratios mean much. A stage's seconds are the run's own wall clock: the metrics and the verdict's
 evidence are computed on helper threads beside the contraction and the skeleton (skelcore.pipeline.compute), so
-their stages count only the time the run still waits for them.
+their stages count only the time the run still waits for them. Each run's share of work around the solve is
+printed twice: L's sparsity-pattern set-up (`pattern`), the metrics and evidence waited for and the skeleton;
+and that with the one-rings (`rings`: k nearest neighbours and their Delaunay fans) and each step's Laplacian
+values and normal matrix (`laplacian`) added.
 
 The pc-skeletor baseline is pc-skeletor's own whole LBC run when an interpreter with pc-skeletor installed is
 given (`--pc-skeletor PYTHON`, or the current one if it imports `pc_skeletor`): a fresh process that imports it,
@@ -95,8 +98,9 @@ def _print_run(row: dict, out) -> None:
         f"(CPU {row['cpu']:.2f} s), peak {row['peak_mb']:.0f} MB, "
         f"{row['iterations']} iterations; {row['topology']}")
     out(f"{'':>12}stages: {stages}")
-    out(f"{'':>12}inside contract: {inner}; share of set-up, metrics (with the evidence) and skeleton "
-        f"{row['overhead_share']:.0%}")
+    out(f"{'':>12}inside contract: {inner}; share of the run in L's sparsity-pattern set-up, metrics (with the "
+        f"evidence) and skeleton {row['overhead_share']:.0%}, with the one-rings and each step's Laplacian values "
+        f"too {row['overhead_share_broad']:.0%}")
 
 
 def _print_summary(rows: list[dict], sizes, methods, out) -> None:
@@ -209,7 +213,8 @@ def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) ->
     """In the child: the whole pipeline as `skelcore run` does it, process start and exit included (with
     skelcore.cli.main's start-up and exit, skelcore.startup)."""
     from .params import ContractionParams
-    from .pipeline import RunOptions, run_pipeline
+    from .options import RunOptions
+    from .pipeline import run_pipeline
 
     startup.loaded()
     options = RunOptions(params=ContractionParams(method=method),
@@ -221,11 +226,13 @@ def _measure_run(cloud: str, method: str, out_dir: str, full_resolution: str) ->
             contraction[key] = contraction.get(key, 0.0) + value
     # the verdict's skeleton evidence is part of judging the run, so it counts with the metrics
     overhead = (result.stages.get("metrics", 0) + result.stages.get("evidence", 0) + result.stages.get("skeleton", 0)
-                + contraction.get("rings", 0) + contraction.get("laplacian", 0))
+                + contraction.get("pattern", 0))
+    broad = overhead + contraction.get("rings", 0) + contraction.get("laplacian", 0)
     topology = result.skeleton.topology()
     multires = result.metrics.get("multiresolution") or {}
     return {"n": len(result.cloud.points), "method": method, "iterations": result.states[-1].iteration,
             "stages": result.stages, "contraction": contraction, "overhead_share": overhead / _since_start(),
+            "overhead_share_broad": broad / _since_start(),
             "contracted_points": multires.get("contracted_points", len(result.cloud.points)),
             "topology": f"{topology['cycles']} cycles, {topology['junctions']} junctions, {topology['ends']} ends"}
 

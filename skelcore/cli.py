@@ -107,7 +107,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 def run_options(args: argparse.Namespace):
     """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
     from .clean import CleaningParams
-    from .pipeline import RunOptions
+    from .options import RunOptions
 
     cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal,
                               denoise=not args.no_denoise)
@@ -241,7 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from .api import run
-    from .pipeline import prepare_output
+    from .results import prepare_output
 
     prepare_output(args.out, force=args.force)
     progress = None if args.quiet else print

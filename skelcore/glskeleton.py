@@ -86,7 +86,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     input points it stands for."""
     run = start_run(points, params)
     state, rings, builder, auto_wl0, extent0 = run.state, run.rings, run.builder, run.auto_wl0, run.extent0
-    unit, sizes0, normalisation = run.unit, run.sizes0, run.normalisation
+    unit, sizes0 = run.unit, run.sizes0
     n = len(unit)
     ids = owner = state.point_ids
     priority = np.random.default_rng(PRIORITY_SEED).permutation(n)  # merge order, by input id
@@ -166,8 +166,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
                 notes.append("point reduction stopped: no point met the merge rule")
             else:
                 rings, keep, new_row = merged
+                pattern_start = time.perf_counter()
                 builder = LaplacianSystem(rings)
-        timings["rings"] = time.perf_counter() - reduce_start
+                timings["pattern"] = time.perf_counter() - pattern_start
+        timings["rings"] = time.perf_counter() - reduce_start - timings.get("pattern", 0.0)
 
         current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
         held = hold_curves(wl, current, run) if iteration == 1 else held[keep]

@@ -59,13 +59,16 @@ DISK_LATTICE = 8  # each fan triangle of a disk is sampled at the centres of DIS
 class SurfaceProbe:
     """The original surface, for asking whether it crosses a disk."""
 
-    def __init__(self, original: np.ndarray, spacing: float) -> None:
+    def __init__(self, original: np.ndarray, spacing: float, shared: InsideTest | None = None) -> None:
+        """shared: the run's metrics' inside test (InsideTest.of_cloud), whose oriented normals `inside` takes when
+        it samples these very points."""
         self.points = original
         self.tree = cKDTree(original)
         self.spacing = spacing
         self._scale = float(np.abs(original).max(initial=0.0)) + spacing  # of the rounding in crossings
         self._normals: dict[int, np.ndarray] = {}
         self._inside: InsideTest | None = None
+        self._shared = shared
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
         """(len(ids), 3) PCA normals of those original points (unsigned), each computed once."""
@@ -106,19 +109,18 @@ class SurfaceProbe:
         across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
         return int(across.sum())
 
-    def share_surface(self, test: InsideTest) -> None:
-        """Take the oriented normals of `test` (the run's metrics' inside test, InsideTest.of_cloud) when it samples
-        these very points, each with a normal: the ones open_share would compute again, to a grid of its own band."""
-        if self._inside is None and test.samples.shape == self.points.shape and np.array_equal(test.samples,
-                                                                                               self.points):
-            self._inside = test.with_band(self.spacing)
-
     def inside(self) -> InsideTest:
-        """The solid the original points bound, within one spacing of the surface counting as inside; made once
-        (or taken, see share_surface)."""
+        """The solid the original points bound, within one spacing of the surface counting as inside; made once,
+        when a loop is first judged. From the shared test of the same points only the grid is made again, to this
+        probe's band: their oriented normals are the ones this would compute."""
         if self._inside is None:
-            self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
-                                               self.tree)
+            shared = self._shared
+            if shared is not None and shared.samples.shape == self.points.shape and np.array_equal(shared.samples,
+                                                                                                   self.points):
+                self._inside = shared.with_band(self.spacing)
+            else:
+                self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
+                                                   self.tree)
         return self._inside
 
     def open_share(self, corners: np.ndarray) -> float:

@@ -1,14 +1,10 @@
 """The whole pipeline for one input: load, contract, measure, extract the skeleton, write the results.
 
-`run_pipeline` is what `skelcore run` and `skelcore batch` call; the inspector uses `skeleton_of_state`,
-`IterationMetricsCache` and `write_results` on the states it already holds.
+`run_pipeline` is what `skelcore run` and `skelcore batch` call; the inspector uses `skeleton_of_state` and
+`IterationMetricsCache` on the states it already holds (and skelcore.results to write them).
 """
 from __future__ import annotations
 
-import dataclasses
-import errno
-import json
-import os
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -17,57 +13,20 @@ from typing import Callable
 
 import numpy as np
 
-from . import __version__, io, multires
-from .clean import CleaningParams, clean, cleaned
+from . import io, multires
+from .clean import clean, cleaned
+from .contraction import IterationState, contract, record
 from .curveness import skeleton_scale_share
-from .contraction import TERMINATION_MESSAGES, IterationState, contract, record
-from .errors import InputError, OutputError, ParameterError, SkelError
-from .labels import check_weights, weights_from_labels
+from .errors import ParameterError, SkelError
+from .evidence import cloud_evidence, skeleton_evidence
+from .inside import InsideTest
+from .labels import check_weights
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
-from .params import ContractionParams, default_k
-from .persistence import persistence_summary, piece_counts
+from .options import METRICS_K, RunOptions
+from .params import ContractionParams
+from .results import write_results
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
-from .solver import backend
 from .surface import OriginalSurface
-from .verdict import run_verdict
-
-METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
-# A curve skeleton says something once the one-rings have shrunk to this share of their size at iteration 0
-# (the ring-size ratio a_t); before that the graph joins points across holes the contraction has not opened.
-RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
-EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
-
-
-@dataclass(frozen=True)
-class RunOptions:
-    """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
-    params: ContractionParams = ContractionParams()
-    sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the object's diagonal
-    seed: int = 0
-    sample: int | None = None  # mesh input: points sampled evenly over the surface
-    voxel_size: float | None = None
-    max_points: int = io.MAX_POINTS
-    metrics_k: int = METRICS_K
-    normal_convention: str = NORMAL_CONVENTION  # D_theta's normals (skelcore.metrics)
-    cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
-    labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
-    label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
-    point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
-
-    def weights(self, cloud: io.Cloud) -> np.ndarray | None:
-        """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""
-        if not self.label_weights:
-            return None
-        if cloud.labels is None:
-            raise InputError(f"{cloud.name}: label weights given but the input has no labels "
-                             f"(a PLY label property or --labels FILE)")
-        return weights_from_labels(cloud.labels, dict(self.label_weights))
-
-    def skeleton_params(self) -> SkeletonParams:
-        """The skeleton parameters of this run, validated."""
-        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
-        return SkeletonParams(sample_radius=self.sample_radius,
-                              drop_collinear=self.params.method == "glskeleton").validated()
 
 
 @dataclass
@@ -87,8 +46,8 @@ class RunResult:
         final = self.states[-1]
         return (f"{self.cloud.name}: {final.iteration} iterations ({final.termination}), "
                 f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
-                f"{topology['junctions']} junctions, {topology['ends']} ends; verdict {self.metrics['verdict']['label']}; "
-                f"{self.elapsed:.1f} s -> {self.out_dir}")
+                f"{topology['junctions']} junctions, {topology['ends']} ends; "
+                f"verdict {self.metrics['verdict']['label']}; {self.elapsed:.1f} s -> {self.out_dir}")
 
 
 def provisional_target(state: IterationState) -> float:
@@ -118,30 +77,13 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
                             original_surface(state, original) if surface is None else surface, params)
 
 
-def original_surface(state: IterationState, original: np.ndarray) -> OriginalSurface:
+def original_surface(state: IterationState, original: np.ndarray, inside: InsideTest | None = None
+                     ) -> OriginalSurface:
     """What a state's skeleton reads of the original points and surface (skelcore.surface): the same for every
-    state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run)."""
-    return OriginalSurface.of(original, state.point_ids[state.rings.triangles])
-
-
-def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
-                      cloud: dict | None = None) -> dict:
-    """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the pieces and loops
-    of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
-    (only the contracted cloud's loops need a complex: the input's pieces come from piece_counts).
-    source: {"pieces": piece_counts of `original` at that radius}, and cloud: persistence_summary of the
-    state's points at that radius, when already known (see `cloud_evidence`)."""
-    topology = skeleton.topology()
-    cloud = cloud or persistence_summary(state.points, skeleton.radius)
-    source = source or {"pieces": piece_counts(original, skeleton.radius)}
-    return {"nodes": skeleton.graph.number_of_nodes(), "components": topology["components"],
-            "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
-            "input_pieces": source["pieces"]}
-
-
-def cloud_evidence(state: IterationState, original: np.ndarray, radius: float) -> tuple[dict, dict]:
-    """The parts of skeleton_evidence that need no skeleton, only its radius: (source, cloud) as it takes them."""
-    return {"pieces": piece_counts(original, radius)}, persistence_summary(state.points, radius)
+    state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run).
+    inside: the run's metrics' inside test (MetricsReference.inside), whose oriented normals the false-loop
+    probe takes when it samples the same points."""
+    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside)
 
 
 class IterationMetricsCache:
@@ -298,10 +240,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 states = run_states(cloud, options.params, progress, weights,
                                     lambda state: helpers.measuring(lambda: cache.result().append(state)))
                 clock.mark("contract")
-                surface = original_surface(states[-1], cloud.points)
+                surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius)
-                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
                 clock.mark("skeleton")
             else:
@@ -312,10 +253,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 clock.mark("contract")
                 lifted = helpers.measuring(_lift, reduction, reduced)
                 helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
-                surface = original_surface(reduced[-1], reduction.points)
+                surface = original_surface(reduced[-1], reduction.points, cache.result().reference.inside)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
-                surface.probe.share_surface(cache.result().reference.inside)
                 skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
                 clock.mark("skeleton")
                 states = lifted.result()
@@ -359,153 +299,10 @@ def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     return skeleton_scale_share(state.points, cloud.diagonal)
 
 
-def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],
-                     reduction: multires.Reduction | None = None, skeleton: dict | None = None) -> dict:
-    """metrics.json: per-iteration engine figures and the paper's statistics, and the run's verdict (with the
-    skeleton checks given the skeleton's evidence, see skeleton_evidence)."""
-    iterations = []
-    for state, measured in zip(states, metrics):
-        iterations.append({
-            "iteration": state.iteration, "n_points": state.n_points, "wl": state.wl,
-            "wh_mean": float(np.mean(state.wh)), "wh_max": float(np.max(state.wh)),
-            "ring_ratio": state.ring_ratio, "curve_share": measured.curve["curve_share"], "anchored": state.anchored,
-            "timings": state.timings, **measured.to_dict(),
-        })
-    final = states[-1]
-    return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,
-            "iterations": iterations,
-            "termination": final.termination,
-            "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),
-            "multiresolution": None if reduction is None else reduction.describe(),
-            "skeleton_evidence": skeleton, "verdict": run_verdict(metrics, skeleton)}
-
-
-def params_document(cloud: io.Cloud, states: list[IterationState], options: RunOptions, input_path=None,
-                    weights: np.ndarray | None = None) -> dict:
-    """params.json: everything needed to reproduce the run, the resolved defaults included. `weights`: the
-    run's per-point contraction weights; given through labels, the labels source and label weights say them,
-    otherwise their values are listed."""
-    params = states[0].params
-    resolved = dataclasses.replace(params, k=params.k or default_k(len(cloud.points)), wl0=params.wl0 or states[0].wl)
-    return {
-        # without a path (the inspector's bundles) only the file's name: no server path leaves the server
-        "input": str(Path(input_path).resolve()) if input_path is not None else Path(cloud.name).name,
-        "contraction": resolved.to_dict(), "skeleton": options.skeleton_params().to_dict(),
-        "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
-        "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
-        "normal_convention": options.normal_convention, "point_budget": options.point_budget,
-        "retuned": [state.message for state in states if "retuned" in state.message],
-        "weights": weights_document(weights, options),
-        "skelcore_version": __version__, "solver": backend(),
-    }
-
-
-def weights_document(weights: np.ndarray | None, options: RunOptions) -> dict | None:
-    """The contraction weights of a run for params.json (None: every weight 1)."""
-    if weights is None:
-        return None
-    document = {"labels": options.labels or "the input's labels", "label_weights": dict(options.label_weights),
-                "weighted_points": int((weights != 1).sum()), "min": float(weights.min()),
-                "max": float(weights.max()), "mean": float(weights.mean())}
-    if not options.label_weights:
-        document.update(labels=None, values=weights.tolist())
-    return document
-
-
-def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skeleton: Skeleton,
-                  metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
-                  elapsed: float | None = None, weights: np.ndarray | None = None,
-                  reduction: multires.Reduction | None = None, evidence: dict | None = None) -> dict:
-    """Write the five result files, each atomically (a temporary file renamed into place). evidence: the final
-    state's skeleton_evidence, when the caller has it already."""
-    from .export import skeleton_document, write_points_ply, write_skeleton_ply
-
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
-    final = states[-1]
-    evidence = skeleton_evidence(skeleton, final, cloud.points) if evidence is None else evidence
-    summary = metrics_document(cloud, states, metrics, reduction, evidence)
-    if elapsed is not None:
-        summary["elapsed_seconds"] = elapsed
-    labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
-    contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
-    write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted, labels=labels))
-    write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    # compact: its correspondence lists every input point, which an indented layout puts one per line through
-    # json's pure-Python encoder (4x slower: 0.3 s instead of 0.08 s at 1M points)
-    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton), indent=None))
-    write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    write_atomic(out_dir / "params.json",
-                 lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
-    return summary
-
-
 def named(error: SkelError, name: str) -> SkelError:
     """The error with the input's name in front of its message, unless the message names it already."""
     message = str(error)
     return error if name in message else type(error)(f"{name}: {message}")
-
-
-def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
-    """The skeleton in the file's coordinates (io.Cloud.scale: not 1 only for extreme coordinates)."""
-    if scale == 1.0:
-        return skeleton
-    graph = skeleton.graph.copy()
-    for _, attrs in graph.nodes(data=True):
-        attrs["pos"] = np.asarray(attrs["pos"]) * scale
-    for _, _, attrs in graph.edges(data=True):
-        attrs["length"] = attrs["length"] * scale
-    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale)
-
-
-def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    """write(temporary) then rename it to `path`: a failure (a full disk) leaves the file as it was and
-    raises an OutputError naming it."""
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(temporary)
-        os.replace(temporary, path)
-    except OSError as error:
-        reason = "the disk is full" if error.errno in (errno.ENOSPC, errno.EDQUOT) else error.strerror or "error"
-        raise OutputError(f"{path}: cannot write ({reason}); the files written before it are kept") from None
-    except SkelError as error:  # a writer's own message, about the temporary file
-        raise OutputError(f"{str(error).replace(str(temporary), str(path))}; the files written before it "
-                          f"are kept") from None
-    finally:
-        temporary.unlink(missing_ok=True)
-
-
-def prepare_output(out_dir, force: bool = False) -> Path:
-    """The output folder, created; one that already holds a run's results is refused, or with `force`
-    emptied of them first (other files stay), so no file of an earlier run is left beside the new ones."""
-    out_dir = Path(out_dir)
-    earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
-    earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
-    if earlier and not force:
-        raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
-                          f"choose another folder or pass --force to replace them")
-    try:
-        for path in earlier:
-            path.unlink()
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise OutputError(f"{out_dir}: cannot prepare the output folder ({error.strerror})") from None
-    return out_dir
-
-
-def _write_json(path: Path, document: dict, indent: int | None = 1) -> None:
-    path.write_text(json.dumps(document, indent=indent, default=_json_default))
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"cannot write {type(value).__name__} to JSON")
 
 
 def _say(progress: Callable[[str], None] | None, line: str) -> None:

@@ -55,7 +55,8 @@ def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_
     """One run of the pipeline on `points`; the skeleton's topology, node count and time, or the error."""
     from .export import write_points_ply
     from .params import ContractionParams
-    from .pipeline import RunOptions, run_pipeline
+    from .options import RunOptions
+    from .pipeline import run_pipeline
 
     started = time.perf_counter()
     try:
@@ -183,7 +184,7 @@ def format_table(results: list[CaseResult], summary: dict, total_seconds: float)
                      f"{_share(s['perturbed_exact'], s['perturbed_runs'])}; no collapse (>= {COLLAPSE_SHARE:.0%} of "
                      f"the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
                      f"{s['errors']} errors; {s['seconds']:.0f} s")
-        lines.append(f"  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))
+        lines.append("  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))
         if s["clean_loops_lost"]:
             lines.append(f"  loops lost on clean clouds: {', '.join(s['clean_loops_lost'])}")
         if s["collapsed"]:

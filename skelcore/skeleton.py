@@ -56,7 +56,8 @@ class SkeletonParams:
     absorb_specks: bool = True
     drop_collinear: bool = False
     collinear_angle: float = 10.0  # degrees: a degree-2 node turning less than this is dropped
-    recentre: bool = True  # degree-2 nodes move across the curve onto the centre of their original points' cross-section
+    # degree-2 nodes move across the curve onto the centre of their original points' cross-section
+    recentre: bool = True
 
     def validated(self) -> "SkeletonParams":
         """These parameters, or a ParameterError naming the first out of range."""

@@ -65,7 +65,7 @@ class IterationState:
     wh: np.ndarray  # (m,)
     ring_ratio: float  # a_t = sum s^t / sum s^0
     params: ContractionParams
-    timings: dict = field(default_factory=dict)  # seconds: rings, laplacian, solve, rest
+    timings: dict = field(default_factory=dict)  # seconds: rings, pattern (L's sparsity), laplacian, solve, rest
     termination: str | None = None  # set on the last state of a run (see TERMINATION_MESSAGES)
     anchored: int = 0  # present points anchored on a thin handle's axis (skelcore.step.anchored)
     message: str = ""
@@ -121,14 +121,15 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     unit = normalisation.forward(points)
     started = time.perf_counter()
     rings = one_rings(unit, params.k or default_k(len(points)), params.drop_jumps)
+    rings_end = time.perf_counter()
     builder = LaplacianSystem(rings)
-    rings_time = time.perf_counter() - started
+    timings = {"rings": rings_end - started, "pattern": time.perf_counter() - rings_end}
     spacing = rings.mean_edge_length(unit)
     auto_wl0 = 1.0 / (5.0 * spacing)
     ids = np.arange(len(points))
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
                            wl=params.wl0 or auto_wl0, wh=np.full(len(points), params.wh0), ring_ratio=1.0,
-                           params=params, timings={"rings": rings_time})
+                           params=params, timings=timings)
     diagonal = object_diagonal(unit)
     # density at the scale the skeleton resolves: averaged over about one sample radius (a random walk of
     # `passes` ring steps spreads over sqrt(passes) ring spacings)

@@ -113,7 +113,9 @@ def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None, cache
     of the last iteration, its evidence, and the truth. `cache` keeps what the runs of one input share."""
     from .contraction import run_contraction
     from .evaluate import evaluate, make_graph
-    from .pipeline import METRICS_K, RunOptions, skeleton_evidence, skeleton_of_state
+    from .evidence import skeleton_evidence
+    from .options import METRICS_K, RunOptions
+    from .pipeline import skeleton_of_state
 
     cache = {} if cache is None else cache
     if "points" not in cache:  # cleaned as `skelcore run` cleans its input

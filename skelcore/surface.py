@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .collapse import surface_triangles
 from .errors import InputError
+from .inside import InsideTest
 from .io import as_points
 from .loops import SurfaceProbe
 from .normalise import object_diagonal
@@ -30,12 +31,14 @@ class OriginalSurface:
     triangles: np.ndarray  # (t,3) surface triangles
     diagonal: float  # object diagonal of the original points (skelcore.normalise.object_diagonal)
     pieces: tuple[int, np.ndarray]  # connected pieces of the graph of `edges`: (count, piece of every point)
+    shared_inside: InsideTest | None = field(default=None, repr=False)  # for the probe (SurfaceProbe's `shared`)
     _probe: SurfaceProbe | None = field(default=None, repr=False)
 
     @classmethod
-    def of(cls, original, surface) -> "OriginalSurface":
+    def of(cls, original, surface, shared_inside: InsideTest | None = None) -> "OriginalSurface":
         """From `original` (n,3) and `surface`: (t,3) ring triangles (OneRings.triangles, preferred: the fans
-        cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles."""
+        cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles.
+        shared_inside: the run's metrics' inside test, which the probe takes the oriented normals of."""
         original = as_points(original, "original points")
         cells = np.asarray(surface)
         if cells.size == 0:
@@ -53,7 +56,8 @@ class OriginalSurface:
             edges, triangles = np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [0, 2]]]), cells
         graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) else \
             sp.coo_matrix((n, n))
-        return cls(original, edges, triangles, object_diagonal(original), connected_components(graph, directed=False))
+        return cls(original, edges, triangles, object_diagonal(original), connected_components(graph, directed=False),
+                   shared_inside)
 
     def checked(self, contracted) -> np.ndarray:
         """The contracted positions of the original points, validated against them."""
@@ -69,5 +73,5 @@ class OriginalSurface:
         if self._probe is None:
             spacing = float(np.median(np.linalg.norm(self.points[self.edges[:, 0]] - self.points[self.edges[:, 1]],
                                                      axis=1)))
-            self._probe = SurfaceProbe(self.points, spacing)
+            self._probe = SurfaceProbe(self.points, spacing, self.shared_inside)
         return self._probe

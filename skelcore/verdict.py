@@ -114,7 +114,7 @@ PREDICTIVE_POWER = {
 
 def features(entry: dict, skeleton: dict | None = None) -> dict:
     """The flat figures a verdict reads, from one iteration's metrics dict (IterationMetrics.to_dict()) and,
-    when known, the skeleton evidence of that iteration (skelcore.pipeline.skeleton_evidence)."""
+    when known, the skeleton evidence of that iteration (skelcore.evidence.skeleton_evidence)."""
     try:
         d, k, bounded = entry["d_theta"], entry["delta_kappa"], entry["boundedness"]
         values = {"d_theta_mean": d["mean"], "d_theta_peaks": d["peaks"]["count"], "d_theta_symmetry": d["symmetry"],

@@ -16,7 +16,8 @@ from skelcore import cli
 from skelcore.errors import InputError, ParameterError
 from skelcore.export import write_points_ply
 from skelcore.labels import weights_from_labels
-from skelcore.pipeline import RunOptions, run_pipeline
+from skelcore.options import RunOptions
+from skelcore.pipeline import run_pipeline
 
 from conftest import REPO
 

@@ -76,7 +76,8 @@ def test_inspect_a_result_contracted_at_reduced_resolution_runs_it_again_reduced
     contracts it again, reduced as the run was (its budget), from iteration 0."""
     from skelcore.api import Result
     from skelcore.io import validate
-    from skelcore.pipeline import RunOptions, compute
+    from skelcore.options import RunOptions
+    from skelcore.pipeline import compute
 
     options = RunOptions(point_budget=1500)
     computed = compute(validate(make_shape("torus", 3000, seed=0).points, name="torus"), options)

@@ -269,7 +269,7 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
     import errno
     import os
 
-    from skelcore import pipeline
+    from skelcore import results
     from skelcore.errors import OutputError
 
     server, inspector = served
@@ -282,10 +282,10 @@ def test_a_full_disk_on_save_is_one_line_and_keeps_earlier_saves(served, tmp_pat
         def replace(source, destination):
             raise OSError(errno.ENOSPC, "No space left on device")
 
-        monkeypatch.setattr(pipeline.os, "replace", replace)
+        monkeypatch.setattr(results.os, "replace", replace)
         with pytest.raises(OutputError, match="disk is full"):
             inspector.delivery.deliver(None, "second.png", b"second")
-        monkeypatch.setattr(pipeline.os, "replace", real)
+        monkeypatch.setattr(results.os, "replace", real)
         assert (tmp_path / "saves" / "first.png").read_bytes() == b"first"
         assert sorted(p.name for p in (tmp_path / "saves").iterdir()) == ["first.png"]
     finally:

@@ -112,7 +112,7 @@ def test_metrics_and_skeletons_are_computed_once(session):
 def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
     """The verdict's skeleton checks read the input's pieces: the same at every iteration."""
     import app.session as session_module
-    from skelcore import pipeline
+    from skelcore.evidence import skeleton_evidence
 
     inputs = []
     real = session_module.piece_counts
@@ -123,9 +123,31 @@ def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
     verdicts = [session.verdict(index, with_skeleton=True) for index in (1, 2, 3)]
     assert len(inputs) == 1 and inputs[0] is session.cloud.points
     skeleton = session.skeleton(3)
-    fresh = pipeline.skeleton_evidence(skeleton, session.history[3], session.cloud.points)
+    fresh = skeleton_evidence(skeleton, session.history[3], session.cloud.points)
     assert session.run.evidence[(3, session.skeleton_params)] == fresh
     assert verdicts[-1] == session.verdict(3, with_skeleton=True)
+
+
+def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
+    """A skeleton drawn after its metrics judges its loops on the metrics' inside test of the same points: the
+    oriented normals of the cloud are computed once for both, and the result is the one the probe's own gives."""
+    from skelcore.inside import InsideTest
+
+    session = Session(validate(make_shape("torus", 3000).points, name="torus.xyz"))
+    while session.step() is not None:
+        pass
+    last = len(session.history) - 1
+    own = session.skeleton(last)
+    session.restart()
+    while session.step() is not None:
+        pass
+    session.metrics_upto(last)
+    made = []
+    real = InsideTest.of_cloud
+    monkeypatch.setattr(InsideTest, "of_cloud", lambda *args, **kwargs: made.append(args) or real(*args, **kwargs))
+    shared = session.skeleton(last)
+    assert not made and shared.topology() == own.topology() and own.topology()["cycles"] == 1  # a loop was judged
+    np.testing.assert_array_equal(shared.nodes_array(), own.nodes_array())
 
 
 def test_bad_upload_leaves_the_session_alone(session):
@@ -286,7 +308,8 @@ def test_bundle_skeleton_is_the_one_skelcore_run_builds(tmp_path):
     import json
 
     from skelcore.export import write_points_ply
-    from skelcore.pipeline import RunOptions, run_pipeline
+    from skelcore.options import RunOptions
+    from skelcore.pipeline import run_pipeline
 
     cloud = validate(make_shape("y_branch", 1500).points, name=str(tmp_path / "server" / "y_branch.xyz"))
     params = ContractionParams(method="glskeleton")

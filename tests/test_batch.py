@@ -13,7 +13,7 @@ import pytest
 from skelcore import batch, batch_dask, batch_object
 from skelcore.cli import main
 from skelcore.errors import InputError, SkelError
-from skelcore.pipeline import RESULT_FILES
+from skelcore.results import RESULT_FILES
 from skelcore.shapes import write_shapes
 
 REPO = Path(__file__).resolve().parents[1]

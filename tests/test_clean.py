@@ -60,7 +60,8 @@ def test_bad_cleaning_parameters(change):
 
 
 def test_run_reports_cleaning_in_metrics_and_params(tmp_path):
-    from skelcore.pipeline import RunOptions, run_pipeline
+    from skelcore.options import RunOptions
+    from skelcore.pipeline import run_pipeline
 
     points = np.vstack([ring(2000), np.random.default_rng(3).uniform(-2, 2, (40, 3))])
     source = tmp_path / "noisy.xyz"

@@ -13,7 +13,8 @@ from skelcore.glskeleton import greedy_matching
 from skelcore.neighbours import delaunay_fans
 from skelcore.params import ContractionParams
 from skelcore.io import Cloud
-from skelcore.pipeline import IterationMetricsCache, RunOptions, run_pipeline, skeleton_of_state
+from skelcore.options import RunOptions
+from skelcore.pipeline import IterationMetricsCache, run_pipeline, skeleton_of_state
 from skelcore.shapes import EXPECTED_TOPOLOGY, SHAPES, centreline, make_shape, write_shape
 
 TOPOLOGY = ("components", "cycles", "ends", "junctions")

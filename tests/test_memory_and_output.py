@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skelcore import io, memory, pipeline
+from skelcore import io, memory, results
 from skelcore.cli import main
 from skelcore.errors import TooLargeError
 from skelcore.export import write_points_ply
@@ -147,7 +147,7 @@ def test_an_output_folder_holding_a_run_is_refused_without_force(tmp_path, capsy
     (out / "notes.txt").write_text("mine")
     assert main(args + ["--force"]) == 0
     assert not (out / "done.json").exists() and (out / "notes.txt").read_text() == "mine"
-    assert all((out / name).exists() for name in pipeline.RESULT_FILES)
+    assert all((out / name).exists() for name in results.RESULT_FILES)
 
 
 def full_disk_after(monkeypatch, module, target_name: str):
@@ -164,7 +164,7 @@ def full_disk_after(monkeypatch, module, target_name: str):
 
 def test_a_full_disk_during_a_run_is_one_line_and_keeps_what_was_written(tmp_path, capsys, monkeypatch):
     path, out = small_cloud(tmp_path), tmp_path / "out"
-    full_disk_after(monkeypatch, pipeline, "metrics.json")
+    full_disk_after(monkeypatch, results, "metrics.json")
     assert main(["run", str(path), "--out", str(out), "--quiet", "--max-iterations", "2"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "metrics.json" in err and "disk is full" in err and "Traceback" not in err
@@ -174,7 +174,7 @@ def test_a_full_disk_during_a_run_is_one_line_and_keeps_what_was_written(tmp_pat
 
 def test_a_full_disk_when_the_batch_summary_is_written_is_one_line(tmp_path, capsys, monkeypatch):
     path, out = small_cloud(tmp_path), tmp_path / "batch"
-    full_disk_after(monkeypatch, pipeline, "summary.json")
+    full_disk_after(monkeypatch, results, "summary.json")
     code = main(["batch", str(path), "--out", str(out), "--quiet", "--no-report", "--max-iterations", "2"])
     err = capsys.readouterr().err
     assert code == 2 and "summary.json" in err and "disk is full" in err and "Traceback" not in err

@@ -9,7 +9,8 @@ from skelcore import multires
 from skelcore.evaluate import evaluate, make_graph
 from skelcore.export import write_points_ply
 from skelcore.io import validate
-from skelcore.pipeline import RunOptions, run_pipeline
+from skelcore.options import RunOptions
+from skelcore.pipeline import run_pipeline
 from skelcore.shapes import EXPECTED_TOPOLOGY, centreline, make_shape
 
 TOPOLOGY = ("components", "cycles", "ends", "junctions")
@@ -98,7 +99,8 @@ def test_metrics_and_evidence_made_beside_the_run_are_those_made_after_it(budget
     """compute() measures each state on a helper thread while the contraction goes on (a reduced run: while its
     skeleton is drawn) and starts the skeleton evidence before the skeleton: the same metrics and evidence as
     computing them one after the other from the finished run."""
-    from skelcore.pipeline import IterationMetricsCache, compute, skeleton_evidence
+    from skelcore.evidence import skeleton_evidence
+    from skelcore.pipeline import IterationMetricsCache, compute
 
     cloud = validate(make_shape("two_hole", 4000, seed=0).points, name="two_hole.xyz")
     run = compute(cloud, RunOptions(point_budget=budget))

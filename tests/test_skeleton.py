@@ -7,7 +7,6 @@ import pytest
 from scipy.spatial import cKDTree
 
 from skelcore import loops
-from skelcore import skeleton as skeleton_module
 from skelcore.errors import InputError, ParameterError, SkelError
 from skelcore.evaluate import load_graph
 from skelcore.export import (polylines, skeleton_document, write_points_ply, write_skeleton, write_skeleton_graphml,

@@ -44,21 +44,23 @@ def test_surface_of_other_points_is_refused():
         OriginalSurface.of(points, state.rings.triangles + len(points))
 
 
-def test_the_loop_probe_takes_the_metrics_surface_of_the_same_points():
+def test_the_loop_probe_takes_the_metrics_surface_of_the_same_points(monkeypatch):
     """The false-loop probe's inside test, made from the metrics' inside test of the same cloud (its oriented
     normals, a grid of the probe's own band), is the one it would make itself; the surface of other points is
     not taken."""
+    from skelcore.inside import InsideTest
     from skelcore.metrics import MetricsReference
 
     points = make_shape("two_hole", 3000, seed=0).points
     state = run_contraction(points, ContractionParams(max_iterations=1))[0]
     reference = MetricsReference.from_points(points)
-    own, shared = original_surface(state, points), original_surface(state, points)
-    shared.probe.share_surface(reference.inside)
-    made, taken = own.probe.inside(), shared.probe._inside
-    assert taken is not None and taken.band == made.band == own.probe.spacing
-    np.testing.assert_array_equal(taken.cells, made.cells)
-    np.testing.assert_array_equal(taken.normals, made.normals)
-    other = original_surface(state, points)
-    other.probe.share_surface(MetricsReference.from_points(points[::-1].copy()).inside)
-    assert other.probe._inside is None
+    made = original_surface(state, points).probe.inside()
+    other = original_surface(state, points, MetricsReference.from_points(points[::-1].copy()).inside).probe.inside()
+    shared = original_surface(state, points, reference.inside)
+    monkeypatch.setattr(InsideTest, "of_cloud", None)  # the shared surface's normals are not computed again
+    taken = shared.probe.inside()
+    assert taken.band == made.band == shared.probe.spacing
+    for inside in (taken, other):
+        np.testing.assert_array_equal(inside.cells, made.cells)
+        np.testing.assert_array_equal(inside.normals, made.normals)
+        np.testing.assert_array_equal(inside.samples, points)

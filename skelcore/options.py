@@ -1,0 +1,48 @@
+"""What shapes a run besides its input: contraction and skeleton parameters, sampling, cleaning, labels."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import io, multires
+from .clean import CleaningParams
+from .errors import InputError
+from .labels import weights_from_labels
+from .metrics import NORMAL_CONVENTION
+from .params import ContractionParams
+from .skeleton import SkeletonParams
+
+METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
+    params: ContractionParams = ContractionParams()
+    sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the object's diagonal
+    seed: int = 0
+    sample: int | None = None  # mesh input: points sampled evenly over the surface
+    voxel_size: float | None = None
+    max_points: int = io.MAX_POINTS
+    metrics_k: int = METRICS_K
+    normal_convention: str = NORMAL_CONVENTION  # D_theta's normals (skelcore.metrics)
+    cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
+    labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
+    label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
+    point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
+
+    def weights(self, cloud: io.Cloud) -> np.ndarray | None:
+        """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""
+        if not self.label_weights:
+            return None
+        if cloud.labels is None:
+            raise InputError(f"{cloud.name}: label weights given but the input has no labels "
+                             f"(a PLY label property or --labels FILE)")
+        return weights_from_labels(cloud.labels, dict(self.label_weights))
+
+    def skeleton_params(self) -> SkeletonParams:
+        """The skeleton parameters of this run, validated."""
+        # GLSkeleton's graph step drops collinear degree-2 nodes (Wen et al. 2024).
+        return SkeletonParams(sample_radius=self.sample_radius,
+                              drop_collinear=self.params.method == "glskeleton").validated()
