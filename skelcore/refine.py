@@ -14,6 +14,8 @@ import math
 
 import networkx as nx
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
 Adjacency = dict[int, set[int]]
@@ -181,10 +183,14 @@ def _turn(xyz: list, a: int, x: int, b: int) -> float:
 
 
 def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points: np.ndarray,
-                    max_angle: float) -> np.ndarray:
+                   max_angle: float, max_offset: float) -> np.ndarray:
     """Drop degree-2 nodes turning less than `max_angle`, straightest first, unless their neighbours are
-    already joined; the points of a dropped node go to the nearer end of the edge that now spans it."""
-    spans: dict[tuple[int, int], list[int]] = {}
+    already joined or the edge that would span it would pass farther than `max_offset` from it or from a node
+    dropped into it before (a gentle bend would otherwise go node by node, each turning little, until one
+    chord cut it); then place the kept degree-2 nodes where the polyline through them fits the nodes dropped
+    from it best (`_refit`). The points of a dropped node go to the nearer end of the edge that now spans it."""
+    spans: dict[tuple[int, int], list[int]] = {}  # edge (a < b) -> the nodes dropped from it, in order from a
+    pos = np.asarray(xyz, dtype=float)
 
     def push(x: int) -> None:
         if len(adj[x]) == 2:
@@ -200,7 +206,12 @@ def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points:
             break
         if x not in adj or adj[x] != {a, b} or b in adj[a]:
             continue
-        spans[_pair(a, b)] = spans.pop(_pair(a, x), []) + [x] + spans.pop(_pair(x, b), [])
+        spanned = _along(spans, a, x) + [x] + _along(spans, x, b)
+        if _segment_distances(pos[spanned], pos[a], pos[b]).max() > max_offset:
+            continue
+        spans.pop(_pair(a, x), None)
+        spans.pop(_pair(x, b), None)
+        spans[_pair(a, b)] = spanned if a < b else spanned[::-1]
         del adj[x]
         adj[a].discard(x)
         adj[b].discard(x)
@@ -208,6 +219,7 @@ def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points:
         adj[b].add(a)
         push(a)
         push(b)
+    _refit(adj, xyz, spans)
     ends = np.full((len(xyz), 2), -1, dtype=np.int64)  # dropped node -> the edge that spans it
     for edge, dropped in spans.items():
         ends[dropped] = edge
@@ -218,3 +230,52 @@ def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points:
     node_of_point = node_of_point.copy()
     node_of_point[ids] = np.where(nearer_b, b, a)
     return node_of_point
+
+
+def _along(spans: dict[tuple[int, int], list[int]], a: int, b: int) -> list[int]:
+    """The nodes dropped from edge a-b, in order from a."""
+    dropped = spans.get(_pair(a, b), [])
+    return dropped if a < b else dropped[::-1]
+
+
+def _segment_distances(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances of `points` (m,3) from the segment a-b."""
+    ab = b - a
+    length2 = float(ab @ ab)
+    t = np.clip((points - a) @ ab / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(points))
+    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
+
+
+def _refit(adj: Adjacency, xyz: list, spans: dict[tuple[int, int], list[int]]) -> None:
+    """Move the kept degree-2 nodes next to dropped ones to where the polyline through them fits, in least
+    squares, those dropped nodes (each at its share of the arc length of the stretch it lay on) and the kept
+    nodes' own places. Kept where they were, the nodes that outlive the drop are the ones that turn most:
+    on a straight stretch, those that noise or a cap's pull put off the axis, and each would swing a long chord
+    with it. Ends and junctions stay, as recentring leaves them."""
+    pos = np.asarray(xyz, dtype=float)
+    free = np.array(sorted(x for x in adj if len(adj[x]) == 2 and any(_pair(x, y) in spans for y in adj[x])),
+                    dtype=np.int64)
+    if not len(free):
+        return
+    column = np.full(len(pos), -1, dtype=np.int64)
+    column[free] = np.arange(len(free))
+    rows, cols, weights, target = [np.arange(len(free))], [np.arange(len(free))], [np.ones(len(free))], [pos[free]]
+    start = len(free)
+    for (a, b), dropped in spans.items():
+        stretch = pos[[a, *dropped, b]]
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(stretch, axis=0), axis=1))])
+        share = arc[1:-1] / arc[-1] if arc[-1] > 0 else np.full(len(dropped), 0.5)
+        goal = pos[dropped].copy()
+        row = np.arange(start, start + len(dropped))
+        for end, weight in ((a, 1.0 - share), (b, share)):
+            if column[end] >= 0:
+                rows.append(row), cols.append(np.full(len(row), column[end])), weights.append(weight)
+            else:
+                goal -= weight[:, None] * pos[end]
+        target.append(goal)
+        start += len(dropped)
+    design = sp.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                           shape=(start, len(free)))
+    fitted = spla.spsolve((design.T @ design).tocsc(), design.T @ np.concatenate(target))
+    for node, place in zip(free.tolist(), np.atleast_2d(fitted).tolist()):
+        xyz[node] = tuple(place)

@@ -153,7 +153,10 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         absorb_specks(adj, xyz, parent, node_of_point, CleaningParams.min_piece_share)
         node_of_point = _roots(parent)[node_of_point]
     if params.drop_collinear:
-        node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle)
+        # a node turning collinear_angle one sample radius from its neighbour lies this far off their chord:
+        # the offset that angle allows at the skeleton's own spacing; a chord farther out cuts a resolved bend
+        offset = radius * math.sin(math.radians(params.collinear_angle))
+        node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle, offset)
     return _finish(adj, xyz, node_of_point, radius)
 
 
