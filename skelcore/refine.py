@@ -269,7 +269,9 @@ def _refit(adj: Adjacency, xyz: list, spans: dict[tuple[int, int], list[int]]) -
         row = np.arange(start, start + len(dropped))
         for end, weight in ((a, 1.0 - share), (b, share)):
             if column[end] >= 0:
-                rows.append(row), cols.append(np.full(len(row), column[end])), weights.append(weight)
+                rows.append(row)
+                cols.append(np.full(len(row), column[end]))
+                weights.append(weight)
             else:
                 goal -= weight[:, None] * pos[end]
         target.append(goal)
