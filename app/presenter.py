@@ -171,7 +171,8 @@ class Presenter:
             session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
                                                       session.run.ahead if session.ready_ahead else None),
             notice=viewer.view.notice(history[index].n_points), readiness=readiness,
-            skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
+            skeleton=status.skeleton_note(readiness, history[index], viewer.view.visible["skeleton"],
+                                          self.ui.view.provisional.value),
             following=viewer.following)
 
     def update_legend(self, viewer: Viewer, note: str = "") -> None:

@@ -23,13 +23,14 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
     return f"{state}; iteration {ahead.iteration} computed ahead (Step shows it at once)"
 
 
-def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:
-    """Why no skeleton, or only a provisional one, is drawn ("" when the skeleton is final or hidden)."""
+def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, provisional_wanted: bool) -> str:
+    """Why no skeleton, or only a provisional one, is drawn for `state` ("" when the skeleton is final or
+    hidden), in the legend's words."""
     if readiness is None or not readiness.provisional or not skeleton_shown:
         return ""
     if provisional_wanted:
-        return "skeleton drawn provisionally: the cloud is not curve-like yet"
-    return "no skeleton yet: the cloud is not curve-like yet (View: Provisional skeleton)"
+        return f"skeleton drawn provisionally: {readiness.reason(state)}"
+    return f"no skeleton yet: {readiness.reason(state)} (View: Provisional skeleton)"
 
 
 def status_markdown(session, index: int, *, run: str, notice: str, readiness: Readiness | None,

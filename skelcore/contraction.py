@@ -84,7 +84,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             # (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
             if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
-                failure = ("ring_ratio", f"a_t fell by {drop:.4f} < {params.termination:g}")
+                moved = f"fell by {drop:.4f} < {params.termination:g}" if drop >= 0 else f"rose by {-drop:.4f}"
+                failure = ("ring_ratio", f"a_t {moved}")
             else:
                 failure = torn(iteration, sizes, new_sizes)
         if failure is not None:

@@ -142,8 +142,9 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
-            state = stopped(state, "ring_ratio", f"the step shrank the rings by {drop:.4f} < {params.termination:g}",
-                            notes)
+            moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
+                     else f"widened the rings by {-drop:.4f}")
+            state = stopped(state, "ring_ratio", f"the step {moved}", notes)
             continue
         tear = torn(iteration, start_sizes, new_sizes)
         if tear is not None:

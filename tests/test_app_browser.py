@@ -479,7 +479,7 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     page.get_by_label("Show skeleton").check()
     inspector.wait_idle()
     assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
-    page.get_by_text("no skeleton yet: the cloud is not curve-like yet").first.wait_for()
+    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0) (View: Provisional skeleton)").first.wait_for()
     page.get_by_label("Provisional skeleton").check()
     wait_until(lambda: drawn(page, "skeleton") == 0, "the provisional skeleton")
     page.get_by_text("skeleton drawn provisionally").first.wait_for()

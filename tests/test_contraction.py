@@ -179,6 +179,18 @@ def test_ring_ratio_termination_discards_the_last_candidate():
     assert all(s.termination is None for s in states[:-1])
 
 
+def test_a_ring_ratio_that_rose_is_told_as_a_rise():
+    """The stop rule's words say which way a_t moved: a step that widened the rings reads "rose by", never
+    "fell by" a negative amount."""
+    from pathlib import Path
+
+    import skelcore
+
+    cloud = skelcore.load(Path(__file__).resolve().parents[1] / "assets" / "two_hole.ply")
+    message = run_contraction(cloud.points)[-1].message
+    assert "a_t rose by 0.0" in message and "-0.0" not in message
+
+
 def spoil_solve(monkeypatch, call: int, spoil) -> None:
     """Make the `call`-th solve of the run return spoil(solution) (or raise what spoil raises)."""
     from skelcore import solver as solver_module
