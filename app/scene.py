@@ -21,7 +21,8 @@ from skelcore.display import framing_camera
 from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
 
 BACKGROUND = np.array([255, 255, 255], float)
-LAYER_COLOURS = {"original": (150, 150, 150), "contracted": (220, 40, 40),
+# original: light enough that the dark skeleton inside it reads through the points in front of it
+LAYER_COLOURS = {"original": (175, 175, 175), "contracted": (220, 40, 40),
                  "removed": (140, 70, 220)}  # removed: input points a GLSkeleton reduction absorbed
 EDGE_COLOUR = (20, 20, 20)
 PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
@@ -265,7 +266,7 @@ class SceneView:
             segments = nodes[edges].astype(np.float32)  # (e,2,3)
             self._edges = self.scene.add_line_segments(
                 "/skeleton/edges", points=segments, colors=PROVISIONAL_EDGE_COLOUR if provisional else EDGE_COLOUR,
-                thickness=0.3 * self._node_radius(), visible=visible)
+                thickness=0.6 * self._node_radius(), visible=visible)  # about as wide as an original point
         if len(nodes):
             colours = np.empty((len(nodes), 3), np.uint8)
             colours[:] = PATH_COLOUR

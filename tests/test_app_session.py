@@ -231,13 +231,13 @@ def test_latest_keeps_the_newest_request_of_each_key():
 
 @pytest.mark.parametrize("quantity, target", [("D_theta", 0.5), ("delta_kappa", 0.0)])
 def test_colour_map_target_stands_out_on_the_white_background(quantity, target):
-    from app.scene import COLOUR_RANGES
+    from app.scene import COLOUR_RANGES, LAYER_COLOURS
 
     low, high = COLOUR_RANGES[quantity]
     colours = colour_values(np.array([low, target, high, np.nan]), quantity)
     assert colours.dtype == np.uint8 and colours.shape == (4, 3)
     assert not np.array_equal(colours[0], colours[2])
-    assert tuple(colours[3]) == (150, 150, 150)
+    assert tuple(colours[3]) == LAYER_COLOURS["original"]  # no value: the original's grey
     for colour in colours[:3]:  # every value, the target above all, is far from white
         assert 255 * 3 - int(colour.astype(int).sum()) > 150
     assert colours[1].astype(int).sum() < 200  # the target is dark
