@@ -316,7 +316,7 @@ class Session:
         """What `skelcore run` would be given for this run: the one owner of the skeleton parameters."""
         run = run or self.run
         return RunOptions(params=run.start_params, sample_radius=self.sample_radius,
-                                   label_weights=tuple(sorted(run.label_weights.items())))
+                          label_weights=tuple(sorted(run.label_weights.items())))
 
     @property
     def skeleton_params(self) -> SkeletonParams:
@@ -364,7 +364,7 @@ class Session:
                 if skeleton.radius not in run.input_topology:  # the same at every iteration: computed once
                     run.input_topology[skeleton.radius] = {"pieces": piece_counts(run.cloud.points, skeleton.radius)}
                 run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
-                                                               run.input_topology[skeleton.radius])
+                                                      run.input_topology[skeleton.radius])
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 

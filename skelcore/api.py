@@ -96,7 +96,7 @@ class Result:
 
     @functools.cached_property
     def _evidence(self) -> dict:
-        """The skeleton checks' evidence (skelcore.skeleton_evidence), which the verdict and every file
+        """The skeleton checks' evidence (skelcore.evidence.skeleton_evidence), which the verdict and every file
         written read: the run's, or computed once (its complex is a quarter of a 10k-point run)."""
         if self.evidence is not None:
             return self.evidence
@@ -111,8 +111,8 @@ class Result:
         """Write the files of `skelcore run` into `out_dir` (created if needed): skeleton.json, skeleton.ply,
         contracted.ply, metrics.json, params.json. Returns the folder."""
         write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
-                               input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
-                               reduction=self.reduction, evidence=self._evidence)
+                      input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
+                      reduction=self.reduction, evidence=self._evidence)
         return Path(out_dir)
 
     def report(self, path) -> Path:
@@ -126,8 +126,7 @@ class Result:
             if source is None:  # an array: the report reads the original cloud back from a file
                 source = write_points_ply(Path(tmp) / "input.ply", self.cloud.points)
             write_results(folder, self.cloud, self.states, self.skeleton, self.metrics, self.options,
-                                   input_path=source, elapsed=self.elapsed, weights=self.weights,
-                                   evidence=self._evidence)
+                          input_path=source, elapsed=self.elapsed, weights=self.weights, evidence=self._evidence)
             return write_report([folder], path)
 
     def summary(self) -> str:
@@ -179,7 +178,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
 
 def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weights=None,
         progress: Callable[[str], None] | None = None) -> Result:
-    """`skeletonize` with its options gathered in a skelcore.RunOptions (what `skelcore run` calls).
+    """`skeletonize` with its options gathered in a skelcore.options.RunOptions (what `skelcore run` calls).
     labels: an (n,) array of labels (a label file or property goes in options.labels)."""
     started = time.perf_counter()
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None

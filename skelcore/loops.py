@@ -114,10 +114,8 @@ class SurfaceProbe:
         when a loop is first judged. From the shared test of the same points only the grid is made again, to this
         probe's band: their oriented normals are the ones this would compute."""
         if self._inside is None:
-            shared = self._shared
-            if shared is not None and shared.samples.shape == self.points.shape and np.array_equal(shared.samples,
-                                                                                                   self.points):
-                self._inside = shared.with_band(self.spacing)
+            if self._shared is not None and np.array_equal(self._shared.samples, self.points):
+                self._inside = self._shared.with_band(self.spacing)
             else:
                 self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
                                                    self.tree)
