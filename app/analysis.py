@@ -15,6 +15,7 @@ import numpy as np
 
 from skelcore import display, pipeline, report
 
+from .layout import CARD
 from .scene import COLOUR_RANGES, colour_values
 from .session import Run, Session
 
@@ -95,7 +96,7 @@ class Analyses:
             figures = (_compact(report.histogram_figure(history[-1], "d_theta", iteration=state.iteration, fit=True)),
                        _compact(report.histogram_figure(history[-1], "delta_kappa", iteration=state.iteration,
                                                         fit=True)),
-                       report.convergence_figure(history).update_layout(height=None))
+                       report.convergence_figure(history).update_layout(CARD, height=None))
             return Plots(figures, tuple(figure.to_json() for figure in figures))
         return self._cached(run, ("plots", index, state.params), compute)
 
@@ -122,5 +123,5 @@ class Analyses:
 def _compact(histogram):
     """A histogram for the narrow plots panel: its title names the measure, so the axis title goes and the
     legend takes its place below the ticks."""
-    return histogram.update_layout(height=None, margin=dict(l=45, r=10, t=55, b=40), xaxis_title=None,
+    return histogram.update_layout(CARD, height=None, margin=dict(l=45, r=10, t=55, b=40), xaxis_title=None,
                                    legend=dict(y=-0.13, yanchor="top"))

@@ -8,6 +8,8 @@ import numpy as np
 
 from skelcore import pipeline, report
 
+from .layout import CARD
+
 RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
 
 
@@ -45,8 +47,8 @@ def comparison(pinned: Pinned, state, history) -> tuple[str, object, object, obj
     note = (f"**{pinned.name}** (grey, verdict {runs[0]['verdict']['label']}) against **{current['name']}** "
             f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in light blue.")
     convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
-                                                       colours=RUN_COLOURS)
+                                                       colours=RUN_COLOURS).update_layout(CARD)
     theta, kappa = (report.final_histograms_figure(runs, key, title=f"{key_name}, last iteration", colours=RUN_COLOURS)
-                    .update_layout(xaxis_title=None, legend=dict(y=-0.13, yanchor="top"))  # the title names it
+                    .update_layout(CARD, xaxis_title=None, legend=dict(y=-0.13, yanchor="top"))  # the title names it
                     for key, key_name in (("d_theta", "D_theta"), ("delta_kappa", "delta_kappa")))
     return note, convergence, theta, kappa

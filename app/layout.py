@@ -1,7 +1,8 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
 - the control panel (docked right): the run controls and status on top, then tabs
-  Parameters | View | Files | Log, and below them the Labels folder of clouds with labels (app.labels);
+  Parameters | View | Files | Log (Parameters: the weights and Restart, the rest folded under More parameters),
+  and below them the Labels folder of clouds with labels (app.labels);
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
   Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
   `with panel.add_tab(...)` in `build_plots`;
@@ -28,6 +29,9 @@ from skelcore.params import LIMITS, METHODS, ContractionParams
 PLOTS_WIDTH = 420  # px: two histograms of this width fit one above the other in a 720 px high window
 CONTROLS_WIDTH = 340
 HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
+# Every figure in the plots panel takes a clear paper: viser draws a plot as wide as its card's outside (1 px borders
+# included), so a white one would paint over the card's right border.
+CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
@@ -186,19 +190,20 @@ def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius
     wl0 = gui.add_number("W_L0 (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
     wh0 = _number(gui, "W_H0", "wh0", params.wh0, 0.1)
     sl = _number(gui, "s_L", "sl", params.sl, 0.1)
-    wl_max = _number(gui, "W_L cap", "wl_max", params.wl_max, 1.0)
-    k = gui.add_number("k (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
-                       hint="applies on Restart")
-    max_iterations = _number(gui, "Max iterations", "max_iterations", params.max_iterations, 1)
-    termination = _number(gui, "Termination", "termination", params.termination, 0.0001,
-                          hint="stop when the ring-size ratio falls by less")
-    hold_curves = gui.add_checkbox("Hold curves", params.hold_curves,
-                                   hint="points the first step brought to a thin part's axis keep that W_L, and "
-                                        "handles thinner than a skeleton ball stay in place: small handles and "
-                                        "limb ends survive")
-    radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
-                            hint="skeleton ball radius, fraction of the bounding-box diagonal")
     restart = gui.add_button("Restart with these parameters")
+    with gui.add_folder("More parameters", expand_by_default=False):  # so Restart fits a 1280x720 window
+        wl_max = _number(gui, "W_L cap", "wl_max", params.wl_max, 1.0)
+        k = gui.add_number("k (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
+                           hint="applies on Restart")
+        max_iterations = _number(gui, "Max iterations", "max_iterations", params.max_iterations, 1)
+        termination = _number(gui, "Termination", "termination", params.termination, 0.0001,
+                              hint="stop when the ring-size ratio falls by less")
+        hold_curves = gui.add_checkbox("Hold curves", params.hold_curves,
+                                       hint="points the first step brought to a thin part's axis keep that W_L, and "
+                                            "handles thinner than a skeleton ball stay in place: small handles and "
+                                            "limb ends survive")
+        radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
+                                hint="skeleton ball radius, fraction of the bounding-box diagonal")
     return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, radius,
                             restart)
 
@@ -243,19 +248,22 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
 
 
 def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
+    def plot(title: str, aspect: float) -> viser.GuiPlotlyHandle:
+        return gui.add_plotly(report.empty_figure(title).update_layout(CARD), aspect=aspect)
+
     with panel.add_tab("Histograms"):
         verdict_line = gui.add_markdown("")
-        hist_theta = gui.add_plotly(report.empty_figure("D_theta"), aspect=HISTOGRAM_ASPECT)
-        hist_kappa = gui.add_plotly(report.empty_figure("delta_kappa"), aspect=HISTOGRAM_ASPECT)
+        hist_theta = plot("D_theta", HISTOGRAM_ASPECT)
+        hist_kappa = plot("delta_kappa", HISTOGRAM_ASPECT)
     with panel.add_tab("Convergence"):
-        convergence = gui.add_plotly(report.empty_figure("convergence"), aspect=1.15)
+        convergence = plot("convergence", 1.15)
     with panel.add_tab("Verdict"):
         verdict = gui.add_markdown("")
     with panel.add_tab("Compare"):
         pin = gui.add_button("Pin this run", hint="keep this run to compare the next ones with it")
         compare_note = gui.add_markdown("Pin a run, change parameters or method, Restart: both runs show here.")
-        compare_convergence = gui.add_plotly(report.empty_figure("convergence, pinned and current"), aspect=1.15)
-        compare_theta = gui.add_plotly(report.empty_figure("final D_theta"), aspect=HISTOGRAM_ASPECT)
-        compare_kappa = gui.add_plotly(report.empty_figure("final delta_kappa"), aspect=HISTOGRAM_ASPECT)
+        compare_convergence = plot("convergence, pinned and current", 1.15)
+        compare_theta = plot("final D_theta", HISTOGRAM_ASPECT)
+        compare_kappa = plot("final delta_kappa", HISTOGRAM_ASPECT)
     return PlotWidgets(verdict_line, verdict, hist_theta, hist_kappa, convergence, pin, compare_note, compare_convergence,
                        compare_theta, compare_kappa)

@@ -172,6 +172,16 @@ def test_play_then_step_leaves_a_play_button(fresh_sized, inspector):
     wait_until(lambda: not inspector.worker.playing, "the worker to stop")
 
 
+def _card_edges(page, card) -> list[np.ndarray]:
+    """The darkest pixel of each row at the card's left edge and at its right edge (its 1 px border)."""
+    import imageio.v3 as iio
+
+    box = card.bounding_box()
+    image = iio.imread(page.screenshot(), extension=".png")[..., :3]
+    rows = slice(int(box["y"]) + 4, int(box["y"] + box["height"]) - 4)  # clear of the rounded corners
+    return [image[rows, x - 1:x + 2].min(axis=(1, 2)) for x in (round(box["x"]), round(box["x"] + box["width"]) - 1)]
+
+
 def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspector):
     page = fresh_sized
     step(inspector, page)
@@ -185,6 +195,14 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     assert "target 0.5" in titles[0] and "target 0" in titles[1]  # the target is marked
     for name in ("Step", "Play"):
         assert inside_viewport(page, button(page, name))
+    for i in range(2):  # the plot inside a card leaves its border whole: the right edge drawn like the left
+        left, right = _card_edges(page, plots.nth(i).locator("xpath=.."))
+        assert np.array_equal(right, left), (left, right)
+    set_value(page, "W_H0", 2)  # a weight tuned live: the status grows a line, and Restart is still in reach
+    page.locator("strong", has_text="Pending").wait_for()
+    assert inside_viewport(page, button(page, "Restart with these parameters"))
+    set_value(page, "W_H0", inspector.session.start_params.wh0)
+    wait_until(lambda: not inspector.session.pending, "the weight back")
     # the histogram spans the values and the target (tests/test_report.py checks the fit itself)
     axis = page.viewer.ui.plots.hist_theta.figure.layout.xaxis.range
     values = inspector.session.metrics(1).d_theta
