@@ -149,6 +149,18 @@ def test_density_keeps_thirty_percent_on_one_half(rings):
     assert (kept > median).sum() / (along > median).sum() == pytest.approx(0.3, abs=0.04)
 
 
+def test_the_thinned_half_is_thinned_evenly_whatever_drew_its_points():
+    """The capsule's sampler draws from default_rng(seed), as the variants once did: thinned by the same
+    draws that had placed its points, its thinned half lost its cap and a band across it (two pieces)."""
+    from skelcore.shapes import make_shape
+
+    capsule = make_shape("capsule", N, seed=0).points
+    thinned = perturbations.perturb(capsule, "density_30", seed=0)
+    slabs = np.linspace(capsule[:, 0].min(), capsule[:, 0].max(), 9)
+    kept = np.histogram(thinned[:, 0], slabs)[0] / np.histogram(capsule[:, 0], slabs)[0]
+    assert kept.min() > 0.15, kept  # every slab of the thinned half keeps about 30% of its points
+
+
 @pytest.mark.parametrize("name", ["linked_rings_3", "block_3_holes", "chain"])
 def test_partial_scan_sees_one_side_and_keeps_each_piece_whole(name):
     shape = solids.solid_shape(name, N, seed=0)
