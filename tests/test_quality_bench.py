@@ -209,11 +209,11 @@ def test_bad_perturbation_requests_are_refused(rings):
 
 # --- the benchmark --------------------------------------------------------------------------------
 
-def _result(shape, variant, method, cycles, nodes, expected_cycles=1, error=None):
+def _result(shape, variant, method, cycles, nodes, expected_cycles=1, error=None, seed=0):
     from skelcore.quality_bench import CaseResult
 
     topology = None if error else {"cycles": cycles, "components": 1, "junctions": 0, "ends": 0}
-    return CaseResult(shape, variant, method, {"cycles": expected_cycles, "components": 1, "ends": 0}, 100,
+    return CaseResult(shape, variant, method, {"cycles": expected_cycles, "components": 1, "ends": 0}, 100, seed,
                       topology, None if error else nodes, seconds=1.0, error=error)
 
 
@@ -233,6 +233,28 @@ def test_summary_counts_exact_runs_collapses_and_lost_loops():
     table = format_table(results, summarise(results), 6.0)
     assert "on clean clouds 1/2 (50%), on perturbed 2/4 (50%)" in table
     assert "error: b partial lbc: ValueError: x" in table and "ERROR" in table
+
+
+def test_several_seeds_are_counted_apart_and_each_run_checked_against_the_clean_run_of_its_draw():
+    from skelcore.quality_bench import format_table, summarise
+
+    results = [_result("a", "clean", "lbc", 1, 40, seed=0), _result("a", "noise_1", "lbc", 1, 25, seed=0),
+               _result("a", "clean", "lbc", 1, 60, seed=1), _result("a", "noise_1", "lbc", 0, 25, seed=1)]
+    summary = summarise(results)["lbc"]
+    assert summary["collapsed"] == ["a/noise_1 seed 1"]  # 25 of seed 1's 60, but not of seed 0's 40
+    assert summary["perturbed_by_seed"] == {"0": [1, 1], "1": [0, 1]}
+    assert (summary["perturbed_exact"], summary["perturbed_runs"]) == (1, 2)
+    table = format_table(results, summarise(results), 4.0)
+    assert "exact perturbed by seed: 0 1/1, 1 0/1" in table
+    rows = [line.split() for line in table.splitlines() if line.startswith("a ")]
+    assert [row[2] for row in rows] == ["0", "0", "1", "1"]  # a seed column once there are several
+
+
+def test_bench_quality_refuses_seeds_that_are_no_draw(capsys):
+    from skelcore.cli import main
+
+    assert main(["bench-quality", "--seeds", "-1", "--shapes", "block_1_hole", "--quiet"]) != 0
+    assert "seeds=[-1]" in capsys.readouterr().err
 
 
 def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypatch, capsys, tmp_path):
