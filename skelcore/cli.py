@@ -169,8 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
     quality.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS), metavar="VARIANT",
                          help=f"of: {' '.join(VARIANTS)} (default: all)")
     quality.add_argument("--points", type=int, default=10_000, help="points per shape (default: %(default)s)")
-    quality.add_argument("--seed", type=int, default=0,
-                         help="sampling and perturbation seed (default: %(default)s)")
+    quality.add_argument("--seeds", type=int, nargs="+", default=[0], metavar="SEED",
+                         help="draws of the shapes' samples and of the variants, each a run of the whole grid "
+                              "(default: 0)")
     quality.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
     quality.add_argument("--reference", default=None, metavar="DIR",
                          help="folder of the reference meshes and scans (default: ../shared/reference)")
@@ -269,12 +270,12 @@ def _bench_quality(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,
-                                points=args.points, seed=args.seed, workers=args.workers,
+                                points=args.points, seeds=args.seeds, workers=args.workers,
                                 reference_dir=args.reference, keep_dir=args.out, progress=progress)
     summary = summarise(results)
     print(format_table(results, summary, time.perf_counter() - started))
     if args.json:
-        keys = ("methods", "shapes", "variants", "points", "seed", "workers")
+        keys = ("methods", "shapes", "variants", "points", "seeds", "workers")
         settings = {key: getattr(args, key) for key in keys}
         print(write_json(args.json, results, summary, settings))
     return 0

@@ -38,7 +38,11 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 20:
         raise ParameterError(f"perturb: expected at least 20 points as an (n,3) array, got shape {points.shape}")
-    rng = np.random.default_rng(seed)
+    if variant not in VARIANTS:
+        raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(VARIANTS)})")
+    # A stream of the variant's own: a sampler drawing from default_rng(seed) too would have placed the points
+    # by the very draws that thin or move them (the capsule's thinned half lost its cap and a band, 2 pieces).
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(VARIANTS.index(variant),)))
     if variant == "clean":
         return points.copy()
     if variant in NOISE:
@@ -48,9 +52,7 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
         return np.vstack([points, rng.uniform(low, high, (round(OUTLIER_SHARE * len(points)), 3))])
     if variant == "density_30":
         return thin_half(points, DENSITY_KEPT, rng)
-    if variant == "partial":
-        return points[partial_scan(points, normals, 0.0 if loops else ISLAND_SHARE)[0]]
-    raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(VARIANTS)})")
+    return points[partial_scan(points, normals, 0.0 if loops else ISLAND_SHARE)[0]]  # "partial"
 
 
 def thin_half(points: np.ndarray, kept: float, rng: np.random.Generator) -> np.ndarray:

@@ -4,7 +4,8 @@ Every shape of `skelcore.solids` (each sampled to the same number of points) in 
 `skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method.
 A run is exact when its skeleton's cycle rank and component count equal the shape's. A perturbed run has
 collapsed when its skeleton keeps fewer than half the nodes of the same shape's clean run. A run that fails
-is recorded with its error and the benchmark goes on.
+is recorded with its error and the benchmark goes on. Each seed draws the shapes' samples and the variants
+anew: one draw decides a few runs either way, so several seeds tell a method's rate from its luck.
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ class CaseResult:
     method: str
     expected: dict  # cycles, components, ends (None where unknown)
     n_points: int
+    seed: int = 0  # of the shape's sampling and the variant's draw
     topology: dict | None = None  # cycles, components, junctions, ends of the skeleton
     nodes: int | None = None
     iterations: int | None = None
@@ -78,9 +80,9 @@ def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_
 
 
 def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, variants=VARIANTS,
-                      points: int = DEFAULT_POINTS, seed: int = 0, workers: int = 1, reference_dir=None,
+                      points: int = DEFAULT_POINTS, seeds=(0,), workers: int = 1, reference_dir=None,
                       keep_dir=None, progress: Callable[[str], None] | None = None) -> list[CaseResult]:
-    """Run every shape x variant x method; results in that order."""
+    """Run every seed x shape x variant x method; results in that order."""
     unknown = [v for v in variants if v not in VARIANTS] + [m for m in methods if m not in METHODS]
     if unknown:
         raise ParameterError(f"bench-quality: unknown variant or method {unknown[0]!r} "
@@ -89,14 +91,17 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
         raise ParameterError(f"bench-quality: points={points!r} must be an integer >= 100")
     if int(workers) != workers or workers < 1:
         raise ParameterError(f"bench-quality: workers={workers!r} must be an integer >= 1")
+    if not seeds or any(int(seed) != seed or seed < 0 for seed in seeds):
+        raise ParameterError(f"bench-quality: seeds={list(seeds)!r} must be integers >= 0")
     cases: list[tuple[CaseResult, np.ndarray]] = []
-    for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
-        expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
-        for variant in variants:
-            cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals,
-                            loops=shape.cycles > 0)
-            for method in methods:
-                cases.append((CaseResult(shape.name, variant, method, expected, len(cloud)), cloud))
+    for seed in dict.fromkeys(int(seed) for seed in seeds):
+        for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
+            expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
+            for variant in variants:
+                cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals, loops=shape.cycles > 0)
+                for method in methods:
+                    cases.append((CaseResult(shape.name, variant, method, expected, len(cloud), seed), cloud))
+    several = len({case.seed for case, _ in cases}) > 1
     keep = Path(keep_dir) if keep_dir is not None else None
 
     def finish(case: CaseResult, outcome: dict) -> None:
@@ -104,10 +109,12 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
             setattr(case, key, value)
         if progress is not None:
             got = "error" if case.error else _triple(case.topology)
-            progress(f"{case.shape} {case.variant} {case.method}: {got} ({case.seconds:.1f} s)")
+            drawn = f" seed {case.seed}" if several else ""
+            progress(f"{case.shape} {case.variant}{drawn} {case.method}: {got} ({case.seconds:.1f} s)")
 
     def arguments(case: CaseResult) -> dict:
-        return {"name": f"{case.shape}_{case.variant}", "seed": seed, "keep_dir": keep}
+        name = f"{case.shape}_{case.variant}" + (f"_seed{case.seed}" if several else "")
+        return {"name": name, "seed": case.seed, "keep_dir": keep}
 
     if workers == 1:
         for case, cloud in cases:
@@ -127,24 +134,30 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
 # --- the table ----------------------------------------------------------------------------------------
 
 def summarise(results: list[CaseResult]) -> dict:
-    """Per method: share exact on clean and on perturbed clouds, collapses, loops lost on clean, time."""
-    clean_nodes = {(r.shape, r.method): r.nodes for r in results if r.variant == CLEAN and r.nodes is not None}
+    """Per method: share exact on clean and on perturbed clouds (in all, by variant and by seed), collapses, loops
+    lost on clean, time. A perturbed run is checked against the clean run of its shape, method and seed."""
+    clean_nodes = {(r.shape, r.method, r.seed): r.nodes for r in results if r.variant == CLEAN and r.nodes is not None}
+    several = len({r.seed for r in results}) > 1
     summary = {}
     for method in dict.fromkeys(r.method for r in results):
         mine = [r for r in results if r.method == method]
         clean = [r for r in mine if r.variant == CLEAN]
         perturbed = [r for r in mine if r.variant != CLEAN]
-        checked = [r for r in perturbed if (r.shape, method) in clean_nodes]
+        checked = [r for r in perturbed if (r.shape, method, r.seed) in clean_nodes]
         collapsed = [r for r in checked
-                     if r.nodes is None or r.nodes < COLLAPSE_SHARE * clean_nodes[(r.shape, method)]]
+                     if r.nodes is None or r.nodes < COLLAPSE_SHARE * clean_nodes[(r.shape, method, r.seed)]]
+        seed_of = (lambda r: f" seed {r.seed}") if several else (lambda r: "")
         summary[method] = {
             "clean_exact": sum(r.exact for r in clean), "clean_runs": len(clean),
             "perturbed_exact": sum(r.exact for r in perturbed), "perturbed_runs": len(perturbed),
             "by_variant": {v: [sum(r.exact for r in mine if r.variant == v), sum(r.variant == v for r in mine)]
                            for v in dict.fromkeys(r.variant for r in mine)},
+            "perturbed_by_seed": {str(seed): [sum(r.exact for r in perturbed if r.seed == seed),
+                                              sum(r.seed == seed for r in perturbed)]
+                                  for seed in dict.fromkeys(r.seed for r in mine)},
             "no_collapse": len(checked) - len(collapsed), "collapse_checked": len(checked),
-            "collapsed": [f"{r.shape}/{r.variant}" for r in collapsed],
-            "clean_loops_lost": [r.shape for r in clean
+            "collapsed": [f"{r.shape}/{r.variant}{seed_of(r)}" for r in collapsed],
+            "clean_loops_lost": [f"{r.shape}{seed_of(r)}" for r in clean
                                  if r.topology is not None and r.topology["cycles"] < r.expected["cycles"]],
             "errors": sum(r.error is not None for r in mine),
             "seconds": sum(r.seconds for r in mine),
@@ -155,20 +168,23 @@ def summarise(results: list[CaseResult]) -> dict:
 def format_table(results: list[CaseResult], summary: dict, total_seconds: float) -> str:
     """One table: a row per shape and variant, per method its cycles/components/ends, nodes, exact, time."""
     methods = list(summary)
-    head = f"{'shape':<15} {'variant':<11} {'points':>6} {'expected':>10}"
-    rule = f"{'':<15} {'':<11} {'':>6} {'cyc/cc/end':>10}"
+    several = len({r.seed for r in results}) > 1
+    seed_head, seed_rule = (f" {'seed':>4}", f" {'':>4}") if several else ("", "")
+    head = f"{'shape':<15} {'variant':<11}{seed_head} {'points':>6} {'expected':>10}"
+    rule = f"{'':<15} {'':<11}{seed_rule} {'':>6} {'cyc/cc/end':>10}"
     for method in methods:
         head += f" | {method:<29}"
         rule += f" | {'cyc/cc/end':>10} {'nodes':>5} {'exact':>5} {'s':>5}"
     lines = [head, rule, "-" * len(rule)]
     # cyc: independent cycles (E - V + C), cc: connected components, end: degree-1 nodes (? where unknown)
-    by_key = {(r.shape, r.variant, r.method): r for r in results}
-    rows = dict.fromkeys((r.shape, r.variant) for r in results)
-    for shape, variant in rows:
-        first = next(r for r in results if (r.shape, r.variant) == (shape, variant))
-        line = f"{shape:<15} {variant:<11} {first.n_points:>6} {_triple(first.expected):>10}"
+    by_key = {(r.shape, r.variant, r.seed, r.method): r for r in results}
+    rows = dict.fromkeys((r.shape, r.variant, r.seed) for r in results)
+    for shape, variant, seed in rows:
+        first = next(r for r in results if (r.shape, r.variant, r.seed) == (shape, variant, seed))
+        drawn = f" {seed:>4}" if several else ""
+        line = f"{shape:<15} {variant:<11}{drawn} {first.n_points:>6} {_triple(first.expected):>10}"
         for method in methods:
-            r = by_key.get((shape, variant, method))
+            r = by_key.get((shape, variant, seed, method))
             if r is None:
                 line += f" | {'':<29}"
             elif r.error is not None:
@@ -185,13 +201,16 @@ def format_table(results: list[CaseResult], summary: dict, total_seconds: float)
                      f"the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
                      f"{s['errors']} errors; {s['seconds']:.0f} s")
         lines.append("  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))
+        if several:
+            lines.append("  exact perturbed by seed: " + ", ".join(f"{seed} {e}/{n}" for seed, (e, n)
+                                                                  in s["perturbed_by_seed"].items()))
         if s["clean_loops_lost"]:
             lines.append(f"  loops lost on clean clouds: {', '.join(s['clean_loops_lost'])}")
         if s["collapsed"]:
             lines.append(f"  collapsed: {', '.join(s['collapsed'])}")
     errors = [r for r in results if r.error is not None]
     for r in errors:
-        lines.append(f"error: {r.shape} {r.variant} {r.method}: {r.error}")
+        lines.append(f"error: {r.shape} {r.variant}{f' seed {r.seed}' if several else ''} {r.method}: {r.error}")
     lines.append(f"total {total_seconds:.0f} s for {len(results)} runs")
     return "\n".join(lines)
 

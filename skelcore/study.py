@@ -1,9 +1,8 @@
 """`skelcore study`: the verdict's criteria measured against ground truth over a grid of runs.
 
-Inputs: the synthetic shapes (skelcore.shapes, known centrelines and topology) and, when
-skelcore.solids provides it, the real-shape benchmark (known loops and pieces); each at several seeds and
-in scan-like variants (skelcore.perturb when present, else noise and uneven density of the synthetic
-sampler). Settings range from good to deliberately bad (SETTINGS). Every run records each iteration's
+Inputs: the synthetic shapes (skelcore.shapes, known centrelines and topology) and the real-shape
+benchmark (skelcore.solids, known loops and pieces); each at several seeds and in scan-like variants
+(skelcore.perturb). Settings range from good to deliberately bad (SETTINGS). Every run records each iteration's
 statistics under both normal conventions, the skeleton evidence of its last iteration and the truth:
 topology exact, and Chamfer/Hausdorff where a centreline exists. Runs are appended to OUT/runs.jsonl as
 they finish, so a killed study resumes where it stopped; skelcore.study_analysis turns them into the
@@ -38,8 +37,7 @@ SETTINGS = {
 }
 BAD_SETTINGS = ("wl0 x100", "stop after 1")  # must never be judged stable
 PERTURBED_SETTINGS = ("default", "glskeleton")  # run on the scan-like variants; clean clouds get every setting
-SYNTHETIC_VARIANTS = {"clean": {}, "noise": {"noise": 0.004}, "uneven": {"nonuniform": 0.7}}
-STUDY_VARIANTS = ("clean", "noise_1", "outliers_2", "density_30")  # of skelcore.perturb.VARIANTS, when present
+STUDY_VARIANTS = ("noise_1", "outliers_2", "density_30")  # of skelcore.perturb.VARIANTS, after the clean cloud
 CHAMFER_RIGHT = 0.01  # a right skeleton: topology exact and Chamfer <= this share of the diagonal
 RUNS_FILE = "runs.jsonl"
 
@@ -61,47 +59,31 @@ class StudyInput:
 
 
 def study_inputs(points: int = 3000, seeds=(0,), benchmark: bool = True, shapes=None) -> Iterator[StudyInput]:
-    """Every (shape, variant, seed) of the study; benchmark shapes only where skelcore.solids exists."""
+    """Every (shape, variant, seed) of the study."""
     from .shapes import SHAPES, make_shape
+    from .solids import benchmark_shapes
 
-    perturbation = _perturbation()
     for name in [n for n in shapes or SHAPES if n in SHAPES]:
         for seed in seeds:
-            if perturbation is None:
-                for variant, options in SYNTHETIC_VARIANTS.items():
-                    shape = make_shape(name, points, seed=seed, **options)
-                    yield StudyInput(name, "synthetic", variant, seed, shape.points, _shape_truth(shape))
-            else:
-                shape = make_shape(name, points, seed=seed)
-                for variant, cloud in perturbation(shape.points, seed):
-                    yield StudyInput(name, "synthetic", variant, seed, cloud, _shape_truth(shape))
+            shape = make_shape(name, points, seed=seed)
+            for variant, cloud in _variants(shape.points, seed):
+                yield StudyInput(name, "synthetic", variant, seed, cloud, _shape_truth(shape))
     if not benchmark:
-        return
-    try:
-        from .solids import benchmark_shapes
-    except ImportError:
         return
     for seed in seeds:
         for shape in benchmark_shapes(points=points, seed=seed):
             if shapes and shape.name not in shapes:
                 continue
             truth = {"components": int(shape.components), "cycles": int(shape.cycles)}
-            variants = [("clean", shape.points)] if perturbation is None else perturbation(shape.points, seed)
-            for variant, cloud in variants:
+            for variant, cloud in _variants(shape.points, seed):
                 yield StudyInput(shape.name, str(shape.source), variant, seed, cloud, truth)
 
 
-def _perturbation() -> Callable | None:
-    """(points, seed) -> [(variant, points)], the clean cloud first, from skelcore.perturb when present."""
-    try:
-        from .perturb import VARIANTS, perturb
-    except ImportError:
-        return None
+def _variants(points: np.ndarray, seed: int) -> list[tuple[str, np.ndarray]]:
+    """[(variant, points)]: the clean cloud, then each of STUDY_VARIANTS."""
+    from .perturb import perturb
 
-    def variants(points, seed):
-        return [("clean", points)] + [(name, np.asarray(perturb(points, name, seed=seed), float))
-                                      for name in STUDY_VARIANTS if name in VARIANTS and name != "clean"]
-    return variants
+    return [("clean", points)] + [(name, perturb(points, name, seed=seed)) for name in STUDY_VARIANTS]
 
 
 def _shape_truth(shape) -> dict:

@@ -149,6 +149,18 @@ def test_density_keeps_thirty_percent_on_one_half(rings):
     assert (kept > median).sum() / (along > median).sum() == pytest.approx(0.3, abs=0.04)
 
 
+def test_the_thinned_half_is_thinned_evenly_whatever_drew_its_points():
+    """The capsule's sampler draws from default_rng(seed), as the variants once did: thinned by the same
+    draws that had placed its points, its thinned half lost its cap and a band across it (two pieces)."""
+    from skelcore.shapes import make_shape
+
+    capsule = make_shape("capsule", N, seed=0).points
+    thinned = perturbations.perturb(capsule, "density_30", seed=0)
+    slabs = np.linspace(capsule[:, 0].min(), capsule[:, 0].max(), 9)
+    kept = np.histogram(thinned[:, 0], slabs)[0] / np.histogram(capsule[:, 0], slabs)[0]
+    assert kept.min() > 0.15, kept  # every slab of the thinned half keeps about 30% of its points
+
+
 @pytest.mark.parametrize("name", ["linked_rings_3", "block_3_holes", "chain"])
 def test_partial_scan_sees_one_side_and_keeps_each_piece_whole(name):
     shape = solids.solid_shape(name, N, seed=0)
@@ -197,11 +209,11 @@ def test_bad_perturbation_requests_are_refused(rings):
 
 # --- the benchmark --------------------------------------------------------------------------------
 
-def _result(shape, variant, method, cycles, nodes, expected_cycles=1, error=None):
+def _result(shape, variant, method, cycles, nodes, expected_cycles=1, error=None, seed=0):
     from skelcore.quality_bench import CaseResult
 
     topology = None if error else {"cycles": cycles, "components": 1, "junctions": 0, "ends": 0}
-    return CaseResult(shape, variant, method, {"cycles": expected_cycles, "components": 1, "ends": 0}, 100,
+    return CaseResult(shape, variant, method, {"cycles": expected_cycles, "components": 1, "ends": 0}, 100, seed,
                       topology, None if error else nodes, seconds=1.0, error=error)
 
 
@@ -221,6 +233,28 @@ def test_summary_counts_exact_runs_collapses_and_lost_loops():
     table = format_table(results, summarise(results), 6.0)
     assert "on clean clouds 1/2 (50%), on perturbed 2/4 (50%)" in table
     assert "error: b partial lbc: ValueError: x" in table and "ERROR" in table
+
+
+def test_several_seeds_are_counted_apart_and_each_run_checked_against_the_clean_run_of_its_draw():
+    from skelcore.quality_bench import format_table, summarise
+
+    results = [_result("a", "clean", "lbc", 1, 40, seed=0), _result("a", "noise_1", "lbc", 1, 25, seed=0),
+               _result("a", "clean", "lbc", 1, 60, seed=1), _result("a", "noise_1", "lbc", 0, 25, seed=1)]
+    summary = summarise(results)["lbc"]
+    assert summary["collapsed"] == ["a/noise_1 seed 1"]  # 25 of seed 1's 60, but not of seed 0's 40
+    assert summary["perturbed_by_seed"] == {"0": [1, 1], "1": [0, 1]}
+    assert (summary["perturbed_exact"], summary["perturbed_runs"]) == (1, 2)
+    table = format_table(results, summarise(results), 4.0)
+    assert "exact perturbed by seed: 0 1/1, 1 0/1" in table
+    rows = [line.split() for line in table.splitlines() if line.startswith("a ")]
+    assert [row[2] for row in rows] == ["0", "0", "1", "1"]  # a seed column once there are several
+
+
+def test_bench_quality_refuses_seeds_that_are_no_draw(capsys):
+    from skelcore.cli import main
+
+    assert main(["bench-quality", "--seeds", "-1", "--shapes", "block_1_hole", "--quiet"]) != 0
+    assert "seeds=[-1]" in capsys.readouterr().err
 
 
 def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypatch, capsys, tmp_path):
