@@ -324,8 +324,8 @@ class Inspector:
 
     def _draw_new_run(self, frame: bool = False) -> None:
         cloud = self.session.cloud
-        self.ui.run.title.content = (f"**skelcore inspector** &middot; {Path(cloud.name).name} "
-                                     f"&middot; {len(cloud.points):,} points")
+        # one line: the status' first line counts the points
+        self.ui.run.title.content = f"**skelcore inspector** &middot; {Path(cloud.name).name}"
         if cloud.points is not self._source:  # a new cloud: dense ones start thinned
             self._source = cloud.points
             opacity = auto_opacity(len(cloud.points))

@@ -1,6 +1,6 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
-- the control panel (docked right): the run controls and status on top, then tabs
+- the control panel (docked right): the run controls and status on top (notes on the cloud folded under it), then tabs
   Parameters | View | Files | Log (Parameters: the weights and Restart, the rest folded under More parameters),
   and below them the Labels folder of clouds with labels (app.labels);
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
@@ -55,6 +55,8 @@ class ViewerControls:
     timeline: viser.GuiSliderHandle
     follow: viser.GuiCheckboxHandle
     status: viser.GuiMarkdownHandle
+    notes_folder: viser.GuiFolderHandle
+    notes: viser.GuiMarkdownHandle  # app.status.cloud_notes, folded under the status
     plots: "PlotWidgets"
     legend: viser.GuiHtmlHandle
     plots_panel: object
@@ -168,6 +170,8 @@ def build_viewer(gui: viser.GuiApi, order: float) -> ViewerControls:
     follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
                               order=order + 0.4)
     status = gui.add_markdown("", order=order + 0.6)
+    with gui.add_folder("About this cloud", order=order + 0.8, expand_by_default=False, visible=False) as notes_folder:
+        notes = gui.add_markdown("")
     plots_panel = gui.add_panel()
     plots = build_plots(gui, plots_panel)
     plots_panel.dock_left()
@@ -176,7 +180,7 @@ def build_viewer(gui: viser.GuiApi, order: float) -> ViewerControls:
     with legend_panel.add_tab("Legend"):
         legend = gui.add_html("")
     legend_panel.float(x=12, y=-12, width=300)
-    return ViewerControls(timeline, follow, status, plots, legend, plots_panel, legend_panel)
+    return ViewerControls(timeline, follow, status, notes_folder, notes, plots, legend, plots_panel, legend_panel)
 
 
 def _number(gui: viser.GuiApi, label: str, name: str, value, step: float, hint: str | None = None):

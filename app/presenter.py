@@ -170,10 +170,13 @@ class Presenter:
         viewer.ui.status.content = status.status_markdown(
             session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
                                                       session.run.ahead if session.ready_ahead else None),
-            notice=viewer.view.notice(history[index].n_points), readiness=readiness,
+            readiness=readiness,
             skeleton=status.skeleton_note(readiness, history[index], viewer.view.visible["skeleton"],
                                           self.ui.view.provisional.value),
             following=viewer.following)
+        notes = status.cloud_notes(session, viewer.view.notice(history[index].n_points))
+        viewer.ui.notes.content = notes
+        viewer.ui.notes_folder.visible = bool(notes)
 
     def update_legend(self, viewer: Viewer, note: str = "") -> None:
         run = self.session.run

@@ -150,7 +150,7 @@ class SceneView:
         rows = self.rows(count, "contracted")
         if rows is None:
             return ""
-        return f"showing {len(rows):,} of {count:,} contracted points (display only; the engine uses all)"
+        return f"Showing {len(rows):,} of {count:,} contracted points in the view (the run keeps them all)."
 
     @_locked
     def load(self, original: np.ndarray) -> None:

@@ -20,7 +20,7 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
         return state
     if ahead.iteration <= latest.iteration:  # the next step was rejected: Step ends the run
         return f"{state}; the next step, computed ahead, ends the run"
-    return f"{state}; iteration {ahead.iteration} computed ahead (Step shows it at once)"
+    return f"{state}; iteration {ahead.iteration} computed ahead"
 
 
 def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, provisional_wanted: bool) -> str:
@@ -33,28 +33,19 @@ def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, prov
     return f"no skeleton yet: {readiness.reason(state)} (View: Provisional skeleton)"
 
 
-def status_markdown(session, index: int, *, run: str, notice: str, readiness: Readiness | None,
-                    skeleton: str, following: bool) -> str:
-    """The status of history[index] as one browser sees it; `readiness`: None while not measured yet."""
+def status_markdown(session, index: int, *, run: str, readiness: Readiness | None, skeleton: str,
+                    following: bool) -> str:
+    """The status of history[index] as one browser sees it; `readiness`: None while not measured yet. Facts
+    about the whole cloud are in `cloud_notes`, folded away: a long status pushes Restart below the fold."""
     history = session.history
     state, latest = history[index], history[-1]
     removed = len(state.owner) - state.n_points
     counts = (f"{state.n_points:,} points retained, {removed:,} removed" if removed
               else f"{state.n_points:,} points")
-    cleaning = session.run.cloud.cleaning or {}
-    removed_by_cleaning = (f"cleaning removed {cleaning['outliers_removed']:,} outliers and "
-                           f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}"
-                           if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
-    reduction = session.run.reduction
-    reduced = (f"contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
-               f"along (skel-inspect --full-resolution turns it off)" if reduction is not None else "")
     share = "…" if readiness is None else f"{readiness.share:.0%}"
     behind = "" if following or index == len(history) - 1 else " &middot; _not following the newest (key L)_"
     return "\n\n".join(filter(None, [
         f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {counts}{behind}",
-        notice and f"_{notice}_",
-        removed_by_cleaning,
-        reduced,
         f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
         f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
         state.anchored and f"{state.anchored:,} points on thin handles held in place (drawn on their axis)",
@@ -62,6 +53,18 @@ def status_markdown(session, index: int, *, run: str, notice: str, readiness: Re
         session.pending and f"**Pending:** {session.pending}",
         f"Run {run}",
     ]))
+
+
+def cloud_notes(session, notice: str) -> str:
+    """What cleaning and multi-resolution did to the run's cloud, and what the view leaves out (`notice`)."""
+    cleaning = session.run.cloud.cleaning or {}
+    removed_by_cleaning = (f"Cleaning removed {cleaning['outliers_removed']:,} outliers and "
+                           f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}."
+                           if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
+    reduction = session.run.reduction
+    reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
+               f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")
+    return "\n\n".join(filter(None, [removed_by_cleaning, reduced, notice]))
 
 
 def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, skeleton_shown: bool,

@@ -16,6 +16,10 @@ from .analysis import Plots
 from .scene import SceneView
 
 
+# viser's markdown tables draw their cells unpadded: "100.0%" ran into "at least 90%"
+VERDICT_STYLE = "<style>.verdict th, .verdict td { padding: 0 4px; }</style>"
+
+
 class Viewer:
     def __init__(self, client: viser.ClientHandle, order: float, settings: dict[str, dict] | None = None):
         """order: where the viewer's run widgets go (layout.RunControls.viewer_order); settings: the View
@@ -64,7 +68,7 @@ class Viewer:
     def show_verdict(self, verdict: dict) -> None:
         """The explanation table in the Verdict tab, its headline above the histograms."""
         table = explanation_markdown(verdict)
-        self.ui.plots.verdict.content = table
+        self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{table}\n\n</div>'
         self.ui.plots.verdict_line.content = f"{table.splitlines()[0] if table else ''} _(criteria: Verdict tab)_"
 
     def show_comparison(self, note: str, convergence, theta, kappa) -> None:

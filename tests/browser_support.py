@@ -93,6 +93,11 @@ def inside_viewport(page, locator) -> bool:
             and box["y"] + box["height"] <= size["height"] + 0.5)
 
 
+def scroll_to_top(locator) -> None:
+    """Scroll the panel holding `locator` back to its top, as it opens (typing into a box scrolls the box into view)."""
+    locator.evaluate("element => { element.closest('.mantine-ScrollArea-viewport').scrollTop = 0; }")
+
+
 def close_browser_notices(page) -> None:
     """Close viser's own notices (e.g. "Software WebGL rendering detected"), which cover the view."""
     for close in page.locator(".mantine-Notification-root button").all():

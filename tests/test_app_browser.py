@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from browser_support import (ARTIFACTS, VIEWPORTS, browser_missing, button, canvas_image, click,
-                             close_browser_notices, inside_viewport, launch, open_tab, open_viewer, save_page,
-                             set_value, wait_until, write_ply)
+                             close_browser_notices, inside_viewport, launch, number_input, open_folder, open_tab,
+                             open_viewer, save_page, scroll_to_top, set_value, wait_until, write_ply)
 
 pytestmark = [pytest.mark.browser, pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))]
 
@@ -200,6 +200,7 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
         assert np.array_equal(right, left), (left, right)
     set_value(page, "W_H0", 2)  # a weight tuned live: the status grows a line, and Restart is still in reach
     page.locator("strong", has_text="Pending").wait_for()
+    scroll_to_top(button(page, "Step"))
     assert inside_viewport(page, button(page, "Restart with these parameters"))
     set_value(page, "W_H0", inspector.session.start_params.wh0)
     wait_until(lambda: not inspector.session.pending, "the weight back")
@@ -217,10 +218,53 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
             assert not overlap, (a, b)
     open_tab(page, "Convergence")
     page.locator(".js-plotly-plot", has_text="Convergence of the means").first.wait_for()
+    open_tab(page, "Verdict")  # the table's cells keep apart ("100.0%" ran into "at least 90%")
+    cell = page.locator(".verdict td").first
+    assert cell.evaluate("cell => parseFloat(getComputedStyle(cell).paddingRight)") > 0
     open_tab(page, "Histograms")
     close_browser_notices(page)
     page.wait_for_timeout(300)
     save_page(page, f"browser-layout-{page.size_name}.png")
+
+
+def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_status(fresh_sized, inspector,
+                                                                                   monkeypatch):
+    """The status at its longest: a cloud contracted at reduced resolution, thinned in the view, no skeleton
+    yet, a weight and the method pending. The notes on the cloud fold away under the status, so nothing primary
+    leaves the window."""
+    page = fresh_sized
+    monkeypatch.setattr(inspector.session, "point_budget", 500)  # a large cloud's multi-resolution, cheaply
+    click(page, "Reset")
+    wait_until(lambda: inspector.session.run.reduction is not None and drawn(page, "plots") == 0, "the reduced run")
+    open_tab(page, "View")
+    page.get_by_label("Show skeleton").check()
+    set_value(page, "Contracted opacity", 0.5)
+    open_tab(page, "Parameters")
+    step(inspector, page)
+    page.get_by_label("Method").click()
+    page.get_by_role("option", name="glskeleton").click()
+    set_value(page, "W_H0", 2)
+    page.get_by_text("Pending: wh0=2.0 from iteration 2; method=glskeleton on restart").first.wait_for()
+    page.get_by_text("(View: Provisional skeleton)").first.wait_for()
+    scroll_to_top(button(page, "Step"))
+    for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
+        assert inside_viewport(page, button(page, name)), name
+    assert inside_viewport(page, number_input(page, "Iteration"))
+    open_folder(page, "About this cloud")  # the notes are still there, a click away
+    page.get_by_text(f"{len(inspector.session.run.reduction.points):,} voxel centroids").wait_for()
+    page.get_by_text("Showing 750 of 1,500 contracted points in the view").wait_for()
+    close_browser_notices(page)
+    save_page(page, f"browser-large-cloud-status-{page.size_name}.png")
+    open_folder(page, "About this cloud")
+    page.get_by_label("Method").click()
+    page.get_by_role("option", name="lbc").click()
+    set_value(page, "W_H0", inspector.session.start_params.wh0)
+    open_tab(page, "View")
+    set_value(page, "Contracted opacity", 1)
+    page.get_by_label("Show skeleton").uncheck()
+    wait_until(lambda: not inspector.session.pending and not page.viewer.view.visible["skeleton"]
+               and page.viewer.view.opacity["contracted"] == 1, "the module's settings")
+    open_tab(page, "Parameters")
 
 
 def test_screenshot_frames_the_object(fresh_sized, inspector):

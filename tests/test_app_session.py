@@ -432,7 +432,7 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     skeleton is made from the reduced states with every input point's node, and the export names the reduction."""
     import json
 
-    from app.status import status_markdown
+    from app.status import cloud_notes
 
     cloud = validate(make_shape("torus", 3000, seed=0).points, name="torus.xyz")
     session = Session(cloud, point_budget=1500)
@@ -449,8 +449,7 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     skeleton = session.skeleton(last)
     assert skeleton.correspondence.shape == (3000,)
     assert skeleton.topology()["cycles"] == 1 and skeleton.topology()["components"] == 1
-    status = status_markdown(session, last, run="ended", notice="", readiness=None, skeleton="", following=True)
-    assert f"{len(reduction.points):,} voxel centroids" in status
+    assert f"{len(reduction.points):,} voxel centroids" in cloud_notes(session, notice="")
     session.write_results(last, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]["input_points"] == 3000
     assert Session(cloud, point_budget=None).run.reduction is None  # --full-resolution
@@ -628,8 +627,7 @@ def test_the_status_counts_the_points_held_on_thin_handles():
     def status_after_a_step(points, name):
         session = Session(validate(points, name=name))
         session.step()
-        return session, status_markdown(session, 1, run="paused", notice="", readiness=None, skeleton="",
-                                         following=True)
+        return session, status_markdown(session, 1, run="paused", readiness=None, skeleton="", following=True)
 
     session, status = status_after_a_step(solid_shape("thin_handled_ball", 10000).points, "handles.xyz")
     assert session.history[1].anchored > 0
