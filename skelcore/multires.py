@@ -103,9 +103,10 @@ class Reduction:
         return dataclasses.replace(skeleton, graph=graph, correspondence=correspondence)
 
     def lift(self, state: IterationState, carrier: sp.csr_matrix) -> IterationState:
-        """The state of every input point: carried positions, all present, each representing itself."""
+        """The state of every input point: carried positions, all present, each representing itself. Iteration 0
+        is the input itself: carried, it would be its voxels' interpolation, moved before any step."""
         ids = np.arange(self.n_input)
-        positions = np.asarray(carrier @ state.points[state.owner])
+        positions = self.input_points if state.iteration == 0 else np.asarray(carrier @ state.points[state.owner])
         return dataclasses.replace(state, points=positions, point_ids=ids, owner=ids)
 
 
