@@ -2,7 +2,7 @@
 
 Above POINT_BUDGET input points, the contraction runs on the centroids of a voxel grid whose voxel size is
 chosen so that about POINT_BUDGET voxels are occupied (the centroid also averages the scanner's noise). Every
-input point is then carried along with the reduced cloud: its position at an iteration is a fixed convex
+input point is then carried along with the reduced cloud: from the first step on, its position is a fixed convex
 combination of the positions of the nearest few among its voxel's centroid and that centroid's one-ring
 neighbours (inverse squared distance weights, set once in the input), so it follows its own sheet of the
 surface (never a neighbouring one: the ring is the local surface), ends on the skeleton with it, and keeps
