@@ -2,7 +2,7 @@
 
 Above POINT_BUDGET input points, the contraction runs on the centroids of a voxel grid whose voxel size is
 chosen so that about POINT_BUDGET voxels are occupied (the centroid also averages the scanner's noise). Every
-input point is then carried along with the reduced cloud: its position at an iteration is a fixed convex
+input point is then carried along with the reduced cloud: from the first step on, its position is a fixed convex
 combination of the positions of the nearest few among its voxel's centroid and that centroid's one-ring
 neighbours (inverse squared distance weights, set once in the input), so it follows its own sheet of the
 surface (never a neighbouring one: the ring is the local surface), ends on the skeleton with it, and keeps
@@ -103,9 +103,10 @@ class Reduction:
         return dataclasses.replace(skeleton, graph=graph, correspondence=correspondence)
 
     def lift(self, state: IterationState, carrier: sp.csr_matrix) -> IterationState:
-        """The state of every input point: carried positions, all present, each representing itself."""
+        """The state of every input point: carried positions, all present, each representing itself. Iteration 0
+        is the input itself: carried, it would be its voxels' interpolation, moved before any step."""
         ids = np.arange(self.n_input)
-        positions = np.asarray(carrier @ state.points[state.owner])
+        positions = self.input_points if state.iteration == 0 else np.asarray(carrier @ state.points[state.owner])
         return dataclasses.replace(state, points=positions, point_ids=ids, owner=ids)
 
 

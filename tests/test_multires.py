@@ -55,6 +55,9 @@ def test_pipeline_above_the_budget(tmp_path, name):
     assert scored["chamfer"] <= 0.02
     written = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert written["multiresolution"]["contracted_points"] == info["contracted_points"]
+    # iteration 0 is the input, not its voxels' interpolation: nothing has moved, no normal has turned
+    assert np.array_equal(result.states[0].points, result.cloud.points)
+    assert written["iterations"][0]["d_theta"]["mean"] == 0.0
     assert json.loads((tmp_path / "out" / "params.json").read_text())["point_budget"] == 2000
 
 
