@@ -45,7 +45,7 @@ def comparison(pinned: Pinned, state, history) -> tuple[str, object, object, obj
     current = report.run_summary(describe(state, "current"), history)
     runs = [pinned.summary, current]
     note = (f"**{pinned.name}** (grey, verdict {runs[0]['verdict']['label']}) against **{current['name']}** "
-            f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in light blue.")
+            f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in green.")
     convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
                                                        colours=RUN_COLOURS).update_layout(CARD)
     theta, kappa = (report.final_histograms_figure(runs, key, title=f"{key_name}, last iteration", colours=RUN_COLOURS)

@@ -26,7 +26,7 @@ LAYER_COLOURS = {"original": (175, 175, 175), "contracted": (220, 40, 40),
                  "removed": (140, 70, 220)}  # removed: input points a GLSkeleton reduction absorbed
 EDGE_COLOUR = (20, 20, 20)
 PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
-GHOST_COLOUR = (90, 170, 240)  # the pinned run's skeleton
+GHOST_COLOUR = (30, 160, 80)  # the pinned run's skeleton: a hue no other layer or node kind uses
 # nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
 END_COLOUR = (30, 110, 255)
 PATH_COLOUR = (40, 40, 40)
@@ -298,7 +298,7 @@ class SceneView:
 
     @_locked
     def show_ghost(self, nodes: np.ndarray | None, edges: np.ndarray | None) -> None:
-        """The pinned run's skeleton, thin and light, or nothing (None)."""
+        """The pinned run's skeleton, thinner than the current one, or nothing (None)."""
         if self._ghost is not None:
             self._ghost.remove()
             self._ghost = None
