@@ -169,11 +169,12 @@ def _triangle_distance(points: np.ndarray, triangle: np.ndarray) -> np.ndarray:
     if (~inside).any():
         outside = points[~inside]
         edges = [(a, b), (b, c), (c, a)]
-        distance[~inside] = np.min([_segment_distance(outside, p, q) for p, q in edges], axis=0)
+        distance[~inside] = np.min([segment_distance(outside, p, q) for p, q in edges], axis=0)
     return distance
 
 
-def _segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Distances of `points` (m,3) from the segment p-q (a point when p == q)."""
     d = q - p
     t = np.clip((points - p) @ d / max(d @ d, 1e-300), 0.0, 1.0)
     return np.linalg.norm(points - (p + t[:, None] * d), axis=1)

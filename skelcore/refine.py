@@ -18,6 +18,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
+from .loops import segment_distance
+
 Adjacency = dict[int, set[int]]
 
 
@@ -207,7 +209,7 @@ def drop_collinear(adj: Adjacency, xyz: list, node_of_point: np.ndarray, points:
         if x not in adj or adj[x] != {a, b} or b in adj[a]:
             continue
         spanned = _along(spans, a, x) + [x] + _along(spans, x, b)
-        if _segment_distances(pos[spanned], pos[a], pos[b]).max() > max_offset:
+        if segment_distance(pos[spanned], pos[a], pos[b]).max() > max_offset:
             continue
         spans.pop(_pair(a, x), None)
         spans.pop(_pair(x, b), None)
@@ -236,14 +238,6 @@ def _along(spans: dict[tuple[int, int], list[int]], a: int, b: int) -> list[int]
     """The nodes dropped from edge a-b, in order from a."""
     dropped = spans.get(_pair(a, b), [])
     return dropped if a < b else dropped[::-1]
-
-
-def _segment_distances(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distances of `points` (m,3) from the segment a-b."""
-    ab = b - a
-    length2 = float(ab @ ab)
-    t = np.clip((points - a) @ ab / length2, 0.0, 1.0) if length2 > 0 else np.zeros(len(points))
-    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
 
 
 def _refit(adj: Adjacency, xyz: list, spans: dict[tuple[int, int], list[int]]) -> None:
