@@ -141,7 +141,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
+        stalled = rings_stalled(iteration, drop, current, candidate, params, run.diagonal)
+        # The ring rule is our safeguard, LCWR's own is the covariance one: a step it judges converged is the state
+        # LCWR ends on, so the safeguard keeps it (and ends the run there) instead of discarding it.
+        if stalled and not (drop >= 0 and covariance_settled(iteration, abs(_covariance_score(candidate) - score),
+                                                             candidate, params, run.diagonal)):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
                      else f"widened the rings by {-drop:.4f}")
             state = stopped(state, "ring_ratio", f"the step {moved}", notes)
@@ -153,7 +157,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
         reduce_start = time.perf_counter()
-        if reducing:
+        if reducing and not stalled:  # a stalled step ends the run: nothing to reduce for
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
@@ -180,12 +184,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         previous, score = score, _covariance_score(current)
         change = abs(score - previous) * (1.0 - share_removed)
         termination, detail = None, ""
-        # the covariance of the whole cloud barely changes while a plate or a block thins to its medial sheet,
-        # so the rule alone stops on a sheet: it waits until the cloud is curve-like; till then the rings
-        # (the ring-ratio rule above) tell when the contraction has stalled
-        if iteration >= COVARIANCE_FROM and change < params.gl_covariance and curve_like(candidate, params,
-                                                                                          run.diagonal):
+        if covariance_settled(iteration, change, current, params, run.diagonal):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
+            if stalled:
+                notes.append(f"the rings had stopped shrinking (by {drop:.4f} < {params.termination:g})")
         elif iteration >= params.max_iterations:
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
@@ -195,6 +197,16 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
                                                rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                                timings=timings, termination=termination, message=message,
                                                anchored=anchored_count)
+
+
+def covariance_settled(iteration: int, change: float, points: np.ndarray, params: ContractionParams,
+                       diagonal: float) -> bool:
+    """LCWR's stop rule (module docstring, termination) after a step that changed the covariance score by `change`
+    (weighted by the share of the input it kept) and left `points`. The covariance of the whole cloud barely
+    changes while a plate or a block thins to its medial sheet, so the rule alone stops on a sheet: it waits until
+    the cloud is curve-like (till then the ring-ratio rule tells when the contraction has stalled)."""
+    return (iteration >= COVARIANCE_FROM and change < params.gl_covariance
+            and curve_like(points, params, diagonal))
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,
