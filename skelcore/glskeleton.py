@@ -48,7 +48,8 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   collapse guard and solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
-  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
+  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination; but a step whose
+  state the covariance rule judges converged is the state LCWR ends on: it is kept, and the run ends there.
 Curves first (not in LCWR): the covariance of a whole plate or block barely changes while it thins to its
   medial sheet, so the covariance rule alone stops there (a drilled plate: 3 steps, its hole lost). It stops
   only a cloud at least curve_share curve-like (skelcore.curveness); until then the ring-ratio rule ends the
@@ -142,8 +143,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
         stalled = rings_stalled(iteration, drop, current, candidate, params, run.diagonal)
-        # The ring rule is our safeguard, LCWR's own is the covariance one: a step it judges converged is the state
-        # LCWR ends on, so the safeguard keeps it (and ends the run there) instead of discarding it.
+        # the ring rule is a safeguard (module docstring): it does not discard the state LCWR's own rule ends on
         if stalled and not (drop >= 0 and covariance_settled(iteration, abs(_covariance_score(candidate) - score),
                                                              candidate, params, run.diagonal)):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
