@@ -86,7 +86,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     per-point contraction weights of the input points, checked; a merged point carries their mean over the
     input points it stands for."""
     run = start_run(points, params)
-    state, rings, builder, auto_wl0, extent0 = run.state, run.rings, run.builder, run.auto_wl0, run.extent0
+    state, rings, builder, auto_wl0 = run.state, run.rings, run.builder, run.auto_wl0
     unit, sizes0 = run.unit, run.sizes0
     n = len(unit)
     ids = owner = state.point_ids
@@ -127,7 +127,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         laplacian_start = time.perf_counter()
         values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
         laplacian_time = time.perf_counter() - laplacian_start
-        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
+        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, run,
                                                               first_step=iteration == 1, stages=stages,
                                                               row_weights=row_weights, laplacian_values=values)
         timings["laplacian"] += laplacian_time
