@@ -35,6 +35,7 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # Every figure in the plots panel takes a clear paper: viser draws a plot as wide as its card's outside (1 px borders
 # included), so a white one would paint over the card's right border.
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
+PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
@@ -268,7 +269,7 @@ def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
     with panel.add_tab("Verdict"):
         verdict = gui.add_markdown("")
     with panel.add_tab("Compare"):
-        pin = gui.add_button("Pin this run", hint="keep this run to compare the next ones with it")
+        pin = gui.add_button(PIN, hint="keep this run to compare the next ones with it")
         compare_note = gui.add_markdown("Pin a run, change parameters or method, Restart: both runs show here.")
         compare_convergence = plot("convergence, pinned and current", 1.15)
         compare_theta = plot("final D_theta", HISTOGRAM_ASPECT)

@@ -348,7 +348,12 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
     assert np.allclose(page.viewer.view.drawn_points("contracted"), inspector.session.latest.points.astype(np.float32))
 
 
-def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
+def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser):
+    from skelcore.io import validate
+    from skelcore.shapes import make_shape
+
+    from app.layout import PIN, PIN_AGAIN
+
     page = fresh_sized
     step(inspector, page, 2)
     open_tab(page, "Compare")
@@ -359,7 +364,8 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
     set_value(page, "s_L", 1.5)
     wait_until(lambda: inspector.session.params.sl == 1.5, "the new s_L")
     click(page, "Restart with these parameters")
-    wait_until(lambda: inspector.session.start_params.sl == 1.5, "the new run")
+    wait_until(lambda: inspector.session.start_params.sl == 1.5 and len(inspector.session.history) == 1, "the new run")
+    inspector.wait_idle()
     step(inspector, page, 2)
     wait_until(lambda: drawn(page, "plots") == 2, "the new run plotted")
     names = [trace.name for trace in page.viewer.ui.plots.compare_convergence.figure.data]
@@ -372,10 +378,26 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
         assert len(getattr(page.viewer.ui.plots, measure).figure.data) == 2  # final histograms of both runs
     close_browser_notices(page)
     save_page(page, f"browser-compare-{page.size_name}.png")
+    later = open_viewer(browser, inspector, inspector.url, VIEWPORTS[1])  # a browser that connects after the pin
+    try:
+        wait_until(lambda: later.viewer.ui.plots.pin.label == PIN_AGAIN, "the pin on a later browser")
+        inspector.wait_idle()
+        assert (later.viewer.view._ghost is None) == (inspector.presenter.pinned.skeleton is None)
+    finally:
+        later.context.close()
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
-    click(page, "Restart with these parameters")
-    wait_until(lambda: inspector.session.start_params.sl == RUN["sl"], "the module's run")
+    # another cloud: the pinned run is of the one before, so it is let go
+    inspector.open(validate(make_shape("capsule", 800).points, name="capsule.xyz"))
+    try:
+        wait_until(lambda: inspector.session.cloud.name == "capsule.xyz", "the other cloud")
+        inspector.wait_idle()
+        assert inspector.presenter.pinned is None and page.viewer.view._ghost is None
+        assert page.viewer.ui.plots.pin.label == PIN
+    finally:
+        inspector.open(inspector.module_cloud)
+        wait_until(lambda: inspector.session.cloud.name == "torus.xyz", "the module's cloud")
+        inspector.wait_idle()
     open_tab(page, "Histograms")
 
 
