@@ -29,7 +29,7 @@ PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
 GHOST_COLOUR = (30, 160, 80)  # the pinned run's skeleton: a hue no other layer or node kind uses
 EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an original point
 # the pinned run's edges, x the node radius: wider than the current ones, so where the two skeletons coincide the
-# pinned one shows as a green sleeve around the current one instead of hiding under it
+# current nodes sit on a green rod instead of the pinned edges hiding under the current ones
 GHOST_THICKNESS = 1.4
 # nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
 END_COLOUR = (30, 110, 255)

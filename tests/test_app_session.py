@@ -376,7 +376,7 @@ def test_large_clouds_are_drawn_from_a_fixed_subset(cloud):
 
 def test_skeleton_edges_keep_their_width_through_a_size_change_and_the_pinned_ones_stay_wider(cloud):
     """Edges are EDGE_THICKNESS node radii wide when drawn and after Skeleton size changes (it used to halve
-    them); the pinned run's edges follow the size too and stay wider, a sleeve around the current ones."""
+    them); the pinned run's edges follow the size too and stay wider than the current ones."""
     import viser
 
     from app.scene import EDGE_THICKNESS, GHOST_THICKNESS, SceneView
