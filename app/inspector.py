@@ -115,6 +115,7 @@ class Inspector:
         viewer.view.load(self.session.cloud.points)
         if self.presenter.pinned is not None:
             viewer.view.show_ghost(*(self.presenter.pinned.skeleton or (None, None)))
+            viewer.ui.plots.pin.label = layout.PIN_AGAIN
         self.presenter.show(viewer, len(self.session.history) - 1)
 
     # ------------------------------------------------------------------ wiring
@@ -328,6 +329,8 @@ class Inspector:
         self.ui.run.title.content = f"**skelcore inspector** &middot; {Path(cloud.name).name}"
         if cloud.points is not self._source:  # a new cloud: dense ones start thinned
             self._source = cloud.points
+            if self.presenter.pinned is not None:  # its skeleton and metrics are another object's
+                self._unpin()
             opacity = auto_opacity(len(cloud.points))
             self.ui.view.opacity["original"].value = opacity
             self.ui.view.size["original"].value = 1.0 if opacity == 1 else 0.7
@@ -374,9 +377,16 @@ class Inspector:
             self.presenter.pinned = compare.pin(self.session)
         for each in self.presenter.all():
             each.view.show_ghost(*(self.presenter.pinned.skeleton or (None, None)))
-            each.ui.plots.pin.label = "Pin this run instead"
+            each.ui.plots.pin.label = layout.PIN_AGAIN
         self.session.note(f"pinned the run at iteration {state.iteration} for comparison")
         self.presenter.reanalyse()
+
+    def _unpin(self) -> None:
+        self.presenter.pinned = None
+        for each in self.presenter.all():
+            each.view.show_ghost(None, None)
+            each.ui.plots.pin.label = layout.PIN
+        self.session.note("unpinned the run compared with: it was of the cloud before")
 
     def _report_error(self, message: str, client, pause: bool = True) -> None:
         """A failed engine job stops Play; a failed analysis (skeleton, metrics) only says so. Server

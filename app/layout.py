@@ -26,12 +26,16 @@ from skelcore import report
 from skelcore.io import FORMATS as INPUT_FORMATS
 from skelcore.params import LIMITS, METHODS, ContractionParams
 
-PLOTS_WIDTH = 420  # px: two histograms of this width fit one above the other in a 720 px high window
+# px, fixed: viser sizes a docked panel in px only and tells the server no window size (its camera reports the
+# canvas in device pixels). 470 is about the widest at which both histograms, under iteration 0's two-line
+# verdict, fit a 720 px high window without the panel scrolling; dragged wider by a person, the plots follow.
+PLOTS_WIDTH = 470
 CONTROLS_WIDTH = 340
 HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # Every figure in the plots panel takes a clear paper: viser draws a plot as wide as its card's outside (1 px borders
 # included), so a white one would paint over the card's right border.
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
+PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
@@ -155,10 +159,11 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     title = gui.add_markdown("")
     step = gui.add_button("Step", hint="one iteration (key N)")
     play = gui.add_button("Play", hint="iterate until the run ends or Pause (key P)")
-    end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
-    reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
+    # right under the Play it paces, not under Reset and the per-browser widgets that follow it
     interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
                               hint="least time between two iterations during Play, to watch them")
+    end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
+    reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
     return RunControls(title, step, play, end, reset, interval, viewer_order=reset.order)
 
 
@@ -264,7 +269,7 @@ def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
     with panel.add_tab("Verdict"):
         verdict = gui.add_markdown("")
     with panel.add_tab("Compare"):
-        pin = gui.add_button("Pin this run", hint="keep this run to compare the next ones with it")
+        pin = gui.add_button(PIN, hint="keep this run to compare the next ones with it")
         compare_note = gui.add_markdown("Pin a run, change parameters or method, Restart: both runs show here.")
         compare_convergence = plot("convergence, pinned and current", 1.15)
         compare_theta = plot("final D_theta", HISTOGRAM_ASPECT)

@@ -27,6 +27,10 @@ LAYER_COLOURS = {"original": (175, 175, 175), "contracted": (220, 40, 40),
 EDGE_COLOUR = (20, 20, 20)
 PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
 GHOST_COLOUR = (30, 160, 80)  # the pinned run's skeleton: a hue no other layer or node kind uses
+EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an original point
+# the pinned run's edges, x the node radius: wider than the current ones, so where the two skeletons coincide the
+# current nodes sit on a green rod instead of the pinned edges hiding under the current ones
+GHOST_THICKNESS = 1.4
 # nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
 END_COLOUR = (30, 110, 255)
 PATH_COLOUR = (40, 40, 40)
@@ -60,17 +64,18 @@ def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
 
 
 def legend_html(quantity: str | None, note: str = "", provisional: str = "", pinned: bool = False,
-                extra: str = "") -> str:
-    """The key of the 3-D view: layers, skeleton nodes and, when colouring, the colour bar with its target
-    (`provisional`: a line on why the skeleton is provisional or not drawn yet, "" when it is final; `extra`: more HTML, e.g. the
-    label colours)."""
+                extra: str = "", skeleton: bool = True) -> str:
+    """The key of the 3-D view: layers, skeleton nodes (when the skeleton is shown) and, when colouring, the colour
+    bar with its target (`provisional`: a line on why the skeleton is provisional or not drawn yet, "" when it is
+    final; `extra`: more HTML, e.g. the label colours)."""
     def dot(colour, text):
         return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
 
     lines = [" ".join([dot(LAYER_COLOURS["original"], "original"),
                        dot(LAYER_COLOURS["contracted"], "contracted") if quantity is None else "",
-                       dot(LAYER_COLOURS["removed"], "removed")]),
-             " ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")])]
+                       dot(LAYER_COLOURS["removed"], "removed")])]
+    if skeleton:
+        lines.append(" ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")]))
     if provisional:
         lines.append(f"<i>{provisional}</i>")
     if pinned:
@@ -266,7 +271,7 @@ class SceneView:
             segments = nodes[edges].astype(np.float32)  # (e,2,3)
             self._edges = self.scene.add_line_segments(
                 "/skeleton/edges", points=segments, colors=PROVISIONAL_EDGE_COLOUR if provisional else EDGE_COLOUR,
-                thickness=0.6 * self._node_radius(), visible=visible)  # about as wide as an original point
+                thickness=EDGE_THICKNESS * self._node_radius(), visible=visible)
         if len(nodes):
             colours = np.empty((len(nodes), 3), np.uint8)
             colours[:] = PATH_COLOUR
@@ -298,14 +303,14 @@ class SceneView:
 
     @_locked
     def show_ghost(self, nodes: np.ndarray | None, edges: np.ndarray | None) -> None:
-        """The pinned run's skeleton, thinner than the current one, or nothing (None)."""
+        """The pinned run's skeleton edges, wider than the current run's, or nothing (None)."""
         if self._ghost is not None:
             self._ghost.remove()
             self._ghost = None
         if nodes is not None and len(edges):
             self._ghost = self.scene.add_line_segments(
                 "/pinned/skeleton", points=nodes[edges].astype(np.float32), colors=GHOST_COLOUR,
-                thickness=0.2 * self._node_radius())
+                thickness=GHOST_THICKNESS * self._node_radius())
 
     @property
     def skeleton_drawn(self) -> bool:
@@ -325,10 +330,12 @@ class SceneView:
         if layer in POINT_LAYERS:
             if self._handles[layer] is not None:
                 self._handles[layer].point_size = self._point_size(layer)
-        elif self._nodes is not None:
-            self._nodes.vertices = self._sphere[0] * self._node_radius()
-            if self._edges is not None:
-                self._edges.thickness = 0.3 * self._node_radius()
+        else:  # the skeleton, the pinned one with it
+            if self._nodes is not None:
+                self._nodes.vertices = self._sphere[0] * self._node_radius()
+            for handle, thickness in ((self._edges, EDGE_THICKNESS), (self._ghost, GHOST_THICKNESS)):
+                if handle is not None:
+                    handle.thickness = thickness * self._node_radius()
 
     @_locked
     def set_opacity(self, layer: str, opacity: float) -> None:

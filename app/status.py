@@ -75,4 +75,4 @@ def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, ske
         reason = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
     quantity = colour_by if colour_by in COLOUR_RANGES else None
     return legend_html(quantity, note, provisional=reason, pinned=pinned,
-                       extra=labels_html if colour_by == "label" else "")
+                       extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown)

@@ -93,6 +93,12 @@ def inside_viewport(page, locator) -> bool:
             and box["y"] + box["height"] <= size["height"] + 0.5)
 
 
+def overflows(locator) -> bool:
+    """Whether the panel holding `locator` has more than it shows (a scrollbar, drawn over its content)."""
+    return locator.evaluate("element => { const view = element.closest('.mantine-ScrollArea-viewport');"
+                            " return view.scrollHeight > view.clientHeight; }")
+
+
 def scroll_to_top(locator) -> None:
     """Scroll the panel holding `locator` back to its top, as it opens (typing into a box scrolls the box into view)."""
     locator.evaluate("element => { element.closest('.mantine-ScrollArea-viewport').scrollTop = 0; }")

@@ -17,7 +17,7 @@ import pytest
 
 from browser_support import (ARTIFACTS, VIEWPORTS, browser_missing, button, canvas_image, click,
                              close_browser_notices, inside_viewport, launch, number_input, open_folder, open_tab,
-                             open_viewer, save_page, scroll_to_top, set_value, wait_until, write_ply)
+                             open_viewer, overflows, save_page, scroll_to_top, set_value, wait_until, write_ply)
 
 pytestmark = [pytest.mark.browser, pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))]
 
@@ -182,14 +182,28 @@ def _card_edges(page, card) -> list[np.ndarray]:
     return [image[rows, x - 1:x + 2].min(axis=(1, 2)) for x in (round(box["x"]), round(box["x"] + box["width"]) - 1)]
 
 
-def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspector):
-    page = fresh_sized
-    step(inspector, page)
-    wait_until(lambda: drawn(page, "plots") == 1, "iteration 1 plotted")
-    open_tab(page, "Histograms")
+def _both_histograms_fit(page) -> None:
+    """Both histograms inside the window, the plots panel without a scrollbar, and each wider than the 400 px
+    they had in a 420 px panel (the 3-D view keeps room at 1280x720)."""
     plots = page.locator(".js-plotly-plot")
     wait_until(lambda: plots.count() >= 2 and all(inside_viewport(page, plots.nth(i)) for i in range(2)),
                "both histograms inside the window")
+    assert not overflows(plots.first)
+    for i in range(2):
+        assert plots.nth(i).bounding_box()["width"] >= 440
+    assert page.locator("canvas[data-engine]").first.bounding_box()["width"] >= 440
+
+
+def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspector):
+    page = fresh_sized
+    open_tab(page, "Histograms")
+    page.get_by_text("No verdict.").first.wait_for()  # iteration 0: its verdict line takes two lines
+    _both_histograms_fit(page)
+    step(inspector, page)
+    wait_until(lambda: drawn(page, "plots") == 1, "iteration 1 plotted")
+    plots = page.locator(".js-plotly-plot")
+    wait_until(lambda: "iteration 1" in plots.first.inner_text(), "the histograms of iteration 1")
+    _both_histograms_fit(page)
     titles = [plots.nth(i).inner_text() for i in range(2)]
     assert "D_theta, iteration 1" in titles[0] and "delta_kappa, iteration 1" in titles[1]
     assert "target 0.5" in titles[0] and "target 0" in titles[1]  # the target is marked
@@ -250,6 +264,11 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
         assert inside_viewport(page, button(page, name)), name
     assert inside_viewport(page, number_input(page, "Iteration"))
+    # the play interval sits right under the Play it paces, above Run to end and this browser's iteration slider
+    interval = page.locator("label", has_text="Play interval (s)").first
+    assert inside_viewport(page, interval) and inside_viewport(page, number_input(page, "Play interval (s)"))
+    play, row, end = (each.bounding_box() for each in (button(page, "Play"), interval, button(page, "Run to end")))
+    assert play["y"] + play["height"] <= row["y"] < row["y"] + row["height"] <= end["y"]
     open_folder(page, "About this cloud")  # the notes are still there, a click away
     page.get_by_text(f"{len(inspector.session.run.reduction.points):,} voxel centroids").wait_for()
     page.get_by_text("Showing 750 of 1,500 contracted points in the view").wait_for()
@@ -329,7 +348,12 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
     assert np.allclose(page.viewer.view.drawn_points("contracted"), inspector.session.latest.points.astype(np.float32))
 
 
-def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
+def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser):
+    from skelcore.io import validate
+    from skelcore.shapes import make_shape
+
+    from app.layout import PIN, PIN_AGAIN
+
     page = fresh_sized
     step(inspector, page, 2)
     open_tab(page, "Compare")
@@ -340,7 +364,8 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
     set_value(page, "s_L", 1.5)
     wait_until(lambda: inspector.session.params.sl == 1.5, "the new s_L")
     click(page, "Restart with these parameters")
-    wait_until(lambda: inspector.session.start_params.sl == 1.5, "the new run")
+    wait_until(lambda: inspector.session.start_params.sl == 1.5 and len(inspector.session.history) == 1, "the new run")
+    inspector.wait_idle()
     step(inspector, page, 2)
     wait_until(lambda: drawn(page, "plots") == 2, "the new run plotted")
     names = [trace.name for trace in page.viewer.ui.plots.compare_convergence.figure.data]
@@ -353,10 +378,26 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector):
         assert len(getattr(page.viewer.ui.plots, measure).figure.data) == 2  # final histograms of both runs
     close_browser_notices(page)
     save_page(page, f"browser-compare-{page.size_name}.png")
+    later = open_viewer(browser, inspector, inspector.url, VIEWPORTS[1])  # a browser that connects after the pin
+    try:
+        wait_until(lambda: later.viewer.ui.plots.pin.label == PIN_AGAIN, "the pin on a later browser")
+        inspector.wait_idle()
+        assert (later.viewer.view._ghost is None) == (inspector.presenter.pinned.skeleton is None)
+    finally:
+        later.context.close()
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
-    click(page, "Restart with these parameters")
-    wait_until(lambda: inspector.session.start_params.sl == RUN["sl"], "the module's run")
+    # another cloud: the pinned run is of the one before, so it is let go
+    inspector.open(validate(make_shape("capsule", 800).points, name="capsule.xyz"))
+    try:
+        wait_until(lambda: inspector.session.cloud.name == "capsule.xyz", "the other cloud")
+        inspector.wait_idle()
+        assert inspector.presenter.pinned is None and page.viewer.view._ghost is None
+        assert page.viewer.ui.plots.pin.label == PIN
+    finally:
+        inspector.open(inspector.module_cloud)
+        wait_until(lambda: inspector.session.cloud.name == "torus.xyz", "the module's cloud")
+        inspector.wait_idle()
     open_tab(page, "Histograms")
 
 

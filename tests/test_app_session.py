@@ -373,6 +373,38 @@ def test_large_clouds_are_drawn_from_a_fixed_subset(cloud):
         server.stop()
 
 
+
+def test_skeleton_edges_keep_their_width_through_a_size_change_and_the_pinned_ones_stay_wider(cloud):
+    """Edges are EDGE_THICKNESS node radii wide when drawn and after Skeleton size changes (it used to halve
+    them); the pinned run's edges follow the size too and stay wider than the current ones."""
+    import viser
+
+    from app.scene import EDGE_THICKNESS, GHOST_THICKNESS, SceneView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view = SceneView(server.scene)
+        view.load(cloud.points)
+        nodes, edges = cloud.points[:3], np.array([[0, 1], [1, 2]])
+        view.show_skeleton(nodes, edges, np.array([1, 2, 1]))
+        view.show_ghost(nodes, edges)
+        radius = view._node_radius()
+        assert view._edges.thickness == pytest.approx(EDGE_THICKNESS * radius)
+        assert view._ghost.thickness == pytest.approx(GHOST_THICKNESS * radius)
+        assert view._ghost.thickness > view._edges.thickness
+        view.set_size("skeleton", 2.0)
+        assert view._edges.thickness == pytest.approx(EDGE_THICKNESS * 2 * radius)
+        assert view._ghost.thickness == pytest.approx(GHOST_THICKNESS * 2 * radius)
+    finally:
+        server.stop()
+
+
+def test_the_legend_names_the_node_kinds_only_while_the_skeleton_is_shown():
+    from app.scene import legend_html
+
+    assert "junction" in legend_html(None) and "junction" not in legend_html(None, skeleton=False)
+    assert "pinned run's skeleton" in legend_html(None, pinned=True, skeleton=False)
+
 def test_a_pause_between_stages_resumes_the_same_step(cloud):
     """Session.step stops between two stages of a step when asked, and the next call finishes that step:
     the run is the same as one stepped straight through."""
