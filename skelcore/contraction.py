@@ -71,7 +71,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             wh = np.minimum(wh * run.areas, params.wh_max)
         wh = anchored(wh, run, ids, params)
         candidate, failure, timings = yield from solve_stages(run.builder, solver, current, wl, wh, params,
-                                                              run.extent0, first_step=iteration == 1, stages=stages,
+                                                              run, first_step=iteration == 1, stages=stages,
                                                               row_weights=contraction_rows(held, wl, weights, params))
         if stages:
             yield None

@@ -48,7 +48,8 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   collapse guard and solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
-  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination.
+  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination; but a step whose
+  state the covariance rule judges converged is the state LCWR ends on: it is kept, and the run ends there.
 Curves first (not in LCWR): the covariance of a whole plate or block barely changes while it thins to its
   medial sheet, so the covariance rule alone stops there (a drilled plate: 3 steps, its hole lost). It stops
   only a cloud at least curve_share curve-like (skelcore.curveness); until then the ring-ratio rule ends the
@@ -85,7 +86,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     per-point contraction weights of the input points, checked; a merged point carries their mean over the
     input points it stands for."""
     run = start_run(points, params)
-    state, rings, builder, auto_wl0, extent0 = run.state, run.rings, run.builder, run.auto_wl0, run.extent0
+    state, rings, builder, auto_wl0 = run.state, run.rings, run.builder, run.auto_wl0
     unit, sizes0 = run.unit, run.sizes0
     n = len(unit)
     ids = owner = state.point_ids
@@ -126,7 +127,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         laplacian_start = time.perf_counter()
         values = builder.laplacian_values(current)  # L(x_{t-1}): the solve's and the merge rule's (G_i)
         laplacian_time = time.perf_counter() - laplacian_start
-        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, extent0,
+        candidate, failure, timings = yield from solve_stages(builder, solver, current, wl, wh, params, run,
                                                               first_step=iteration == 1, stages=stages,
                                                               row_weights=row_weights, laplacian_values=values)
         timings["laplacian"] += laplacian_time
@@ -141,7 +142,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
+        stalled = rings_stalled(iteration, drop, current, candidate, params, run.diagonal)
+        # the ring rule is a safeguard (module docstring): it does not discard the state LCWR's own rule ends on
+        if stalled and not (drop >= 0 and covariance_settled(iteration, abs(_covariance_score(candidate) - score),
+                                                             candidate, params, run.diagonal)):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
                      else f"widened the rings by {-drop:.4f}")
             state = stopped(state, "ring_ratio", f"the step {moved}", notes)
@@ -153,7 +157,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
         reduce_start = time.perf_counter()
-        if reducing:
+        if reducing and not stalled:  # a stalled step ends the run: nothing to reduce for
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
@@ -180,12 +184,10 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         previous, score = score, _covariance_score(current)
         change = abs(score - previous) * (1.0 - share_removed)
         termination, detail = None, ""
-        # the covariance of the whole cloud barely changes while a plate or a block thins to its medial sheet,
-        # so the rule alone stops on a sheet: it waits until the cloud is curve-like; till then the rings
-        # (the ring-ratio rule above) tell when the contraction has stalled
-        if iteration >= COVARIANCE_FROM and change < params.gl_covariance and curve_like(candidate, params,
-                                                                                          run.diagonal):
+        if covariance_settled(iteration, change, current, params, run.diagonal):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
+            if stalled:
+                notes.append(f"the rings had stopped shrinking (by {drop:.4f} < {params.termination:g})")
         elif iteration >= params.max_iterations:
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
@@ -195,6 +197,16 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
                                                rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                                timings=timings, termination=termination, message=message,
                                                anchored=anchored_count)
+
+
+def covariance_settled(iteration: int, change: float, points: np.ndarray, params: ContractionParams,
+                       diagonal: float) -> bool:
+    """LCWR's stop rule (module docstring, termination) after a step that changed the covariance score by `change`
+    (weighted by the share of the input it kept) and left `points`. The covariance of the whole cloud barely
+    changes while a plate or a block thins to its medial sheet, so the rule alone stops on a sheet: it waits until
+    the cloud is curve-like (till then the ring-ratio rule tells when the contraction has stalled)."""
+    return (iteration >= COVARIANCE_FROM and change < params.gl_covariance
+            and curve_like(points, params, diagonal))
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,

@@ -47,6 +47,7 @@ TERMINATION_MESSAGES = {
     "collapse": "one step shrank the cloud's length past its limit (a curve collapsing); the last good state is kept",
     "covariance": "the cloud's covariance shows a converged curve",
     "torn": "the step tore the cloud apart (many one-rings widened); the last good state is kept",
+    "flung": "the step flung points out of the input's bounding box; the last good state is kept",
 }
 TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
 TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
@@ -105,6 +106,19 @@ class RunStart:
     extent0: np.ndarray  # robust extent of the input, for the growth check
     diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
+
+    @functools.cached_property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The input's bounding box, run's frame, widened by the skeleton's sample radius: a point beyond it has
+        left the shape at the skeleton's own scale (early steps of a block push its faces out by about one
+        sampling spacing, which is no fling)."""
+        margin = SkeletonParams.sample_radius * self.diagonal
+        return self.unit.min(axis=0) - margin, self.unit.max(axis=0) + margin
+
+    def outside_share(self, points: np.ndarray) -> float:
+        """The share of `points` (run's frame) outside `box`."""
+        low, high = self.box
+        return float(np.mean(np.any((points < low) | (points > high), axis=1)))
 
     @functools.cached_property
     def anchors(self) -> np.ndarray:
@@ -178,17 +192,18 @@ def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0:
 
 
 def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, current: np.ndarray, wl: float,
-                 wh: np.ndarray, params: ContractionParams, extent0: np.ndarray, first_step: bool,
+                 wh: np.ndarray, params: ContractionParams, run: RunStart, first_step: bool,
                  stages: bool = False, row_weights: np.ndarray | None = None,
                  laplacian_values: np.ndarray | None = None
                  ) -> Generator[None, None, tuple[np.ndarray | None, tuple[str, str] | None, dict]]:
     """One solve of eq. 2 and the checks that reject its candidate: solver failure, NaN, bounding-box growth
-    past params.bbox_growth of the original extent0 (robust extents: a few points flung out by degenerate
-    rings do not end the contraction of the rest), and collapse: once a cloud is a thin curve its rings
+    past params.bbox_growth of the input's (run.extent0; robust extents: a few points flung out by degenerate
+    rings do not end the contraction of the rest), collapse: once a cloud is a thin curve its rings
     degenerate and a step can pull the whole curve together; the longest extent falling below
-    params.collapse of the current one in a single step is that, never a contraction onto the skeleton.
-    The first step solves on the input's own rings, so it is exempt: an over-strong first step is a
-    contraction to show (and judge), not a degenerate one.
+    params.collapse of the current one in a single step is that, never a contraction onto the skeleton;
+    and a fling: more than ROBUST_SHARE of the points newly outside the input's box (RunStart.box).
+    The first step solves on the input's own rings, so it is exempt from the last two: an over-strong first
+    step is a contraction to show (and judge), not a degenerate one.
 
     row_weights: per-point contraction weights of the present points (None: all 1). laplacian_values: the
     values of L at `current` (LaplacianSystem.laplacian_values), when the caller has them already.
@@ -210,12 +225,18 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     timings = {"laplacian": laplacian_end - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
-    if failure is None and (robust_extent(candidate) > params.bbox_growth * extent0).any():
+    if failure is None and (robust_extent(candidate) > params.bbox_growth * run.extent0).any():
         failure = ("bbox_growth", "")
     if failure is None and not first_step:
         longest, before = np.ptp(candidate, axis=0).max(), np.ptp(current, axis=0).max()
         if longest < params.collapse * before:
             failure = ("collapse", f"longest extent {longest / before:.0%} of the step before")
+    if failure is None and not first_step:
+        # A contraction moves points inward; the growth check reads the middle 98%, so it lets a fling of up to
+        # ROBUST_SHARE of the points through: this catches that (a folding sheet throws its corners out).
+        outside, before = run.outside_share(candidate), run.outside_share(current)
+        if outside - before > ROBUST_SHARE:
+            failure = ("flung", f"{outside:.1%} of the points left the input's box, against {before:.1%}")
     return candidate, failure, timings
 
 

@@ -212,11 +212,23 @@ def raise_not_positive_definite(_):
     raise SolverError("Cholesky factorisation failed (matrix not positive definite)")
 
 
+def fling_past_the_trimmed_share(solution):
+    """7 points of 800 (0.875%) out along +x and 7 along -x: each side within the 1% the growth check trims,
+    together past it."""
+    flung = solution.copy()
+    order = np.argsort(solution[:, 0])
+    width = np.ptp(solution[:, 0])
+    flung[order[-7:], 0] += width
+    flung[order[:7], 0] -= width
+    return flung
+
+
 @pytest.mark.parametrize("call, spoil, reason, kept, fragment", [
     (2, lambda x: x * 3.0, "bbox_growth", 1, "bounding box"),
     (3, raise_not_positive_definite, "solver_failure", 2, "not positive definite"),
     (2, lambda x: x * np.nan, "nan", 1, "NaN"),
     (3, lambda x: x * 0.3, "collapse", 2, "collaps"),
+    (3, fling_past_the_trimmed_share, "flung", 2, "1.8% of the points left the input's box"),
 ])
 def test_a_rejected_step_keeps_the_last_good_state(monkeypatch, call, spoil, reason, kept, fragment):
     spoil_solve(monkeypatch, call, spoil)

@@ -161,6 +161,34 @@ def test_termination_rules():
     assert states[-1].termination == "ring_ratio" and "shrank the rings" in states[-1].message
 
 
+
+def test_a_step_the_covariance_rule_ends_on_is_kept_though_the_rings_stalled(assets_dir):
+    """On the bundled two-hole solid the third step shrinks the rings by less than `termination`, and LCWR's own
+    rule judges its state converged. That state is the one LCWR ends on: the ring safeguard keeps it. Discarded,
+    the run ended on the second state, whose D_theta histogram still has two peaks ("unstable")."""
+    import skelcore
+
+    result = skelcore.skeletonize(assets_dir / "two_hole.ply", method="glskeleton")
+    final = result.states[-1]
+    assert final.iteration == 3 and final.termination == "covariance"
+    assert "the rings had stopped shrinking" in final.message
+    assert result.metrics[-1].d_theta_stats["peaks"]["count"] == 1 and result.verdict["label"] == "stable"
+    assert result.topology["cycles"] == 2
+
+
+def test_a_plate_folding_across_itself_is_stopped_before_the_fold():
+    """The clean plate with four holes of bench-quality, draw 1: state 5 is a sheet holding all four holes; step 6
+    folds it across itself, throwing 2.9% of the points out of the input's box (each side within the 1% the growth
+    check trims) and widening 10.5% of the rings, under the torn rule's 15%. The fling check rejects that step."""
+    import skelcore
+    from skelcore.solids import solid_shape
+
+    shape = solid_shape("block_4_holes", seed=1)
+    result = skelcore.skeletonize(shape.points, method="glskeleton")
+    final = result.states[-1]
+    assert final.termination == "flung" and "left the input's box" in final.message
+    assert result.topology["cycles"] == 4 and result.topology["components"] == 1
+
 def test_retune_live_and_restart_fields():
     points = make_shape("capsule", 1500, seed=0).points
     steps = contract(points, GLSKELETON.replace(termination=1e-12, gl_covariance=1e-12))
