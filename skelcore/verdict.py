@@ -92,7 +92,7 @@ class StabilityThresholds:
 
 
 # What `skelcore study` measured for the shipped thresholds on the shapes held out from their calibration, on the
-# code of 2026-12-02 18:10 (README, "The stability verdict"); the report states it beside every verdict.
+# code of 2026-12-02 18:09 (README, "The stability verdict"); the report states it beside every verdict.
 PREDICTIVE_POWER = {
     "command": "skelcore study --out study --points 3000 --seeds 0 1 --jobs 2",
     "runs": 420, "right_runs": 300, "stable": 172, "precision": 171 / 172, "recall": 171 / 300,
