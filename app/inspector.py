@@ -386,6 +386,7 @@ class Inspector:
         for each in self.presenter.all():
             each.view.show_ghost(None, None)
             each.ui.plots.pin.label = layout.PIN
+            each.clear_comparison()
         self.session.note("unpinned the run compared with: it was of the cloud before")
 
     def _report_error(self, message: str, client, pause: bool = True) -> None:

@@ -36,6 +36,8 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # included), so a white one would paint over the card's right border.
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
+COMPARE_TITLES = ("convergence, pinned and current", "final D_theta", "final delta_kappa")  # the Compare tab's plots
+COMPARE_HINT = "Pin a run, change parameters or method, Restart: both runs show here."
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
@@ -256,9 +258,14 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
                        bundle)
 
 
+def empty_plot(title: str):
+    """A plot with nothing to show yet, on the plots panel's clear paper."""
+    return report.empty_figure(title).update_layout(CARD)
+
+
 def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
     def plot(title: str, aspect: float) -> viser.GuiPlotlyHandle:
-        return gui.add_plotly(report.empty_figure(title).update_layout(CARD), aspect=aspect)
+        return gui.add_plotly(empty_plot(title), aspect=aspect)
 
     with panel.add_tab("Histograms"):
         verdict_line = gui.add_markdown("")
@@ -270,9 +277,9 @@ def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
         verdict = gui.add_markdown("")
     with panel.add_tab("Compare"):
         pin = gui.add_button(PIN, hint="keep this run to compare the next ones with it")
-        compare_note = gui.add_markdown("Pin a run, change parameters or method, Restart: both runs show here.")
-        compare_convergence = plot("convergence, pinned and current", 1.15)
-        compare_theta = plot("final D_theta", HISTOGRAM_ASPECT)
-        compare_kappa = plot("final delta_kappa", HISTOGRAM_ASPECT)
+        compare_note = gui.add_markdown(COMPARE_HINT)
+        compare_convergence = plot(COMPARE_TITLES[0], 1.15)
+        compare_theta = plot(COMPARE_TITLES[1], HISTOGRAM_ASPECT)
+        compare_kappa = plot(COMPARE_TITLES[2], HISTOGRAM_ASPECT)
     return PlotWidgets(verdict_line, verdict, hist_theta, hist_kappa, convergence, pin, compare_note, compare_convergence,
                        compare_theta, compare_kappa)

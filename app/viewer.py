@@ -77,5 +77,9 @@ class Viewer:
         plots.compare_convergence.figure, plots.compare_theta.figure, plots.compare_kappa.figure = (
             convergence, theta, kappa)
 
+    def clear_comparison(self) -> None:
+        """The Compare tab as it is before any pin."""
+        self.show_comparison(layout.COMPARE_HINT, *(layout.empty_plot(title) for title in layout.COMPARE_TITLES))
+
     def close(self) -> None:
         self.closed = True

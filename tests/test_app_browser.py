@@ -352,7 +352,7 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
     from skelcore.io import validate
     from skelcore.shapes import make_shape
 
-    from app.layout import PIN, PIN_AGAIN
+    from app.layout import COMPARE_HINT, PIN, PIN_AGAIN
 
     page = fresh_sized
     step(inspector, page, 2)
@@ -394,6 +394,8 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
         inspector.wait_idle()
         assert inspector.presenter.pinned is None and page.viewer.view._ghost is None
         assert page.viewer.ui.plots.pin.label == PIN
+        assert page.viewer.ui.plots.compare_note.content == COMPARE_HINT
+        assert not page.viewer.ui.plots.compare_convergence.figure.data  # the pinned run's curves are gone
     finally:
         inspector.open(inspector.module_cloud)
         wait_until(lambda: inspector.session.cloud.name == "torus.xyz", "the module's cloud")
