@@ -184,7 +184,8 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         previous, score = score, _covariance_score(current)
         change = abs(score - previous) * (1.0 - share_removed)
         termination, detail = None, ""
-        if covariance_settled(iteration, change, current, params, run.diagonal):
+        # a stalled step reached here only as the state the covariance rule ends on (checked above, unreduced)
+        if stalled or covariance_settled(iteration, change, current, params, run.diagonal):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
             if stalled:
                 notes.append(f"the rings had stopped shrinking (by {drop:.4f} < {params.termination:g})")

@@ -117,8 +117,7 @@ class RunStart:
 
     def outside_share(self, points: np.ndarray) -> float:
         """The share of `points` (run's frame) outside `box`."""
-        low, high = self.box
-        return float(np.mean(np.any((points < low) | (points > high), axis=1)))
+        return _outside_share(points, *self.box)
 
     @functools.cached_property
     def anchors(self) -> np.ndarray:
