@@ -135,6 +135,9 @@ def step(inspector, page, count: int = 1) -> None:
 
 
 def upload(page, path) -> None:
+    """Upload `path` through the Files tab; notices left by earlier checks (an export's download) are closed
+    first, so what the page shows next is this upload's."""
+    close_browser_notices(page)
     open_tab(page, "Files")
     with page.expect_file_chooser() as chooser:
         click(page, "Upload cloud")
