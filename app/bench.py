@@ -8,7 +8,7 @@ after the frame with the new points was drawn), and reports the wall clock, whic
 with the server. Also reported: when the server pushed the points, and when the histograms and the
 skeleton of that iteration were pushed, and the engine's share of those times: how long the step's solve,
 the paper's metrics and the skeleton's extraction took. The skeleton is asked for at every iteration
-("Provisional skeleton" ticked), so each click measures it. Each click waits until the server is idle, as a
+("Show provisional" ticked), so each click measures it. Each click waits until the server is idle, as a
 person looking at each state would; a finished run is reset (untimed).
 
 Two servers are measured: one that computes the next iteration while it waits for Step (the default), and
@@ -90,7 +90,7 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
             step.wait_for()
             page.get_by_role("tab", name="View", exact=True).first.click()
             if skeleton:
-                page.get_by_label("Provisional skeleton").check()
+                page.get_by_label("Show provisional").check()
             else:
                 page.get_by_label("Show skeleton").uncheck()
             page.get_by_text("computed").first.wait_for()

@@ -37,6 +37,7 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
 COMPARE_TITLES = ("convergence, pinned and current", "final D_theta", "final delta_kappa")  # the Compare tab's plots
+PROVISIONAL = "Show provisional"  # the View tab's checkbox that draws a skeleton before the cloud is curve-like
 COMPARE_HINT = "Pin a run, change parameters or method, Restart: both runs show here."
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
@@ -223,13 +224,15 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
     fit = gui.add_button("Fit view", hint="point the camera at the whole cloud (key F)")
     colouring = gui.add_dropdown("Colour by", ("plain", "D_theta", "delta_kappa", "label"), initial_value="plain",
                                  hint="per-point metric of the shown iteration, or the cloud's labels")
-    colour_original = gui.add_checkbox("Colour original too", False,
+    colour_original = gui.add_checkbox("Colour original", False,
                                        hint="colour each original point by its metric value")
-    provisional = gui.add_checkbox("Provisional skeleton", False,
-                                   hint="draw the skeleton before the cloud is curve-like (it means little then)")
     show = {layer: gui.add_checkbox(f"Show {layer}", True) for layer in LAYERS}
+    provisional = gui.add_checkbox(PROVISIONAL, False, order=show["skeleton"].order + 0.5,
+                                   hint="draw the skeleton before the cloud is curve-like (it means little then)")
     opacity, size = {}, {}
-    with gui.add_folder("Opacity and size"):
+    # folded: open, its eight sliders would push the View tab past a 720 px window (and typing in one scrolls the
+    # run controls off the top)
+    with gui.add_folder("Opacity and size", expand_by_default=False):
         for layer in LAYERS:
             opacity[layer] = gui.add_slider(f"{layer.capitalize()} opacity", min=0.05, max=1.0, step=0.05,
                                             initial_value=1.0, hint="share of the points drawn, faded to match")

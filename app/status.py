@@ -3,6 +3,7 @@ legend over the 3-D view. Plain functions of what is shown; nothing here compute
 from __future__ import annotations
 
 from .analysis import Readiness
+from .layout import PROVISIONAL
 from .scene import COLOUR_RANGES, legend_html
 
 
@@ -30,7 +31,7 @@ def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, prov
         return ""
     if provisional_wanted:
         return f"skeleton drawn provisionally: {readiness.reason(state)}"
-    return f"no skeleton yet: {readiness.reason(state)} (View: Provisional skeleton)"
+    return f"no skeleton yet: {readiness.reason(state)} (View: {PROVISIONAL})"
 
 
 def status_markdown(session, index: int, *, run: str, readiness: Readiness | None, skeleton: str,

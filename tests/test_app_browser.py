@@ -244,6 +244,19 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     save_page(page, f"browser-layout-{page.size_name}.png")
 
 
+def test_the_view_tab_fits_under_the_run_controls(fresh_sized):
+    """Every View control is in the window with Step and Play: nothing to scroll, so typing in one of them cannot
+    scroll the run controls away. The per-layer sliders are folded under Opacity and size."""
+    page = fresh_sized
+    open_tab(page, "View")
+    folder = page.get_by_text("Opacity and size", exact=True).first
+    for each in (button(page, "Step"), button(page, "Play"), button(page, "Fit view"), page.get_by_label("Show removed"),
+                 page.get_by_label("Show provisional"), folder):
+        assert inside_viewport(page, each), each
+    assert not page.get_by_label("Original opacity").is_visible()
+    open_tab(page, "Parameters")
+
+
 def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_status(fresh_sized, inspector,
                                                                                    monkeypatch):
     """The status at its longest: a cloud contracted at reduced resolution, thinned in the view, no skeleton
@@ -255,6 +268,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     wait_until(lambda: inspector.session.run.reduction is not None and drawn(page, "plots") == 0, "the reduced run")
     open_tab(page, "View")
     page.get_by_label("Show skeleton").check()
+    open_folder(page, "Opacity and size")
     set_value(page, "Contracted opacity", 0.5)
     open_tab(page, "Parameters")
     step(inspector, page)
@@ -262,7 +276,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     page.get_by_role("option", name="glskeleton").click()
     set_value(page, "W_H0", 2)
     page.get_by_text("Pending: wh0=2.0 from iteration 2; method=glskeleton on restart").first.wait_for()
-    page.get_by_text("(View: Provisional skeleton)").first.wait_for()
+    page.get_by_text("(View: Show provisional)").first.wait_for()
     scroll_to_top(button(page, "Step"))
     for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
         assert inside_viewport(page, button(page, name)), name
@@ -283,6 +297,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     set_value(page, "W_H0", inspector.session.start_params.wh0)
     open_tab(page, "View")
     set_value(page, "Contracted opacity", 1)
+    open_folder(page, "Opacity and size")  # folded again
     page.get_by_label("Show skeleton").uncheck()
     wait_until(lambda: not inspector.session.pending and not page.viewer.view.visible["skeleton"]
                and page.viewer.view.opacity["contracted"] == 1, "the module's settings")
@@ -587,15 +602,15 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     page.get_by_label("Show skeleton").check()
     inspector.wait_idle()
     assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
-    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0) (View: Provisional skeleton)").first.wait_for()
-    page.get_by_label("Provisional skeleton").check()
+    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0) (View: Show provisional)").first.wait_for()
+    page.get_by_label("Show provisional").check()
     wait_until(lambda: drawn(page, "skeleton") == 0, "the provisional skeleton")
     page.get_by_text("skeleton drawn provisionally").first.wait_for()
     page.get_by_text("skeleton provisional: nothing contracted yet").first.wait_for()  # the legend says why
     click(page, "Step")  # iteration 1 of this slow run: contracted a little, still a surface
     wait_until(lambda: drawn(page, "skeleton") == 1, "the provisional skeleton of iteration 1")
     page.get_by_text(re.compile(r"skeleton provisional: \d+% of points curve-like, 50% needed")).first.wait_for()
-    page.get_by_label("Provisional skeleton").uncheck()
+    page.get_by_label("Show provisional").uncheck()
     page.get_by_label("Show skeleton").uncheck()
     wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
     inspector.wait_idle()
@@ -623,6 +638,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     skeleton = inspector.session.skeleton(last)
     assert skeleton.topology()["cycles"] == 1  # the torus keeps its loop
     assert len(page.viewer.view._nodes.batched_positions) == skeleton.graph.number_of_nodes()
+    open_folder(page, "Opacity and size")
     set_value(page, "Original opacity", 0.3)
     wait_until(lambda: page.viewer.view.opacity["original"] == 0.3, "the original thinned")
     assert len(page.viewer.view.drawn_points("original")) == int(np.ceil(0.3 * 1500))
@@ -636,6 +652,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     # back to the module's settings
     open_tab(page, "View")
     set_value(page, "Original opacity", 1)
+    open_folder(page, "Opacity and size")  # folded again
     page.get_by_label("Show skeleton").uncheck()
     open_tab(page, "Parameters")
     set_value(page, "W_L0 (0 = auto)", RUN["wl0"])
