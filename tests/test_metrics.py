@@ -235,6 +235,26 @@ def test_large_clouds_are_judged_on_a_fixed_sample():
     assert np.all(values[result.rows] == 0)
 
 
+def _thin_ring(n: int, seed: int = 0) -> np.ndarray:
+    """A contracted torus: a unit circle under a Gaussian cross-section of 0.02."""
+    rng = np.random.default_rng(seed)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    return np.c_[np.cos(angle), np.sin(angle), np.zeros(n)] + rng.normal(0, 0.02, (n, 3))
+
+
+def test_a_cloud_is_measured_at_the_same_scale_at_any_density():
+    """The curvature of the same thin ring read on 4,000 and on 40,000 points, judged on 2,000 of them: the
+    neighbourhoods come from the sample, so both see the ring as a curve alike; from the whole cloud, 30
+    neighbours of the dense one would lie within a sliver of its cross-section, more blob (kappa 1/3) than curve."""
+    kappa = []
+    for n in (4_000, 40_000):
+        reference = MetricsReference.from_points(_thin_ring(n), max_points=2_000)
+        kappa.append(float(np.nanmean(reference.kappa[reference.evaluated])))
+    assert abs(kappa[0] - kappa[1]) < 0.01, kappa
+    _, whole, _ = pca_features(_thin_ring(40_000), 30, rows=np.arange(2_000))
+    assert np.nanmean(whole) - kappa[1] > 0.05  # what the whole dense cloud's neighbourhoods would have read
+
+
 def test_to_dict_is_json_and_run_verdict_reads_both_forms():
     points, _, core = torus(800)
     reference = MetricsReference.from_points(points)
