@@ -217,13 +217,12 @@ class MetricsReference:
         else:
             raise InputError("point_ids: none of the present points is among the evaluated ones")
         outward = self.convention == "outward"
-        if everyone and points is self.points:  # the input itself (iteration 0): its features are known
+        everything, points = points, (points if rows is None else points[rows])
+        if everyone and everything is self.points:  # the input itself (iteration 0): its features are known
             normals, kappa = self.normals[ids], self.kappa[ids]
         else:
-            normals, kappa, _ = pca_features(points if rows is None else points[rows], self.k,
-                                             collapsed=COLLAPSED * self.diagonal, anchored=outward)
-        curve = {"curve_share": skeleton_scale_share(points, self.diagonal)}
-        everything, points = points, (points if rows is None else points[rows])
+            normals, kappa, _ = pca_features(points, self.k, collapsed=COLLAPSED * self.diagonal, anchored=outward)
+        curve = {"curve_share": skeleton_scale_share(everything, self.diagonal)}
         undefined = ~np.isfinite(normals).all(axis=1)
         if outward:
             normals = away_from_centroid(points, normals, everything.mean(axis=0))

@@ -10,7 +10,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
-from scipy.spatial import cKDTree
 
 from .neighbours import knn
 
@@ -19,27 +18,18 @@ _ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
 _TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 
 
-def pca_features(points: np.ndarray, k: int = 30, rows: np.ndarray | None = None, collapsed: float = 0.0,
-                 anchored: bool = False, neighbours: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Unit normals (eq. 6, sign as the solver gives it), curvature (eq. 7) and kNN indices of the points
-    `rows` (default all), their neighbours taken among all `points`.
+def pca_features(points: np.ndarray, k: int = 30, collapsed: float = 0.0, anchored: bool = False,
+                 neighbours: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit normals (eq. 6, sign as the solver gives it), curvature (eq. 7) and kNN indices of every point,
+    its neighbours taken among `points`.
 
     anchored: the covariance is taken about each point itself (eq. 6 as written) instead of about the mean
     of its neighbours. Neighbourhoods whose covariance trace is <= collapsed**2 get NaN normal and curvature.
-    neighbours: those kNN indices (one row per point of `rows`, k columns), when the caller has queried them.
+    neighbours: those kNN indices (one row per point, k columns), when the caller has queried them.
     """
     k = min(k, len(points))
-    if neighbours is not None:
-        idx = neighbours
-    elif rows is None:
-        _, idx = knn(points, k)
-    else:
-        # For a few rows the build dominates: a sliding-midpoint tree builds in under half the time.
-        tree = cKDTree(points, balanced_tree=False, compact_nodes=False)
-        _, idx = tree.query(points[rows], k=k, workers=-1)
-        idx = idx.reshape(len(rows), k)
-    anchors = (points if rows is None else points[rows]) if anchored else None
+    idx = neighbours if neighbours is not None else knn(points, k)[1]
+    anchors = points if anchored else None
     covariance = _covariances(points, idx, anchors)
     smallest, _, trace = _eigenvalues(*covariance)
     normals = _eigenvector(*covariance, smallest)
@@ -56,9 +46,6 @@ def _covariances(points: np.ndarray, idx: np.ndarray, anchors: np.ndarray | None
     m, k = idx.shape
     # Neighbourhood means of x and x x^T at once: one sparse averaging operator, 9 columns.
     origin = points.mean(axis=0)
-    if idx.size < len(points):  # a few rows of a large cloud: the columns of the neighbours only
-        used, idx = np.unique(idx, return_inverse=True)
-        points, idx = points[used], idx.reshape(m, k)
     x, y, z = (points - origin).T
     columns = np.column_stack([x, y, z, x * x, x * y, x * z, y * y, y * z, z * z])
     average = sp.csr_matrix((np.full(m * k, 1.0 / k), idx.ravel(), np.arange(0, m * k + 1, k)),
