@@ -2,8 +2,9 @@
 cloud down to that many.
 
 A run's peak memory grows linearly with its points (one-rings, Laplacian, factorisation, metrics,
-skeleton). PIPELINE_BYTES_PER_POINT is that slope, measured with `skelcore run` on tori of 50,000 and
-200,000 points (peak RSS 416 MB and 1,061 MB: 4.3 kB per point; 2026-12), with a margin. The
+skeleton). PIPELINE_BYTES_PER_POINT is that slope at full resolution, measured with `skelcore run
+--full-resolution` on tori of 50,000 and 200,000 points (peak RSS 305 MB and 893 MB: 3.9 kB per point;
+2026-12), with a margin; the default multi-resolution path takes less (224 MB and 331 MB). The
 inspector keeps every iteration, their metrics and skeletons, and serves browsers meanwhile, so it
 takes a smaller share of the machine than the command line does.
 """

@@ -8,6 +8,12 @@ neighbours (inverse squared distance weights, set once in the input), so it foll
 surface (never a neighbouring one: the ring is the local surface), ends on the skeleton with it, and keeps
 its own row. The paper's metrics are therefore still those of every input point, and the skeleton's
 correspondence names the node of every input point (that of its voxel's centroid).
+
+Why 20,000: at about that many points on a compact object the Laplacian's one-ring (k = 30 nearest) reaches
+the skeleton's sampling radius (0.02 of the diagonal). A denser cloud only resolves detail below the radius
+the skeleton keeps, and there a scanner's noise outweighs the shape: on the real-shape benchmark at 30k
+points with noise, contracting 20k centroids instead of 30k points kept the topology in 31 of 42 runs
+instead of 24 (LBC), and at 100k/300k it removed false loops on noisy scans.
 """
 from __future__ import annotations
 
@@ -24,7 +30,7 @@ if TYPE_CHECKING:  # the CLI reads POINT_BUDGET: no scipy or networkx for that
     from .skeleton import Skeleton
     from .step import IterationState
 
-POINT_BUDGET = 50_000  # clouds with more points are contracted at this resolution (0 or None: never)
+POINT_BUDGET = 20_000  # clouds with more points are contracted at this resolution (0 or None: never)
 VOXEL_ROUNDS = 6  # secant steps on the voxel size to land in BUDGET_BAND
 BUDGET_BAND = (0.8, 1.0)  # accepted share of the budget for the reduced cloud
 WEIGHT_FLOOR = 0.05  # in voxel sizes: the distance below which every weight is the same
