@@ -2,7 +2,7 @@
 X_k << X_o of the stability metrics), and dense outward-oriented samples of a mesh's surface.
 
 A point cloud is its own sample (with MST-oriented PCA normals, skelcore.normals); a mesh is sampled densely
-with its face normals after trimesh's winding repair. Away from a band around the surface this agrees with
+with its face normals after trimesh's winding repair, each body turned outward. Away from a band around the surface this agrees with
 the winding number of a closed mesh: the nearest sample lies within half a sample spacing of the nearest
 surface point, whose normal gives the exact side.
 """
@@ -20,6 +20,7 @@ from .neighbours import knn
 from .normals import orient_outward, pca_features
 
 SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
+BORDER_LEAK = 0.02  # inside votes of a region touching the grid's border above which it is judged cell by cell
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,10 @@ class InsideTest:
     cells holding a sample, dilated by one, as the shell; every connected region of empty cells lies on
     one side of the surface and takes the side most of its cells next to the shell vote for (regions
     touching the grid's border are outside). A region whose votes split (a surface with holes joins
-    inside and outside) is judged cell by cell, once.
+    inside and outside) is judged cell by cell, once. A region touching the border is judged so as soon
+    as more than BORDER_LEAK of its votes say inside: the outside of a closed surface votes inside only
+    where a few normals are misoriented (0-0.2% measured), while through an open end (a scan cut off at the
+    neck or the feet, a mesh with holes) the whole inside joins it (4-36% of its votes on cloudcontr's data).
     """
     origin: np.ndarray  # (3,) corner of the grid
     size: float  # cell edge
@@ -77,7 +81,7 @@ class InsideTest:
         side[border] = 0
         side[0] = -1  # label 0 is the shell
         mixed = (inside_share > 0.25) & (inside_share < 0.75)
-        mixed[border] |= inside_share[border] > 0.25
+        mixed[border] |= inside_share[border] > BORDER_LEAK
         mixed[0] = False
         cells = side[regions]
         split = mixed[regions]
@@ -171,7 +175,27 @@ def mesh_surface(vertices: np.ndarray, faces, spacing: float, seed: int) -> tupl
     if not len(mesh.faces):
         raise InputError("faces: every face is degenerate")
     trimesh.repair.fix_normals(mesh)
+    _turn_bodies_outward(mesh)
     count = int(np.clip(4.0 * mesh.area / spacing ** 2, 10_000, 200_000))
     samples, face_index = trimesh.sample.sample_surface(mesh, count, seed=seed)
     return (np.concatenate([np.asarray(samples), mesh.vertices]),
             np.concatenate([mesh.face_normals[face_index], mesh.vertex_normals]))
+
+
+def _turn_bodies_outward(mesh) -> None:
+    """Flip the winding of each connected body whose faces point inward. trimesh makes the winding consistent but
+    settles its direction only on a watertight mesh; by the divergence theorem the flux of x - c through a closed
+    surface with outward normals is three times its volume, so an outward body's sum of area * n.(x - c) is
+    positive (c: the body's area-weighted centroid), and it stays so for a body with a few holes."""
+    import trimesh
+
+    body = trimesh.graph.connected_component_labels(mesh.face_adjacency, node_count=len(mesh.faces))
+    area, centre = mesh.area_faces, mesh.triangles_center
+    weight = np.bincount(body, area)
+    centroid = np.stack([np.bincount(body, area * centre[:, axis]) for axis in range(3)], axis=1)
+    centroid /= np.maximum(weight, 1e-300)[:, None]
+    flux = np.bincount(body, area * np.einsum("ij,ij->i", mesh.face_normals, centre - centroid[body]))
+    inward = flux[body] < 0
+    if inward.any():
+        mesh.faces = np.where(inward[:, None], mesh.faces[:, ::-1], mesh.faces)
+

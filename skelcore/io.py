@@ -305,10 +305,16 @@ def _read_off(path: Path):
     lines = [fields for fields in lines if fields]
     if not lines:
         raise InputError(f"{path}: the file holds no points")
-    header = lines[0][0].upper()
-    if header not in ("OFF", "NOFF", "COFF", "CNOFF", "NCOFF"):
-        raise InputError(f"{path}: not an OFF file (header {lines[0][0][:20]!r})")
-    counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 or len(lines) < 2 else (lines[1], lines[2:])
+    try:
+        layout = sizing.off_layout(lines[0])
+    except InputError as error:
+        raise InputError(f"{path}: {error}") from None
+    if layout == "rows":
+        return _read_text(path)
+    if layout == "counts":
+        counts, body = lines[0], lines[1:]
+    else:
+        counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 or len(lines) < 2 else (lines[1], lines[2:])
     if len(counts) < 2 or not all(value.isdigit() for value in counts[:2]):
         raise InputError(f"{path}: the OFF header needs two non-negative whole counts (vertices, faces), "
                          f"got {' '.join(counts)[:40]!r}")

@@ -17,6 +17,7 @@ from .errors import InputError
 HEADER_BYTES = 1 << 16  # longest PLY/PCD header read
 CHUNK_BYTES = 1 << 22
 MAX_LINE_BYTES = 1 << 14  # no text format needs a longer line
+OFF_KEYWORD = re.compile(r"^(ST)?C?N?n?OFF(_\w+)?$", re.IGNORECASE)
 # Bytes the readers take per point while parsing (text: Python rows of strings; binary: arrays).
 PARSE_BYTES_PER_POINT = {".xyz": 400, ".pts": 400, ".txt": 400, ".off": 400, ".obj": 400,
                          ".ply": 120, ".pcd": 120, ".stl": 200, ".glb": 200}
@@ -148,16 +149,47 @@ def _stl(path: Path, size: int) -> int:
     return 3 * (text_lines(path) // 7 + 1)  # text STL: seven lines per triangle
 
 
+def off_layout(first_line: list[str]) -> str:
+    """How an .off file starts, from the words of its first line: "keyword" ([ST][C][N][n]OFF, also with a suffix
+    such as cloudcontr's NOFF_SK), "counts" (Geomview's header keyword is optional: the line of vertex, face and
+    edge counts comes first) or "rows" (no header at all: vertex rows, read as an XYZ file)."""
+    if first_line and OFF_KEYWORD.match(first_line[0]):
+        return "keyword"
+    if len(first_line) == 3 and all(word.isdigit() for word in first_line):
+        return "counts"
+    if len(first_line) >= 3 and all(_is_number(word) for word in first_line):
+        return "rows"
+    raise InputError(f"not an OFF file (it starts with {' '.join(first_line)[:30]!r}, not OFF)")
+
+
+def _is_number(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
 def _off(path: Path, lines: int) -> int:
     """The OFF header's counts: non-negative, and no more rows than the file has lines."""
     words: list[str] = []
     with open(path, "rb") as handle:
         for raw in handle:
-            words += raw.split(b"#", 1)[0].decode("utf-8", "replace").split()
+            line = raw.split(b"#", 1)[0].decode("utf-8", "replace").split()
+            if not words and line:
+                try:
+                    layout = off_layout(line)
+                except InputError as error:
+                    raise InputError(f"{path}: {error}") from None
+                if layout == "rows":
+                    return lines
+                if layout == "counts":
+                    words = ["OFF"]
+            words += line
             if len(words) >= 3:
                 break
-    if not words or not words[0].upper().endswith("OFF"):
-        raise InputError(f"{path}: not an OFF file (it does not start with OFF)")
+    if not words:
+        raise InputError(f"{path}: the file holds no points")
     if len(words) < 3:
         raise InputError(f"{path}: the OFF header lacks its vertex and face counts")
     vertices = _count(path, words[1], "OFF vertex count")

@@ -54,6 +54,24 @@ def test_off_headers(tmp_path):
     np.testing.assert_allclose(io.load(tmp_path / "c.off").points, points)
 
 
+def test_off_variants_of_cloudcontr_and_geomview(tmp_path):
+    """cloudcontr's data holds NOFF_SK files and header-less vertex rows named .off; Geomview's keyword is optional."""
+    points = sphere(30)
+    normals = "\n".join(" ".join(map(str, list(p) + list(p))) for p in points)
+    (tmp_path / "camel.off").write_text(f"NOFF_SK\n30 0 0\n{normals}\n")
+    np.testing.assert_allclose(io.load(tmp_path / "camel.off").points, points)
+    (tmp_path / "rows.off").write_text(f"{normals}\n")
+    np.testing.assert_allclose(io.load(tmp_path / "rows.off").points, points)
+    body = "\n".join(" ".join(map(str, p)) for p in points)
+    (tmp_path / "keywordless.off").write_text(f"30 1 0\n{body}\n3 0 1 2\n")
+    cloud = io.load(tmp_path / "keywordless.off")
+    np.testing.assert_allclose(cloud.points, points)
+    assert cloud.faces.tolist() == [[0, 1, 2]]
+    (tmp_path / "words.off").write_text(f"hello there\n{body}\n")
+    with pytest.raises(InputError, match="not an OFF file"):
+        io.load(tmp_path / "words.off")
+
+
 def test_ply_pcd_and_meshes(tmp_path):
     import open3d as o3d
     import trimesh

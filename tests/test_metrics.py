@@ -168,6 +168,38 @@ def test_torus_normals_are_oriented_outward():
     assert np.mean(np.einsum("ij,ij->i", oriented, normals) > 0) > 0.99
 
 
+def test_normals_are_turned_outward_whatever_the_farthest_point_says():
+    """A pencil's farthest point is its tip, where a PCA normal points anywhere across the axis: a sign taken
+    there turned every normal inward on 3 of these 12 samples."""
+    import trimesh
+
+    body = trimesh.creation.cylinder(radius=0.3, height=4.0, sections=48)
+    tip = trimesh.creation.cone(radius=0.3, height=1.5, sections=48)
+    tip.apply_translation([0.0, 0.0, 2.0])
+    pencil = trimesh.boolean.union([body, tip], engine="manifold")
+    for seed in range(12):
+        points, faces = trimesh.sample.sample_surface_even(pencil, 5000, seed=seed)
+        estimated, _, idx = pca_features(np.asarray(points), 10)
+        oriented = orient_outward(np.asarray(points), estimated, idx)
+        assert np.mean(np.einsum("ij,ij->i", oriented, pencil.face_normals[faces]) > 0) > 0.99, seed
+
+
+def test_an_open_tube_among_closed_parts_holds_its_axis():
+    """A torso cut off at both ends, among six closed balls (limbs): the outside's votes outnumber the inside's,
+    which leaks out through the ends (a quarter of the votes of their joint region), and it is still inside."""
+    rng = np.random.default_rng(0)
+    angle, height = rng.random(6000) * 2 * np.pi, rng.uniform(-2.0, 2.0, 6000)
+    parts = [np.c_[0.5 * np.cos(angle), 0.5 * np.sin(angle), height]]
+    for k in range(6):
+        ball = rng.normal(size=(1500, 3))
+        parts.append(0.3 * ball / np.linalg.norm(ball, axis=1, keepdims=True)
+                     + [1.5 * np.cos(k), 1.5 * np.sin(k), -1.5 + 0.6 * k])
+    reference = MetricsReference.from_points(np.concatenate(parts))
+    axis = np.c_[np.zeros(50), np.zeros(50), np.linspace(-1.5, 1.5, 50)]
+    assert reference.inside.contains(axis).all()
+    assert not reference.inside.contains(parts[0] * [5.0, 5.0, 1.0]).any()
+
+
 def test_cloud_contracted_onto_its_core_is_bounded():
     points, normals, core = torus()
     reference = MetricsReference.from_points(points)
@@ -190,6 +222,20 @@ def test_mesh_reference_is_bounded_by_its_surface():
     axis = vertices * [0.0, 0.0, 1.0] * 0.9
     assert reference.evaluate(axis).boundedness["inside_share"] == 1.0
     assert reference.evaluate(vertices * 3.0).boundedness["inside_share"] == 0.0
+
+
+def test_an_open_mesh_wound_inward_is_bounded_by_its_surface():
+    """trimesh settles the winding's direction only on a watertight mesh: a capsule with one cap cut off and its
+    faces wound inward is turned outward by its flux."""
+    import trimesh
+
+    mesh = trimesh.creation.capsule(height=2.0, radius=0.3, count=[24, 24])
+    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    kept = faces[vertices[faces].mean(axis=1)[:, 2] > -1.05]  # the bottom cap's tip is gone: a hole
+    reference = MetricsReference.from_points(vertices, faces=kept[:, ::-1])
+    axis = np.c_[np.zeros(40), np.zeros(40), np.linspace(-0.8, 1.2, 40)]
+    assert reference.inside.contains(axis).all()
+    assert reference.inside.contains(vertices * [3.0, 3.0, 1.0]).mean() < 0.2
 
 
 def test_point_ids_compare_with_the_same_input_points():
