@@ -2,9 +2,9 @@
 X_k << X_o of the stability metrics), and dense outward-oriented samples of a mesh's surface.
 
 A point cloud is its own sample (with MST-oriented PCA normals, skelcore.normals); a mesh is sampled densely
-with its face normals after trimesh's winding repair, each body turned outward. Away from a band around the surface this agrees with
-the winding number of a closed mesh: the nearest sample lies within half a sample spacing of the nearest
-surface point, whose normal gives the exact side.
+with its face normals after trimesh's winding repair, each body turned outward. Away from a band around the
+surface this agrees with the winding number of a closed mesh: the nearest sample lies within half a sample
+spacing of the nearest surface point, whose normal gives the exact side.
 """
 from __future__ import annotations
 
@@ -198,4 +198,3 @@ def _turn_bodies_outward(mesh) -> None:
     inward = flux[body] < 0
     if inward.any():
         mesh.faces = np.where(inward[:, None], mesh.faces[:, ::-1], mesh.faces)
-

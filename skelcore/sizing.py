@@ -184,7 +184,7 @@ def _off(path: Path, lines: int) -> int:
                 if layout == "rows":
                     return lines
                 if layout == "counts":
-                    words = ["OFF"]
+                    words = ["OFF"]  # read on as if the keyword were there
             words += line
             if len(words) >= 3:
                 break
