@@ -45,6 +45,11 @@ class CleaningParams:
     piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
     min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
 
+    @property
+    def denoise_neighbours(self) -> int:
+        """The neighbours of the denoising projection, 0 when it is off."""
+        return self.neighbours if self.denoise else 0
+
     def validated(self) -> "CleaningParams":
         """These parameters, or a ParameterError naming the first out of range."""
         if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:

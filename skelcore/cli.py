@@ -73,7 +73,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
     group.add_argument("--no-denoise", action="store_true",
                        help="keep the points where they are (by default each is projected once onto the PCA plane "
-                            "of its neighbours, which removes sampling noise)")
+                            "of its neighbours, which removes sampling noise; a large cloud's voxel centroids too)")
     group.add_argument("--no-outlier-removal", action="store_true",
                        help="keep points far from their neighbours (removed by default: statistical outliers)")
     group.add_argument("--no-stray-removal", action="store_true",

@@ -471,6 +471,11 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     reduction = session.run.reduction
     assert reduction is not None and len(reduction.points) <= 1500
     assert any(line.startswith("multi-resolution: 3,000 points") for line in session.log)
+    # the centroids it contracts are those `skelcore run` contracts (denoised at their own spacing)
+    from skelcore.options import RunOptions
+    from skelcore.pipeline import compute
+
+    np.testing.assert_array_equal(reduction.points, compute(cloud, RunOptions(point_budget=1500)).reduction.points)
     while session.step() is not None:
         pass
     history, reduced = session.history, session.run.reduced

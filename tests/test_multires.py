@@ -33,6 +33,38 @@ def test_reduction_lands_in_the_budget_band(noise):
     assert reach.max() <= np.sqrt(3) * reduction.voxel_size + 1e-9
 
 
+def test_centroids_of_a_dense_noisy_cloud_are_denoised_at_their_own_spacing():
+    """At 100k points the 16 nearest span less than noise of 1% of the diagonal, so cleaning's projection leaves
+    a shell and its voxel centroids fill it (several voxels thick); projected on the planes of their own 16
+    nearest, as cleaning projects a cloud of their size, they lie on the surface about as closely."""
+    from skelcore.clean import CleaningParams, denoised
+
+    k = CleaningParams().neighbours
+    points = denoised(make_shape("torus", 100_000, seed=0, noise=0.01).points, k)  # cleaning's projection
+    reduction = multires.reduce_cloud(points)
+    off_surface = lambda p: np.median(np.abs(np.hypot(np.hypot(p[:, 0], p[:, 1]) - 1.0, p[:, 2]) - 0.3))
+    shell = off_surface(reduction.points)
+    assert shell > off_surface(points)  # the centroids are no nearer the surface than the points they average
+    flat = reduction.denoised(k)
+    assert off_surface(flat.points) < 0.7 * shell
+    assert np.array_equal(flat.voxel_of, reduction.voxel_of) and reduction.denoised(0) is reduction
+
+
+def test_a_dense_noisy_drilled_block_keeps_its_hole():
+    """The real-shape benchmark's plate with one hole, 100k points with noise of 1% of the diagonal: with the
+    centroids left as a thick shell the contraction closed the hole (no loop)."""
+    from skelcore.perturb import perturb
+    from skelcore.pipeline import compute
+    from skelcore.solids import solid_shape
+
+    block = solid_shape("block_1_hole", 100_000, seed=0)
+    cloud = validate(perturb(block.points, "noise_1", seed=0, normals=block.normals), name="block.xyz")
+    run = compute(cloud, RunOptions())
+    assert run.reduction is not None
+    topology = run.skeleton.topology()
+    assert (topology["components"], topology["cycles"]) == (1, 1)
+
+
 @pytest.mark.parametrize("name", ["torus", "y_branch"])
 def test_pipeline_above_the_budget(tmp_path, name):
     """The reduced run keeps the topology, and every input point keeps its row: carried positions, metrics
