@@ -52,6 +52,7 @@ class Reduction:
     voxel_of: np.ndarray  # (n,) row of `points` (voxel) of every input point
     voxel_size: float
     input_points: np.ndarray = dataclasses.field(repr=False)  # (n,3)
+    denoise_neighbours: int = 0  # the centroids were projected onto the planes of this many nearest (0: not)
 
     @property
     def n_input(self) -> int:
@@ -61,8 +62,11 @@ class Reduction:
     def note(self) -> str:
         """One progress line: what was reduced and how to turn it off."""
         return (f"multi-resolution: {self.n_input:,} points above the budget of the contraction; contracted "
-                f"{len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}), every input point carried "
-                f"along (turn off with --full-resolution)")
+                f"{len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}{self._denoised_note()}), every "
+                f"input point carried along (turn off with --full-resolution)")
+
+    def _denoised_note(self) -> str:
+        return f", denoised on their {self.denoise_neighbours} nearest" if self.denoise_neighbours else ""
 
     def denoised(self, neighbours: int) -> "Reduction":
         """This reduction with every centroid projected onto the PCA plane of its `neighbours` nearest
@@ -71,11 +75,12 @@ class Reduction:
             return self
         from .clean import denoised
 
-        return dataclasses.replace(self, points=denoised(self.points, neighbours))
+        return dataclasses.replace(self, points=denoised(self.points, neighbours), denoise_neighbours=neighbours)
 
     def describe(self) -> dict:
-        """metrics.json's `multiresolution`: input and contracted points, voxel size."""
-        return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size}
+        """metrics.json's `multiresolution`: input and contracted points, voxel size, the centroids' denoising."""
+        return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size,
+                "denoise_neighbours": self.denoise_neighbours}
 
     def mean(self, values: np.ndarray) -> np.ndarray:
         """(m,) the mean of per-input-point values over each voxel (e.g. contraction weights)."""

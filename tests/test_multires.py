@@ -48,6 +48,7 @@ def test_centroids_of_a_dense_noisy_cloud_are_denoised_at_their_own_spacing():
     flat = reduction.denoised(k)
     assert off_surface(flat.points) < 0.7 * shell
     assert np.array_equal(flat.voxel_of, reduction.voxel_of) and reduction.denoised(0) is reduction
+    assert f"denoised on their {k} nearest" in flat.note() and "denoised" not in reduction.note()
 
 
 def test_a_dense_noisy_drilled_block_keeps_its_hole():
@@ -127,6 +128,12 @@ def test_cli_run_says_in_metrics_json_that_it_reduced(tmp_path):
     written = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert written["multiresolution"]["input_points"] == written["n_points"]
     assert written["multiresolution"]["contracted_points"] <= 1000
+    from skelcore.clean import CleaningParams
+
+    assert written["multiresolution"]["denoise_neighbours"] == CleaningParams().neighbours
+    assert main(["run", str(path), "--out", str(tmp_path / "raw"), "--quiet", "--point-budget", "1000",
+                 "--no-denoise"]) == 0
+    assert json.loads((tmp_path / "raw" / "metrics.json").read_text())["multiresolution"]["denoise_neighbours"] == 0
 
 
 @pytest.mark.parametrize("budget", [None, 2000])
