@@ -156,9 +156,11 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
 
-def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None) -> np.ndarray:
+def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None,
+             weights: np.ndarray | None = None) -> np.ndarray:
     """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included).
-    `index`: those neighbours when known, (n, neighbours) rows into `points`."""
+    `index`: those neighbours when known, (n, neighbours) rows into `points`. `weights`: (n,) how many points
+    each stands for (a voxel centroid's count), which weigh the plane's fit (None: one each)."""
     if len(points) <= neighbours:
         return points
     if index is None:
@@ -166,7 +168,7 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     projected = np.empty_like(points)
     for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
         rows = slice(start, start + CHUNK)
-        _, frames, mean = local_frames(points[index[rows]])
+        _, frames, mean = local_frames(points[index[rows]], None if weights is None else weights[index[rows]])
         normal = frames[:, :, 0]
         offset = np.einsum("ij,ij->i", points[rows] - mean[:, 0], normal)
         projected[rows] = points[rows] - offset[:, None] * normal

@@ -71,12 +71,18 @@ def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, 
     return values, vectors
 
 
-def local_frames(local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def local_frames(local: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """pca_frames of neighbourhoods already gathered, `local` (n, k, 3), and their means (n, 1, 3): callers that
-    need the coordinates or the means too gather them once."""
-    mean = local.mean(axis=1, keepdims=True)
-    centred = local - mean
-    covariance = np.matmul(centred.transpose(0, 2, 1), centred) / local.shape[1]
+    need the coordinates or the means too gather them once. weights: (n, k) weights of the points (None: equal)."""
+    if weights is None:
+        mean = local.mean(axis=1, keepdims=True)
+        centred = local - mean
+        covariance = np.matmul(centred.transpose(0, 2, 1), centred) / local.shape[1]
+    else:
+        share = (weights / weights.sum(axis=1, keepdims=True))[..., None]
+        mean = (share * local).sum(axis=1, keepdims=True)
+        centred = local - mean
+        covariance = np.matmul((share * centred).transpose(0, 2, 1), centred)
     values, vectors = np.linalg.eigh(covariance)
     return values, vectors, mean
 

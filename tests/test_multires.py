@@ -33,20 +33,22 @@ def test_reduction_lands_in_the_budget_band(noise):
     assert reach.max() <= np.sqrt(3) * reduction.voxel_size + 1e-9
 
 
-def test_centroids_of_a_dense_noisy_cloud_are_denoised_at_their_own_spacing():
-    """At 100k points the 16 nearest span less than noise of 1% of the diagonal, so cleaning's projection leaves
-    a shell and its voxel centroids fill it (several voxels thick); projected on the planes of their own 16
-    nearest, as cleaning projects a cloud of their size, they lie on the surface about as closely."""
+@pytest.mark.parametrize("n", [100_000, 300_000])
+def test_centroids_of_a_dense_noisy_cloud_are_denoised_at_their_own_spacing(n):
+    """In a dense cloud the 16 nearest points span less than noise of 1% of the diagonal, so cleaning's projection
+    leaves a shell, and its voxel centroids fill it, the more so the denser the cloud (the noise's tails occupy
+    voxels of their own). Projected on the plane of the points their own 16 nearest stand for (each centroid
+    weighted by its count), they lie nearer the surface than the points they average."""
     from skelcore.clean import CleaningParams, denoised
 
     k = CleaningParams().neighbours
-    points = denoised(make_shape("torus", 100_000, seed=0, noise=0.01).points, k)  # cleaning's projection
+    points = denoised(make_shape("torus", n, seed=0, noise=0.01).points, k)  # cleaning's projection
     reduction = multires.reduce_cloud(points)
     off_surface = lambda p: np.median(np.abs(np.hypot(np.hypot(p[:, 0], p[:, 1]) - 1.0, p[:, 2]) - 0.3))
     shell = off_surface(reduction.points)
     assert shell > off_surface(points)  # the centroids are no nearer the surface than the points they average
     flat = reduction.denoised(k)
-    assert off_surface(flat.points) < 0.7 * shell
+    assert off_surface(flat.points) < min(0.5 * shell, 0.8 * off_surface(points))
     assert np.array_equal(flat.voxel_of, reduction.voxel_of) and reduction.denoised(0) is reduction
     assert f"denoised on their {k} nearest" in flat.note() and "denoised" not in reduction.note()
 
