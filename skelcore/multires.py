@@ -61,6 +61,11 @@ class Reduction:
         """The number of input points."""
         return len(self.voxel_of)
 
+    @property
+    def counts(self) -> np.ndarray:
+        """(m,) how many input points each voxel centroid stands for."""
+        return np.bincount(self.voxel_of, minlength=len(self.points))
+
     def note(self) -> str:
         """One progress line: what was reduced and how to turn it off."""
         return (f"multi-resolution: {self.n_input:,} points above the budget of the contraction; contracted "
@@ -77,9 +82,8 @@ class Reduction:
             return self
         from .clean import denoised
 
-        counts = np.bincount(self.voxel_of, minlength=len(self.points)).astype(np.float64)
-        return dataclasses.replace(self, points=denoised(self.points, neighbours, weights=counts),
-                                   denoise_neighbours=neighbours)
+        points = denoised(self.points, neighbours, weights=self.counts.astype(np.float64))
+        return dataclasses.replace(self, points=points, denoise_neighbours=neighbours)
 
     def describe(self) -> dict:
         """metrics.json's `multiresolution`: input and contracted points, voxel size, the centroids' denoising."""
@@ -88,8 +92,7 @@ class Reduction:
 
     def mean(self, values: np.ndarray) -> np.ndarray:
         """(m,) the mean of per-input-point values over each voxel (e.g. contraction weights)."""
-        counts = np.bincount(self.voxel_of, minlength=len(self.points))
-        return np.bincount(self.voxel_of, weights=values, minlength=len(self.points)) / counts
+        return np.bincount(self.voxel_of, weights=values, minlength=len(self.points)) / self.counts
 
     def carrier(self, rings: OneRings) -> sp.csr_matrix:
         """(n, m) convex weights: each input point over the CARRIERS nearest of its voxel's centroid and that
