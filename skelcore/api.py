@@ -23,7 +23,7 @@ from . import io, multires, pipeline
 from .clean import CleaningParams
 from .contraction import IterationState
 from .contraction import contract as _contract
-from .errors import ParameterError
+from .errors import ParameterError, SkelError
 from .evidence import skeleton_evidence
 from .labels import as_labels, check_label_weights, check_weights
 from .metrics import IterationMetrics
@@ -33,6 +33,7 @@ from .results import write_results
 from .skeleton import Skeleton
 from .verdict import run_verdict
 
+INSPECTOR_ENTRY_POINTS = "skelcore.inspector"  # where the app registers its opener (pyproject.toml)
 _PARAM_NAMES = tuple(field.name for field in dataclasses.fields(ContractionParams))
 
 
@@ -240,6 +241,16 @@ def contract(points, method: str | None = None, *, weights=None, params: Contrac
     return _contract(cloud.points, contraction_params(merged.pop("method"), merged), weights)
 
 
+def _inspector():
+    """The function that opens the inspector, which the inspector's package registers under the entry point group
+    INSPECTOR_ENTRY_POINTS: the engine never imports the app, the app plugs into it."""
+    from importlib.metadata import entry_points
+
+    for entry in entry_points(group=INSPECTOR_ENTRY_POINTS):
+        return entry.load()
+    raise SkelError("inspect: no inspector is installed (reinstall skelcore: `pip install -e .` registers it)")
+
+
 def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1", labels=None,
             label_weights=None, weights=None, **params):
     """Open the inspector (a viser web app) on an array, a Cloud, a file path or a finished Result.
@@ -251,9 +262,7 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
     iteration 0. port: None or 0 takes a free port. **params: contraction
     parameters, as in `skeletonize`. The server runs in background threads until `.stop()`.
     """
-    # The only place skelcore reaches the app (imported here, on demand: `import skelcore` stays light).
-    from app.handle import open_inspector
-
+    open_inspector = _inspector()
     if isinstance(points_or_result, Result):
         if labels is not None or label_weights is not None or weights is not None or params:
             raise ParameterError("inspect: a Result opens with its own parameters and weights")

@@ -214,9 +214,3 @@ def _dask(jobs: list[Job], workers: int | None, scheduler: str | None, bar) -> I
     from .batch_dask import on_dask
 
     return on_dask(jobs, workers, scheduler, bar)
-
-
-if __name__ == "__main__":
-    from .batch_bench import main
-
-    sys.exit(main())

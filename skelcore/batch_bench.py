@@ -1,4 +1,4 @@
-"""`python -m skelcore.batch --bench`: the throughput of a batch, serial against Dask workers."""
+"""`python -m skelcore.batch_bench`: the throughput of a batch, serial against Dask workers."""
 from __future__ import annotations
 
 import dataclasses
@@ -58,11 +58,10 @@ def bench_batch(n_objects: int = 20, workers: int = 2, n_points: int = 10_000, m
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m skelcore.batch --bench`: the batch throughput benchmark."""
+    """`python -m skelcore.batch_bench`: the batch throughput benchmark."""
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m skelcore.batch", description=main.__doc__)
-    parser.add_argument("--bench", action="store_true", required=True, help="run the throughput benchmark")
+    parser = argparse.ArgumentParser(prog="python -m skelcore.batch_bench", description=main.__doc__)
     parser.add_argument("--objects", type=int, default=20, help="shapes in the batch (default: %(default)s)")
     parser.add_argument("--workers", type=int, default=2, help="Dask workers (default: %(default)s)")
     parser.add_argument("--points", type=int, default=10_000, help="points per shape (default: %(default)s)")
@@ -75,3 +74,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     return 0
 
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -35,7 +35,6 @@ SETTINGS = {
     "stop after 2": ({"max_iterations": 2}, None),
     "glskeleton": ({"method": "glskeleton"}, None),
 }
-BAD_SETTINGS = ("wl0 x100", "stop after 1")  # must never be judged stable
 PERTURBED_SETTINGS = ("default", "glskeleton")  # run on the scan-like variants; clean clouds get every setting
 STUDY_VARIANTS = ("noise_1", "outliers_2", "density_30")  # of skelcore.perturb.VARIANTS, after the clean cloud
 CHAMFER_RIGHT = 0.01  # a right skeleton: topology exact and Chamfer <= this share of the diagonal

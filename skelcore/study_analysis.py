@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 
 from .metrics import NORMAL_CONVENTIONS
-from .study import BAD_SETTINGS
 from .verdict import LABELS, MANY_PEAKS, StabilityThresholds, count_loops, count_pieces, features, judge
 
 GOAL_PRECISION = 0.9  # "stable" must be right in this share of the runs it labels, on held-out shapes
 FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" costs 9 right ones
+BAD_SETTINGS = ("wl0 x100", "stop after 1")  # of skelcore.study.SETTINGS: must never be judged stable
 CANDIDATES = {
     "max_peaks": [1, 2, 3, MANY_PEAKS],
     "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],

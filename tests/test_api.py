@@ -266,3 +266,11 @@ def test_result_report_is_one_page(tmp_path):
     result = skelcore.skeletonize(skelcore.load(REPO / "assets" / "capsule.ply").points)
     page = result.report(tmp_path / "r.html").read_text()
     assert "Contraction stability report" in page and "original cloud not shown" not in page
+
+
+def test_inspect_without_an_installed_inspector_says_so(monkeypatch):
+    import importlib.metadata
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda **_: [])
+    with pytest.raises(skelcore.SkelError, match="no inspector is installed"):
+        skelcore.inspect(np.random.default_rng(0).random((50, 3)))
