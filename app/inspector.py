@@ -34,6 +34,7 @@ from .session import Session
 from .upload_guard import UploadGuard
 from .uploads import UploadNotices
 from .viewer import Viewer
+from .words import METHOD_LABELS, METHODS_BY_LABEL, refused
 from .worker import Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
@@ -57,6 +58,7 @@ class Inspector:
         self.uploads = UploadNotices(server)  # viser's "uploaded successfully" never shows: we say what happened
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
+        self.panel_accepted = session.params  # the panel's values last accepted (a refused one is put back to them)
         self.playback = Playback(self.worker, self.ui.run)
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
@@ -184,34 +186,40 @@ class Inspector:
         self.playback.toggle(lambda: self._tick(True), event.client, self.presenter.update_statuses)
 
     def _on_restart(self, client) -> None:
-        try:
-            params = self._panel_params()
-        except ParameterError as error:
-            self._notify(client, "Parameter refused", str(error))
-            return
-        self.worker.submit(lambda: self._restart(params), client)
+        params = self._accepted_panel(client)
+        if params is not None:
+            self.worker.submit(lambda: self._restart(params), client)
 
     def _on_parameter(self, event) -> None:
+        params = self._accepted_panel(event.client)
+        if params is not None:
+            self.worker.submit(lambda: self._tune(params), event.client)
+
+    def _accepted_panel(self, client):
+        """The panel's parameters; None when one is out of range, which is then said and put back to the value
+        last accepted (so the panel never shows what no run uses)."""
         try:
-            params = self._panel_params()
+            self.panel_accepted = self._panel_params()
         except ParameterError as error:
-            self._notify(event.client, "Parameter refused", str(error))
-            return
-        self.worker.submit(lambda: self._tune(params), event.client)
+            self._notify(client, "Parameter refused", f"{refused(str(error))}; put back to the value in force")
+            self._show_params(self.panel_accepted)
+            return None
+        return self.panel_accepted
 
     def _panel_params(self):
         """The parameters the panel shows, on top of the run's (fields the panel lacks stay)."""
         p = self.ui.params
         return self.session.params.replace(
-            method=p.method.value, k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
+            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
             wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
             max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
             hold_curves=bool(p.hold_curves.value))
 
     def _show_params(self, params) -> None:
         """Put a run's parameters into the panel (no client: the callbacks ignore it)."""
+        self.panel_accepted = params
         p = self.ui.params
-        p.method.value = params.method
+        p.method.value = METHOD_LABELS[params.method]
         p.wl0.value = params.wl0 or 0.0
         p.wh0.value, p.sl.value, p.wl_max.value = params.wh0, params.sl, params.wl_max
         p.k.value = params.k or 0

@@ -24,7 +24,9 @@ import viser
 
 from skelcore import report
 from skelcore.io import FORMATS as INPUT_FORMATS
-from skelcore.params import LIMITS, METHODS, ContractionParams
+from skelcore.params import LIMITS, ContractionParams
+
+from .words import METHOD_LABELS, label
 
 # px, fixed: viser sizes a docked panel in px only and tells the server no window size (its camera reports the
 # canvas in device pixels). 470 is about the widest at which both histograms, under iteration 0's two-line
@@ -191,26 +193,27 @@ def build_viewer(gui: viser.GuiApi, order: float) -> ViewerControls:
     return ViewerControls(timeline, follow, status, notes_folder, notes, plots, legend, plots_panel, legend_panel)
 
 
-def _number(gui: viser.GuiApi, label: str, name: str, value, step: float, hint: str | None = None):
+def _number(gui: viser.GuiApi, name: str, value, step: float, hint: str | None = None):
     low, high, _ = LIMITS[name]
-    return gui.add_number(label, initial_value=value, min=low, max=None if math.isinf(high) else high, step=step,
+    return gui.add_number(label(name), initial_value=value, min=low, max=None if math.isinf(high) else high, step=step,
                           hint=hint)
 
 
 def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius: float) -> ParameterWidgets:
-    method = gui.add_dropdown("Method", METHODS, initial_value=params.method, hint="applies on Restart")
-    wl0 = gui.add_number("W_L0 (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
-    wh0 = _number(gui, "W_H0", "wh0", params.wh0, 0.1)
-    sl = _number(gui, "s_L", "sl", params.sl, 0.1)
+    method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()), initial_value=METHOD_LABELS[params.method],
+                              hint="applies on Restart")
+    wl0 = gui.add_number(f"{label('wl0')} (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
+    wh0 = _number(gui, "wh0", params.wh0, 0.1)
+    sl = _number(gui, "sl", params.sl, 0.1)
     restart = gui.add_button("Restart with these parameters")
     with gui.add_folder("More parameters", expand_by_default=False):  # so Restart fits a 1280x720 window
-        wl_max = _number(gui, "W_L cap", "wl_max", params.wl_max, 1.0)
-        k = gui.add_number("k (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
+        wl_max = _number(gui, "wl_max", params.wl_max, 1.0)
+        k = gui.add_number(f"{label('k')} (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
                            hint="applies on Restart")
-        max_iterations = _number(gui, "Max iterations", "max_iterations", params.max_iterations, 1)
-        termination = _number(gui, "Termination", "termination", params.termination, 0.0001,
+        max_iterations = _number(gui, "max_iterations", params.max_iterations, 1)
+        termination = _number(gui, "termination", params.termination, 0.0001,
                               hint="stop when the ring-size ratio falls by less")
-        hold_curves = gui.add_checkbox("Hold curves", params.hold_curves,
+        hold_curves = gui.add_checkbox(label("hold_curves"), params.hold_curves,
                                        hint="points the first step brought to a thin part's axis keep that W_L, and "
                                             "handles thinner than a skeleton ball stay in place: small handles and "
                                             "limb ends survive")

@@ -31,6 +31,8 @@ from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
 
+from .words import PARAMETER_LABELS, assignments
+
 LOG_LENGTH = 200
 
 
@@ -122,10 +124,11 @@ class Session:
         self._start(self.cloud, params or self.latest.params)
 
     def load(self, cloud: Cloud) -> None:
-        """Start a run on a new cloud with the current parameters (automatic k and W_L0 stay automatic)."""
+        """Start a run on a new cloud with the parameters last tuned, those waiting for a restart included (the
+        panel's), else the run's (automatic k and W_L0 stay automatic)."""
         point_weights, self._point_weights = self._point_weights, None
         try:
-            self._start(self._cleaned(cloud), self.latest.params)
+            self._start(self._cleaned(cloud), self._tuned or self.latest.params)
         except Exception:
             self._point_weights = point_weights
             raise
@@ -173,6 +176,7 @@ class Session:
         with self._engine:  # no look-ahead is under way on the run it replaces
             self._generator, self._pending, self._within_step = generator, None, False
             self._engine_params = params  # those the generator steps with
+            self._tuned = None  # the parameters last tuned, for a load (the run's own until then)
             self._live_note = self._restart_note = ""  # changes waiting for the next step, for a restart
             self.run = Run(cloud, params, states, weights=weights,
                            label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
@@ -188,7 +192,7 @@ class Session:
     def tune(self, params: ContractionParams) -> str:
         """Take the panel's parameters: live ones apply from the next step, the others on restart.
         Returns what changed, in words ("" when nothing did)."""
-        params = params.validated()
+        params = self._tuned = params.validated()
         current, shown = self.params, self.latest.params
         live = dataclasses.replace(current, **{name: getattr(params, name) for name in current.to_dict()
                                                if name not in contraction.RESTART_FIELDS})
@@ -198,9 +202,9 @@ class Session:
             waiting, changed = waiting + changed, []
         elif live != current:  # a state computed ahead with `current` is computed again (look_ahead)
             self._pending = live
-        self._live_note = changed and f"{_assignments(live, changed)} from iteration {self.latest.iteration + 1}"
+        self._live_note = changed and f"{assignments(live, changed)} from iteration {self.latest.iteration + 1}"
         ended = " (the run has ended)" if self.finished else ""
-        self._restart_note = waiting and f"{_assignments(params, waiting)} on restart{ended}"
+        self._restart_note = waiting and f"{assignments(params, waiting)} on restart{ended}"
         message = self.pending
         if message:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")
@@ -382,19 +386,12 @@ class Session:
         del self.log[:-LOG_LENGTH]
 
 
-def _assignments(params: ContractionParams, names: list[str]) -> str:
-    return ", ".join(f"{name}={getattr(params, name)}" for name in names)
-
-
 def _weights_text(label_weights: dict[int, float]) -> str:
     return ", ".join(f"{label}={weight:g}" for label, weight in sorted(label_weights.items())) or "none"
 
 
 def _describe(params: ContractionParams) -> str:
-    k = params.k or "auto"
-    wl0 = "auto" if params.wl0 is None else f"{params.wl0:g}"
-    return (f"method {params.method}, k {k}, W_L0 {wl0}, W_H0 {params.wh0:g}, s_L {params.sl:g}, "
-            f"W_L cap {params.wl_max:g}, max iterations {params.max_iterations}, termination {params.termination:g}")
+    return assignments(params, [name for name in PARAMETER_LABELS if name != "hold_curves"])
 
 
 def bundled_assets(directory: Path | None = None) -> dict[str, Path]:

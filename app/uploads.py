@@ -6,8 +6,9 @@ file turns out to be unreadable). The browser names that notification "upload-<t
 follows each transfer's parts as they arrive and, as the last one comes in, takes that notification
 down in the same stream of messages as viser's last acknowledgement, so the browser never shows the
 success line; the inspector then says what happens to the file. A file of one part can finish before the
-browser has put its notification up, so the notice is taken down again a moment later. Uses viser's message hooks, which its
-public API does not expose (checked with viser 1.1).
+browser has put its notification up, so the notice is taken down again a moment later, and then the transfer's
+messages leave the buffer viser replays to browsers that connect later. Uses viser's message hooks and that buffer,
+which its public API does not expose (checked with viser 1.1).
 """
 from __future__ import annotations
 
@@ -51,8 +52,15 @@ class UploadNotices:
         def remove() -> None:  # broadcast, like viser's acknowledgements, so it arrives after the last one
             self._server._websock_server.queue_message(_messages.RemoveNotificationMessage(f"upload-{transfer}"))
 
+        def forget() -> None:  # the acknowledgements stay in viser's replay buffer: a browser that opens later
+            # would replay them as "Uploading undefined ... File uploaded successfully" in its Files tab
+            remove()
+            self._server._websock_server._broadcast_buffer.remove_from_buffer(
+                lambda message: getattr(message, "transfer_uuid", None) == transfer
+                or getattr(message, "uuid", None) == f"upload-{transfer}")
+
         remove()
         for delay in AGAIN_AFTER:
-            timer = threading.Timer(delay, remove)
+            timer = threading.Timer(delay, forget if delay == AGAIN_AFTER[-1] else remove)
             timer.daemon = True
             timer.start()

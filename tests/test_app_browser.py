@@ -273,9 +273,9 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     open_tab(page, "Parameters")
     step(inspector, page)
     page.get_by_label("Method").click()
-    page.get_by_role("option", name="glskeleton").click()
+    page.get_by_role("option", name="GLSkeleton").click()
     set_value(page, "W_H0", 2)
-    page.get_by_text("Pending: wh0=2.0 from iteration 2; method=glskeleton on restart").first.wait_for()
+    page.get_by_text("Pending: W_H0 2 from iteration 2; Method GLSkeleton on restart").first.wait_for()
     page.get_by_text("(View: Show provisional)").first.wait_for()
     scroll_to_top(button(page, "Step"))
     for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
@@ -293,7 +293,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     save_page(page, f"browser-large-cloud-status-{page.size_name}.png")
     open_folder(page, "About this cloud")
     page.get_by_label("Method").click()
-    page.get_by_role("option", name="lbc").click()
+    page.get_by_role("option", name="LBC").click()
     set_value(page, "W_H0", inspector.session.start_params.wh0)
     open_tab(page, "View")
     set_value(page, "Contracted opacity", 1)
@@ -539,7 +539,7 @@ def test_pending_change_and_old_view_are_told(fresh, page):
     inspector = fresh
     step(inspector, page, 2)
     set_value(page, "s_L", 2.5)
-    page.get_by_text("Pending: sl=2.5 from iteration 3").first.wait_for()
+    page.get_by_text("Pending: s_L 2.5 from iteration 3").first.wait_for()
     set_value(page, "Iteration", 0)
     wait_until(lambda: page.viewer.shown == 0, "iteration 0 shown")
     click(page, "Step")
@@ -547,6 +547,18 @@ def test_pending_change_and_old_view_are_told(fresh, page):
     wait_shown(page, 3)
     state = inspector.session.latest
     assert state.params.sl == 2.5 and state.wl == pytest.approx(RUN["wl0"] * 2.5 ** (state.iteration - 1))
+    set_value(page, "s_L", RUN["sl"])
+    wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
+
+
+def test_a_refused_value_is_said_in_the_panels_words_and_put_back(fresh, page):
+    inspector = fresh
+    set_value(page, "W_H0", 0)  # W_H0 must be > 0
+    page.get_by_text("W_H0 = 0.0: must be").first.wait_for()
+    wait_until(lambda: number_input(page, "W_H0").input_value() == "1", "W_H0 put back to 1")
+    set_value(page, "s_L", 1.5)  # a valid change right after is taken, not blocked by the refused one
+    wait_until(lambda: inspector.session.params.sl == 1.5, "s_L = 1.5 in the session")
+    page.get_by_text("s_L 1.5 from iteration").first.wait_for()
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
 
@@ -567,8 +579,8 @@ def test_every_valid_parameter_is_accepted(fresh, page):
 def test_method_selector_runs_glskeleton(fresh, page):
     inspector = fresh
     page.get_by_label("Method").click()
-    page.get_by_role("option", name="glskeleton").click()
-    wait_until(lambda: any("method=glskeleton on restart" in line for line in inspector.session.log), "the note")
+    page.get_by_role("option", name="GLSkeleton").click()
+    wait_until(lambda: any("Method GLSkeleton on restart" in line for line in inspector.session.log), "the note")
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.method == "glskeleton", "the GLSkeleton run")
     click(page, "Step")
@@ -580,7 +592,7 @@ def test_method_selector_runs_glskeleton(fresh, page):
     page.get_by_text(f"{state.n_points:,} points retained, {removed:,} removed").first.wait_for()
     assert len(page.viewer.view.drawn_points("removed")) == removed  # absorbed points drawn in their own colour
     page.get_by_label("Method").click()
-    page.get_by_role("option", name="lbc").click()
+    page.get_by_role("option", name="LBC").click()
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.method == "lbc", "back to LBC")
 
@@ -648,7 +660,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     # tuning after the end says it waits for a restart
     open_tab(page, "Parameters")
     set_value(page, "s_L", 2)
-    page.get_by_text("sl=2.0 on restart (the run has ended)").first.wait_for()
+    page.get_by_text("s_L 2 on restart (the run has ended)").first.wait_for()
     # back to the module's settings
     open_tab(page, "View")
     set_value(page, "Original opacity", 1)
@@ -657,7 +669,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     open_tab(page, "Parameters")
     set_value(page, "W_L0 (0 = auto)", RUN["wl0"])
     set_value(page, "s_L", RUN["sl"])
-    wait_until(lambda: "wl0=1.0" in inspector.session.pending and "sl=1.0" in inspector.session.pending,
+    wait_until(lambda: "W_L0 1" in inspector.session.pending and "s_L 1" in inspector.session.pending,
                "the panel restored")  # the run has ended: the changes wait for the restart
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.sl == RUN["sl"] and inspector.session.start_params.wl0 == 1

@@ -41,7 +41,7 @@ def test_steps_to_the_end_then_refuses(session):
 def test_weight_change_applies_from_the_next_step(session):
     session.step()
     message = session.tune(session.params.replace(sl=2.0))
-    assert "sl=2.0 from iteration 2" in message
+    assert "s_L 2 from iteration 2" in message
     state = session.step()
     assert state.params.sl == 2.0 and session.history[1].params.sl == 3.0
     assert state.wl == pytest.approx(session.history[0].wl * 2.0)
@@ -51,10 +51,10 @@ def test_the_curve_hold_can_be_switched_off_and_on_during_a_run(session):
     assert session.params.hold_curves  # the default
     session.step()
     message = session.tune(session.params.replace(hold_curves=False))
-    assert "hold_curves=False from iteration 2" in message
+    assert "Hold curves off from iteration 2" in message
     assert not session.step().params.hold_curves
     message = session.tune(session.params.replace(hold_curves=True))
-    assert "hold_curves=True from iteration 3" in message
+    assert "Hold curves on from iteration 3" in message
     assert session.step().params.hold_curves
 
 
@@ -62,13 +62,13 @@ def test_tuning_after_the_end_waits_for_restart(session):
     while session.step() is not None:
         pass
     message = session.tune(session.params.replace(sl=2.0))
-    assert message == "sl=2.0 on restart (the run has ended)" and session.pending == message
+    assert message == "s_L 2 on restart (the run has ended)" and session.pending == message
     assert "from iteration" not in message
 
 
 def test_pending_change_is_told_until_used(session):
     session.tune(session.params.replace(wh0=2.0))
-    assert session.pending == "wh0=2.0 from iteration 1"
+    assert session.pending == "W_H0 2 from iteration 1"
     session.step()
     assert session.pending == ""
 
@@ -76,7 +76,7 @@ def test_pending_change_is_told_until_used(session):
 def test_restart_only_fields_wait_for_restart(session):
     session.step()
     message = session.tune(session.params.replace(k=12, wh0=2.0))
-    assert "wh0=2.0 from iteration 2" in message and "k=12 on restart" in message
+    assert "W_H0 2 from iteration 2" in message and "k 12 on restart" in message
     assert session.step().params.k is None  # the running generator never sees k
     session.restart(session.params.replace(k=12))
     assert len(session.history) == 1 and session.start_params.k == 12
@@ -163,6 +163,15 @@ def test_load_replaces_the_cloud(session):
     # cleaned as `skelcore run` cleans it: a clean synthetic capsule keeps every point, denoised
     assert session.cloud.name == "capsule.xyz" and len(session.history[0].points) == 500
     assert session.cloud.cleaning is not None and np.abs(session.cloud.points - capsule.points).max() < 0.05
+
+
+def test_load_uses_the_parameters_waiting_for_a_restart(session):
+    while session.step() is not None:
+        pass
+    session.tune(session.params.replace(sl=2.0, method="glskeleton"))  # the run has ended: both wait for a restart
+    session.load(validate(make_shape("capsule", 500).points, name="capsule.xyz"))
+    assert session.params.sl == 2.0 and session.params.method == "glskeleton" and session.pending == ""
+    assert "s_L 2" in session.log[-1] and "Method GLSkeleton" in session.log[-1]
 
 
 def test_bad_parameter_is_refused(session):
@@ -518,7 +527,7 @@ def test_a_change_after_the_look_ahead_computes_the_step_again(cloud, method):
     ahead.step()
     assert ahead.look_ahead(skeleton=True, provisional=True)
     stale = ahead.run.ahead
-    assert "sl=2.0 from iteration 2" in ahead.tune(ahead.params.replace(sl=2.0))
+    assert "s_L 2 from iteration 2" in ahead.tune(ahead.params.replace(sl=2.0))
     plain.tune(plain.params.replace(sl=2.0))
     assert ahead.look_ahead(skeleton=True, provisional=True)  # the idle worker computes it again at once
     state = ahead.step()
@@ -710,3 +719,13 @@ def test_a_run_that_ends_a_step_back_drops_that_step_and_what_came_of_it(monkeyp
     assert all(index < len(session.history) for index, _ in [*run.skeletons, *run.evidence])
     assert len(session.metrics_upto(2, run)) == 3
     assert run_state(session.history, "", False).startswith("ended at iteration 2")
+
+
+def test_the_panels_words_name_every_method_and_a_refused_value():
+    from app.words import METHOD_LABELS, refused
+    from skelcore.params import METHODS
+
+    assert set(METHOD_LABELS) == set(METHODS)
+    with pytest.raises(ParameterError) as error:
+        ContractionParams(sl=0.5).validated()
+    assert refused(str(error.value)).startswith("s_L = 0.5: must be")

@@ -1,0 +1,37 @@
+"""The names the inspector gives the contraction's parameters and methods: the panel's labels, which its status,
+log and notices use too, so a person reads the same name everywhere."""
+from __future__ import annotations
+
+import re
+
+PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
+                    "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves"}
+METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
+METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
+_ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
+
+
+def label(name: str) -> str:
+    """The panel's label of a ContractionParams field (its own name when the panel lacks it)."""
+    return PARAMETER_LABELS.get(name, name)
+
+
+def value_text(name: str, value) -> str:
+    """A parameter's value as the panel shows it."""
+    if name == "method":
+        return METHOD_LABELS.get(value, str(value))
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if value is None:
+        return "auto"
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def assignments(params, names) -> str:
+    """"s_L 2, W_H0 1.5": the named fields of `params` under their panel labels."""
+    return ", ".join(f"{label(name)} {value_text(name, getattr(params, name))}" for name in names)
+
+
+def refused(message: str) -> str:
+    """A ParameterError's message with the engine's field names replaced by the panel's labels."""
+    return _ENGINE_NAMING.sub(lambda match: f"{label(match.group(1))} = ", message)
