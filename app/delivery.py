@@ -26,10 +26,11 @@ SAVE_NAME_LENGTH = 80  # characters of a cloud's name kept in the names of expor
 
 class Delivery:
     def __init__(self, session: Session, files: FileWidgets, activity: Activity, save_dir: Path | None,
-                 redraw: Callable[[Viewer, int], None]):
-        """redraw(viewer, index): show history[index] in a viewer again (after the animation)."""
-        self.session, self.files, self.activity, self.save_dir, self.redraw = (session, files, activity,
-                                                                               save_dir, redraw)
+                 redraw: Callable[[Viewer, int], None], draw_frame: Callable[[Viewer, object, int], None]):
+        """redraw(viewer, index): show history[index] in a viewer again (after the animation); draw_frame(viewer,
+        run, index): draw run.history[index] in it at once, as its view settings draw it (a frame)."""
+        self.session, self.files, self.activity, self.save_dir = session, files, activity, save_dir
+        self.redraw, self.draw_frame = redraw, draw_frame
 
     def _size(self) -> tuple[int, int]:
         width, height = (int(v) for v in self.files.resolution.value.split("x"))
@@ -65,19 +66,17 @@ class Delivery:
         self.deliver(viewer.client, f"{self.stem(index)}.zip", data)
 
     def animation(self, viewer: Viewer) -> None:
-        """One frame per iteration of the run so far, from one framed camera, the iteration burned in."""
+        """One frame per iteration of the run so far, from one framed camera, the iteration burned in; each drawn
+        as the view draws it (its colouring, and its skeleton when the view shows that iteration's)."""
         run, shown, client = self.session.run, viewer.shown, viewer.client
         width, height = self._size()
         camera = export.framed_camera(run.cloud.points, client.camera, width, height)
         frames = []
         labels = self.files.labels.value
         with self.activity.busy(client, "Export animation", f"rendering {len(run.history)} frames"):
-            viewer.view.clear_skeleton()
             try:
                 for index, state in enumerate(run.history):
-                    viewer.view.show_points((run, index), state.points)
-                    viewer.view.show_removed((run, index), run.cloud.points[state.removed_ids])
-                    client.flush()
+                    self.draw_frame(viewer, run, index)
                     rgba = client.get_render(height, width, transport_format="png", timeout=120, **camera)
                     frames.append(export.compose(rgba, export.caption(run.cloud.name, state) if labels else []))
             finally:

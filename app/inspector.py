@@ -38,6 +38,7 @@ from .words import METHOD_LABELS, METHODS_BY_LABEL, refused
 from .worker import Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
+RUN_ENDED = "Run has ended"  # the notice a step past the end gets
 PLAY_INTERVAL = 0.25  # seconds: a small cloud contracts in a blink; Play paces it so it can be watched
 
 
@@ -64,7 +65,8 @@ class Inspector:
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self._labels_changed,
                                                          order=self.ui.labels_order)
-        self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show)
+        self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
+                                 self.presenter.draw_frame)
         self.loader = Loader(session, self.ui.files, self.worker, self.playback, self.activity, self.messages,
                              self.assets, max_upload_bytes, lambda: self._draw_new_run(frame=True))
         self._notify = self.messages.notify
@@ -232,7 +234,7 @@ class Inspector:
         with self._computing(client):
             state = session.step()
         if state is None:
-            self._notify(client, "Run has ended", f"{session.latest.message}. Reset or Restart to run again.",
+            self._notify(client, RUN_ENDED, f"{session.latest.message}. Reset or Restart to run again.",
                          color="yellow")
             return
         newest = len(session.history) - 1
@@ -333,6 +335,7 @@ class Inspector:
 
     def _draw_new_run(self, frame: bool = False) -> None:
         cloud = self.session.cloud
+        self.messages.withdraw(RUN_ENDED)  # said of the run this one replaces
         # one line: the status' first line counts the points
         self.ui.run.title.content = f"**skelcore inspector** &middot; {Path(cloud.name).name}"
         if cloud.points is not self._source:  # a new cloud: dense ones start thinned

@@ -43,6 +43,9 @@ PROVISIONAL = "Show provisional"  # the View tab's checkbox that draws a skeleto
 COMPARE_HINT = "Pin a run, change parameters or method, Restart: both runs show here."
 RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
+# "removed": the input points a GLSkeleton reduction absorbed, drawn at their input places. After a few steps
+# they are most of the input, and shown they would hide the contraction: on request only
+HIDDEN_AT_START = ("removed",)
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
              "L": "follow the newest iteration", "F": "fit the view"}
 
@@ -229,7 +232,7 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
                                  hint="per-point metric of the shown iteration, or the cloud's labels")
     colour_original = gui.add_checkbox("Colour original", False,
                                        hint="colour each original point by its metric value")
-    show = {layer: gui.add_checkbox(f"Show {layer}", True) for layer in LAYERS}
+    show = {layer: gui.add_checkbox(f"Show {layer}", layer not in HIDDEN_AT_START) for layer in LAYERS}
     provisional = gui.add_checkbox(PROVISIONAL, False, order=show["skeleton"].order + 0.5,
                                    hint="draw the skeleton before the cloud is curve-like (it means little then)")
     opacity, size = {}, {}

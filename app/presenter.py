@@ -87,6 +87,29 @@ class Presenter:
             self.analyst.request((viewer, run, index), client, key=viewer.id)
             self.skeletons.request((viewer, run, index), client, key=viewer.id)
 
+    def draw_frame(self, viewer: Viewer, run, index: int) -> None:
+        """history[index] drawn at once in one viewer as its view settings draw it (colours of that iteration,
+        skeleton when wanted): what `show` and the analysis threads draw in turn, for a frame of an animation."""
+        state = run.history[index]
+        colours = (self.analyses.colours(run, index, self.colour_by, self.colour_original)
+                   if self.colour_by in COLOUR_RANGES else None)
+        readiness = self.analyses.readiness(run, index)
+        wanted = viewer.view.visible["skeleton"] and (not readiness.provisional or self.ui.view.provisional.value)
+        skeleton = self.session.skeleton(index, run) if wanted else None
+        with viewer.client.atomic():
+            viewer.view.show_points((run, index), state.points)
+            viewer.view.show_removed((run, index), run.cloud.points[state.removed_ids])
+            if colours is None:
+                self.set_fixed_colours(viewer, run, index)
+            else:
+                viewer.view.set_colours((run, index), colours.contracted, self.colour_by, colours.original)
+            if skeleton is None:
+                viewer.view.clear_skeleton()
+            else:
+                viewer.view.show_skeleton(skeleton.nodes_array(), skeleton.edges_array(), skeleton.degrees(),
+                                          readiness.provisional)
+        viewer.client.flush()
+
     def prepare_ahead(self) -> None:
         """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""
         run = self.session.run
@@ -183,7 +206,8 @@ class Presenter:
         index = min(viewer.shown, len(run.history) - 1)
         viewer.ui.legend.content = status.legend(
             self.colour_by, run.history[index], self.analyses.readiness(run, index, compute=False), note=note,
-            skeleton_shown=viewer.view.visible["skeleton"], provisional_wanted=self.ui.view.provisional.value,
+            visible=viewer.view.visible, original_coloured=self.colour_original,
+            provisional_wanted=self.ui.view.provisional.value,
             pinned=self.pinned is not None, labels_html=self.labels.legend_html())
 
     def mark(self, stage: str, viewer: Viewer, run, index: int) -> None:

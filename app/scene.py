@@ -64,16 +64,17 @@ def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
 
 
 def legend_html(quantity: str | None, note: str = "", provisional: str = "", pinned: bool = False,
-                extra: str = "", skeleton: bool = True) -> str:
-    """The key of the 3-D view: layers, skeleton nodes (when the skeleton is shown) and, when colouring, the colour
-    bar with its target (`provisional`: a line on why the skeleton is provisional or not drawn yet, "" when it is
-    final; `extra`: more HTML, e.g. the label colours)."""
+                extra: str = "", skeleton: bool = True, layers=POINT_LAYERS, original_coloured: bool = False) -> str:
+    """The key of the 3-D view: the point `layers` drawn, skeleton nodes (when the skeleton is shown) and, when
+    colouring, the colour bar with its target (`provisional`: a line on why the skeleton is provisional or not
+    drawn yet, "" when it is final; `extra`: more HTML, e.g. the label colours; `original_coloured`: the original
+    points are coloured too)."""
     def dot(colour, text):
         return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
 
-    lines = [" ".join([dot(LAYER_COLOURS["original"], "original"),
-                       dot(LAYER_COLOURS["contracted"], "contracted") if quantity is None else "",
-                       dot(LAYER_COLOURS["removed"], "removed")])]
+    coloured = {"contracted"} | ({"original"} if original_coloured else set()) if quantity is not None else set()
+    lines = [" ".join(dot(LAYER_COLOURS[layer], layer) for layer in POINT_LAYERS
+                      if layer in layers and layer not in coloured)]
     if skeleton:
         lines.append(" ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")]))
     if provisional:
@@ -84,7 +85,7 @@ def legend_html(quantity: str | None, note: str = "", provisional: str = "", pin
         low, high = COLOUR_RANGES[quantity]
         target = TARGETS[quantity]
         gradient = ", ".join(f"rgb({r:.0f},{g:.0f},{b:.0f})" for r, g, b in _STOPS)
-        lines.append(f"contracted coloured by {_NAMES[quantity]} (target {target:g}, dark)"
+        lines.append(f"{' and '.join(sorted(coloured))} coloured by {_NAMES[quantity]} (target {target:g}, dark)"
                      f"<div style='height:10px;background:linear-gradient(to right, {gradient})'></div>"
                      f"<div style='display:flex;justify-content:space-between'><span>{low:.2f}</span>"
                      f"<span><b>{target:g}</b></span><span>{high:.2f}</span></div>")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .analysis import Readiness
 from .layout import PROVISIONAL
-from .scene import COLOUR_RANGES, legend_html
+from .scene import COLOUR_RANGES, POINT_LAYERS, legend_html
 
 
 def run_state(history, doing: str, playing: bool, ahead=None) -> str:
@@ -68,12 +68,17 @@ def cloud_notes(session, notice: str) -> str:
     return "\n\n".join(filter(None, [removed_by_cleaning, reduced, notice]))
 
 
-def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, skeleton_shown: bool,
-           provisional_wanted: bool, pinned: bool, labels_html: str) -> str:
-    """The legend of one browser's view; it says why a skeleton is provisional, or not drawn yet."""
+def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, visible: dict[str, bool],
+           original_coloured: bool, provisional_wanted: bool, pinned: bool, labels_html: str) -> str:
+    """The legend of one browser's view (`visible`: its layers shown): the layers it draws, and why a skeleton is
+    provisional, or not drawn yet."""
+    skeleton_shown = visible["skeleton"]
     reason = ""
     if readiness is not None and readiness.provisional and skeleton_shown:
         reason = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
     quantity = colour_by if colour_by in COLOUR_RANGES else None
+    drawn = {"original": True, "contracted": True, "removed": len(state.owner) > state.n_points}  # LBC absorbs none
+    layers = tuple(layer for layer in POINT_LAYERS if visible[layer] and drawn[layer])
     return legend_html(quantity, note, provisional=reason, pinned=pinned,
-                       extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown)
+                       extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown, layers=layers,
+                       original_coloured=original_coloured)

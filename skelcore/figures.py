@@ -84,7 +84,7 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
     summary = (f"skew {_number(stats['skewness'])} · symmetry {_number(stats['symmetry'])} · "
                f"peaks {peaks['count']} · n {stats['n']}")
     heading = title or (name if iteration is None else f"{name}, iteration {iteration}")
-    figure.update_layout(title=dict(text=f"{heading}<br><sup>{summary}</sup>"), height=FIGURE_HEIGHT, bargap=0,
+    figure.update_layout(title=dict(text=heading, subtitle=dict(text=summary)), height=FIGURE_HEIGHT, bargap=0,
                          margin=dict(l=50, r=20, t=60, b=95), xaxis=dict(title=axis_label, range=shown_range),
                          yaxis=dict(title="points", range=[0, top]),
                          legend=dict(orientation="h", y=-0.35, yanchor="top", x=0, font=dict(size=11)))
@@ -141,10 +141,8 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
     rows = (("d_theta", thresholds.d_theta_target, thresholds.d_theta_tolerance),
             ("delta_kappa", 0.0, thresholds.delta_kappa_tolerance))
     colours = [LABEL_COLOURS.get(label, "#555555") for label in labels]
-    for row, (key, target, tolerance) in enumerate(rows, start=1):
-        figure.add_hrect(y0=target - tolerance, y1=target + tolerance, fillcolor="#2a9d3f", opacity=0.12,
-                         line_width=0, row=row, col=1)
-        figure.add_hline(y=target, line_dash="dash", line_color="#888888", row=row, col=1)
+    _target_bands(figure, rows)
+    for row, (key, _, _) in enumerate(rows, start=1):
         figure.add_trace(go.Scatter(x=trend["iteration"], y=trend[f"{key}_mean"], mode="lines+markers",
                                     line=dict(color="#555555"), showlegend=False,
                                     marker=dict(size=10, color=colours),
@@ -157,6 +155,16 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
     figure.update_layout(title=title or "Convergence of the means", height=FIGURE_HEIGHT + 120,
                          margin=dict(l=50, r=20, t=70, b=50), legend=dict(orientation="h", y=-0.2))
     return figure
+
+
+def _target_bands(figure, rows) -> None:
+    """Each row's target (dashed) and its tolerance band (shaded), rows as (key, target, tolerance) from the top.
+    They go on before the data, so plotly must be told to keep them on subplots that have none yet."""
+    for row, (_, target, tolerance) in enumerate(rows, start=1):
+        figure.add_hrect(y0=target - tolerance, y1=target + tolerance, fillcolor="#2a9d3f", opacity=0.12,
+                         line_width=0, row=row, col=1, exclude_empty_subplots=False)
+        figure.add_hline(y=target, line_dash="dash", line_color="#888888", row=row, col=1,
+                         exclude_empty_subplots=False)
 
 
 def cloud_figure(original: np.ndarray | None, contracted: np.ndarray | None, title: str = "Original and contracted"):
@@ -242,10 +250,7 @@ def convergence_comparison_figure(runs, thresholds: StabilityThresholds = Stabil
                            subplot_titles=("mean D<sub>θ</sub> → 0.5", "mean Δκ → 0"))
     rows = (("d_theta", thresholds.d_theta_target, thresholds.d_theta_tolerance),
             ("delta_kappa", 0.0, thresholds.delta_kappa_tolerance))
-    for row, (key, target, tolerance) in enumerate(rows, start=1):
-        figure.add_hrect(y0=target - tolerance, y1=target + tolerance, fillcolor="#2a9d3f", opacity=0.12,
-                         line_width=0, row=row, col=1)
-        figure.add_hline(y=target, line_dash="dash", line_color="#888888", row=row, col=1)
+    _target_bands(figure, rows)
     for number, run in enumerate(runs):
         trend = convergence(run["iterations"], thresholds)
         colour = colours[number] if colours else verdict_colour(run["verdict"]["label"])

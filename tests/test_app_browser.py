@@ -344,11 +344,28 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
 
     page = fresh_sized
     step(inspector, page, 3)
+    open_tab(page, "View")
+    page.get_by_label("Colour by").click()
+    page.get_by_role("option", name="D_theta").click()
+    wait_until(lambda: inspector.presenter.colour_by == "D_theta", "colours by D_theta")
+    inspector.wait_idle()
+    view = page.viewer.view
+    coloured = []  # each frame is coloured by its own iteration's D_theta, as the view colours it
+    set_colours = view.set_colours
+    view.set_colours = lambda key, *rest: coloured.append(key[1]) or set_colours(key, *rest)
     open_tab(page, "Files")
     downloads = []
     page.on("download", lambda download: downloads.append(download))
-    click(page, "Export animation")
-    wait_until(lambda: page.wait_for_timeout(100) or len(downloads) == 2, "two downloads")  # events need the loop
+    try:
+        click(page, "Export animation")
+        wait_until(lambda: page.wait_for_timeout(100) or len(downloads) == 2, "two downloads")  # events need the loop
+    finally:
+        del view.set_colours
+        open_tab(page, "View")
+        page.get_by_label("Colour by").click()
+        page.get_by_role("option", name="plain").click()
+        wait_until(lambda: inspector.presenter.colour_by == "plain", "plain colours")
+    assert list(range(len(inspector.session.history))) == sorted(set(coloured))[:len(inspector.session.history)]
     files = {}
     for download in downloads:
         files[download.suggested_filename.rsplit(".", 1)[1]] = tmp_path / download.suggested_filename

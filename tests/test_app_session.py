@@ -414,6 +414,21 @@ def test_the_legend_names_the_node_kinds_only_while_the_skeleton_is_shown():
     assert "junction" in legend_html(None) and "junction" not in legend_html(None, skeleton=False)
     assert "pinned run's skeleton" in legend_html(None, pinned=True, skeleton=False)
 
+
+def test_the_legend_names_only_the_layers_drawn(session):
+    from app.status import legend
+
+    state = session.latest  # an LBC run: no input point is absorbed
+    shown = {"original": False, "contracted": True, "skeleton": True, "removed": True}
+    text = legend("D_theta", state, None, note="", visible=shown, original_coloured=True, provisional_wanted=False,
+                  pinned=False, labels_html="")
+    assert "removed" not in text and "original" in text  # hidden, but coloured: the colour bar says so
+    assert "contracted and original coloured by" in text
+    shown["original"] = True
+    text = legend("plain", state, None, note="", visible=shown, original_coloured=False, provisional_wanted=False,
+                  pinned=False, labels_html="")
+    assert "original" in text and "contracted" in text and "removed" not in text
+
 def test_a_pause_between_stages_resumes_the_same_step(cloud):
     """Session.step stops between two stages of a step when asked, and the next call finishes that step:
     the run is the same as one stepped straight through."""
@@ -729,3 +744,32 @@ def test_the_panels_words_name_every_method_and_a_refused_value():
     with pytest.raises(ParameterError) as error:
         ContractionParams(sl=0.5).validated()
     assert refused(str(error.value)).startswith("s_L = 0.5: must be")
+
+
+def test_a_repeated_notice_replaces_the_one_still_up():
+    from app.messages import Messages
+
+    class Notice:
+        def __init__(self, shown, text):
+            self.shown, self.text = shown, text
+            shown.append(text)
+
+        def remove(self):
+            self.shown.remove(self.text)
+
+    class Client:
+        client_id, shown = 7, []
+
+        def add_notification(self, title, body, **_):
+            return Notice(self.shown, f"{title}: {body}")
+
+    client = Client()
+    server = type("Server", (), {"get_clients": lambda self: {7: client}})()
+    messages = Messages(server)
+    for _ in range(3):
+        messages.notify(client, "Run has ended", "the one-ring size ratio stopped falling")
+    messages.notify(None, "Parameter refused", "s_L = 0.5: must be at least 1")
+    assert client.shown == ["Run has ended: the one-ring size ratio stopped falling",
+                            "Parameter refused: s_L = 0.5: must be at least 1"]
+    messages.withdraw("Run has ended")
+    assert client.shown == ["Parameter refused: s_L = 0.5: must be at least 1"]

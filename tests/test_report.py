@@ -123,6 +123,7 @@ def test_comparison_figures(run_dir, branch_dir):
     for figure in (report.convergence_comparison_figure(runs), report.final_histograms_figure(runs, "delta_kappa")):
         named = [trace.name for trace in figure.data if trace.showlegend is False]
         assert sorted(set(named)) == ["capsule_run", "y_branch"]
+    assert len(report.convergence_comparison_figure(runs).layout.shapes) == 4  # targets and bands, both means
     lines = [t for t in report.convergence_comparison_figure(runs).data if t.name == "y_branch"]
     assert [list(line.x) for line in lines] == [[0, 1, 2]] * 2
 
@@ -187,6 +188,9 @@ def test_figure_builders_take_objects_and_dicts(history):
         assert len(peaks.x) == final.d_theta_stats["peaks"]["count"]
     convergence = report.convergence_figure(metrics)
     assert list(convergence.data[0].x) == [0, 1, 2, 3]
+    # each mean's target (dashed) and tolerance band (shaded), on both subplots
+    assert sorted((shape.type, shape.yref) for shape in convergence.layout.shapes) == [
+        ("line", "y"), ("line", "y2"), ("rect", "y"), ("rect", "y2")]
     assert len(report.histograms_over_iterations_figure(metrics, "delta_kappa").data) == 4
     assert "**Verdict on iteration 3:" in report.verdict_text(run_verdict(metrics))
     values = report.per_point_values(final, "delta_kappa")
