@@ -14,6 +14,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from skelcore import display, report
 
+from .words import METHOD_LABELS
+
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
 ANIMATION_FPS = 2  # frames (iterations) per second: slow enough to follow one contraction step
 
@@ -32,7 +34,7 @@ def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
 
 def caption(cloud_name: str, state, verdict: str | None = None) -> list[str]:
     """The lines burned into a picture: file, method, iteration (and the verdict)."""
-    lines = [f"{Path(cloud_name).name} · {state.params.method} · iteration {state.iteration}"]
+    lines = [f"{Path(cloud_name).name} · {METHOD_LABELS[state.params.method]} · iteration {state.iteration}"]
     return lines + ([f"verdict: {verdict}"] if verdict else [])
 
 

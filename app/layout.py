@@ -254,15 +254,17 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
     downsample = gui.add_button("Load downsampled", visible=False,
                                 hint="the last cloud too large for this server, voxel-downsampled")
     gui.add_divider()
-    resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
-    labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
-    transparent = gui.add_checkbox("Transparent background", False)
-    save_on_server = gui.add_checkbox(
-        "Also save on server", False, disabled=save_dir is None,
-        hint=f"into {save_dir}" if save_dir else "start skel-inspect with --save-dir to enable")
+    # the exports first and their settings folded, so that all three fit a 1280x720 window under the status
     screenshot = gui.add_button("Screenshot", hint="a PNG framed on the object")
     animation = gui.add_button("Export animation", hint="a GIF and an MP4 of the run, one frame per iteration")
     bundle = gui.add_button("Export bundle", hint="zip: screenshot, skeleton, contracted points, metrics, plots")
+    with gui.add_folder("Export settings", expand_by_default=False):
+        resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
+        labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
+        transparent = gui.add_checkbox("Transparent background", False)
+        save_on_server = gui.add_checkbox(
+            "Also save on server", False, disabled=save_dir is None,
+            hint=f"into {save_dir}" if save_dir else "start skel-inspect with --save-dir to enable")
     return FileWidgets(asset, load, upload, downsample, resolution, labels, transparent, save_on_server, screenshot, animation,
                        bundle)
 

@@ -37,6 +37,10 @@ class Presenter:
         self.pinned: compare.Pinned | None = None
         self.drawn: dict[str, tuple] = {}  # stage -> (run, index, perf_counter) of its last push, any viewer
         self._drawn_changed = threading.Condition()
+        # Status updates come from every thread (the worker, the analysis threads, each busy block's start and end):
+        # reading the run's state and pushing its words happen under one lock, so that an update read earlier
+        # is never pushed after a later one (a finished job's "busy" would stay on screen)
+        self._status_lock = threading.RLock()
         self.analyses = Analyses(session)
         self.analyst = Latest(self._analyse, on_error)
         self.skeletons = Latest(self._draw_skeleton, on_error)
@@ -180,11 +184,16 @@ class Presenter:
 
     # ------------------------------------------------------------------ status and legend
     def update_statuses(self) -> None:
-        for viewer in self.all():
-            self.update_status(viewer)
-        self.ui.log.content = "\n".join(f"- {line}" for line in self.session.log[-LOG_LINES:])
+        with self._status_lock:
+            for viewer in self.all():
+                self.update_status(viewer)
+            self.ui.log.content = "\n".join(f"- {line}" for line in self.session.log[-LOG_LINES:])
 
     def update_status(self, viewer: Viewer) -> None:
+        with self._status_lock:
+            self._update_status(viewer)
+
+    def _update_status(self, viewer: Viewer) -> None:
         session = self.session
         history = session.history  # a restart may replace the run meanwhile: read it once
         index = min(viewer.shown, len(history) - 1)

@@ -326,6 +326,7 @@ def test_screenshot_frames_the_object(fresh_sized, inspector):
     assert height * width / (image.shape[0] * image.shape[1]) >= 0.2
     assert max(height, width) >= 0.5 * min(image.shape[:2])
     assert (image[:top, :400, :3] < 100).any()  # the labels are burned in at the top left
+    open_folder(page, "Export settings")
     page.get_by_label("Transparent background").check()
     page.get_by_label("Burn in labels").uncheck()
     wait_until(lambda: inspector.ui.files.transparent.value and not inspector.ui.files.labels.value, "the options")
@@ -336,6 +337,7 @@ def test_screenshot_frames_the_object(fresh_sized, inspector):
     page.get_by_label("Transparent background").uncheck()
     page.get_by_label("Burn in labels").check()
     wait_until(lambda: not inspector.ui.files.transparent.value and inspector.ui.files.labels.value, "restored")
+    open_folder(page, "Export settings")  # folded again
 
 
 def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp_path):
