@@ -18,6 +18,8 @@ from .errors import ParameterError, SkelError
 
 CONNECT_TIMEOUT = "15s"  # to an existing Dask scheduler
 
+MAX_WORKERS_PER_CPU = 8  # more single-threaded worker processes only compete for the cores (and memory)
+
 
 def on_dask(jobs: list[Job], workers: int | None, scheduler: str | None, bar) -> Iterator[tuple[int, dict]]:
     """Submit one task per object; yield the rows as they finish. Processes with one thread each: the engine
@@ -35,7 +37,7 @@ def on_dask(jobs: list[Job], workers: int | None, scheduler: str | None, bar) ->
         if not client.scheduler_info().get("workers"):
             bar.write(f"{scheduler} has no workers yet; objects wait until one joins", file=sys.stderr)
     else:
-        cluster = local_cluster(workers or cpus())
+        cluster = local_cluster(min(workers or cpus(), max(1, len(jobs))))  # an idle worker would only start
         client = Client(cluster)
     try:
         futures = {client.submit(run_object, job, key=f"skelcore-{job.name}-{os.urandom(4).hex()}"): index
@@ -58,8 +60,9 @@ def local_cluster(workers: int):
     """A Dask cluster on this machine: `workers` processes of one thread each, reachable from 127.0.0.1 only."""
     from distributed import LocalCluster
 
-    if workers < 1:
-        raise ParameterError(f"parameter workers={workers}: must be >= 1 (or no value for one per CPU core)")
+    if not 1 <= workers <= MAX_WORKERS_PER_CPU * cpus():
+        raise ParameterError(f"parameter workers={workers}: must be between 1 and {MAX_WORKERS_PER_CPU * cpus()} "
+                             f"({MAX_WORKERS_PER_CPU} per CPU core; no value: one per core)")
     try:
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                             dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)

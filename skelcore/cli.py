@@ -242,11 +242,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from .api import run
-    from .results import prepare_output
+    from .results import check_output, prepare_output
 
-    prepare_output(args.out, force=args.force)
+    check_output(args.out, force=args.force)  # before the work; the earlier results go only once it succeeded
     progress = None if args.quiet else print
     result = run(args.input, run_options(args), progress=progress)
+    prepare_output(args.out, force=args.force)
     out = result.save(args.out)
     if not args.quiet:
         print(f"{result.summary()} -> {out}")

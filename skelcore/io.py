@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import memory, readers, sizing
-from .errors import InputError, NonFiniteError, TooLargeError
+from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 from .normalise import object_diagonal
 
@@ -168,9 +168,15 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             faces = None
         elif faces.min() < 0 or faces.max() >= len(points):
             raise InputError(f"{name}: faces refer to vertices that do not exist")
+    if max_points < MIN_POINTS:
+        raise ParameterError(f"max_points={max_points}: must be at least {MIN_POINTS}")
+    budget = memory.budget_bytes() if budget is None else budget
+    cap = min(max_points, memory.point_cap(budget))
     if sample is not None:
         if faces is None:
             raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
+        if int(sample) > cap:  # refused before drawing them: a huge sample would exhaust the memory first
+            raise ParameterError(f"sample={int(sample):,}: more points than the cap of {cap:,}")
         points = _sample_surface(points, faces, int(sample), seed)
         faces = None
         notes.append(f"sampled {len(points)} points evenly over the mesh surface")
@@ -181,8 +187,6 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         points = voxel_downsample(points, voxel_size)
         faces = None
         notes.append(f"voxel downsampling ({voxel_size:g}) kept {len(points)} of {before} points")
-    budget = memory.budget_bytes() if budget is None else budget
-    cap = min(max_points, memory.point_cap(budget))
     if len(points) > cap:
         why = (f"the cap of {cap:,}" if cap == max_points else
                f"the cap of {cap:,} that the memory budget of {memory.describe(budget)} allows")

@@ -31,6 +31,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .errors import ParameterError
+from .io import MIN_POINTS
+
 if TYPE_CHECKING:  # the CLI reads POINT_BUDGET: no scipy or networkx for that
     import scipy.sparse as sp
 
@@ -144,7 +147,10 @@ class Reduction:
 
 
 def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
-    """The voxel reduction of a cloud above `budget` points (None when it is within it, or budget is off)."""
+    """The voxel reduction of a cloud above `budget` points (None when it is within it, or budget is off: None
+    or 0)."""
+    if budget is not None and budget != 0 and not budget >= MIN_POINTS:
+        raise ParameterError(f"point_budget={budget}: must be 0 (off) or at least {MIN_POINTS} points")
     n = len(points)
     if not budget or n <= budget:
         return None

@@ -17,7 +17,7 @@ from . import io, multires
 from .clean import clean, cleaned
 from .contraction import IterationState, contract, record
 from .curveness import skeleton_scale_share
-from .errors import ParameterError, SkelError
+from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
 from .labels import check_weights
@@ -290,6 +290,10 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
             _say(progress, f"iteration {state.iteration}: W_L={state.wl:.4g} ring ratio={state.ring_ratio:.4f} "
                            f"points={state.n_points} ({seconds:.2f} s)")
     final = states[-1]
+    if final.iteration == 0:  # the first step was rejected: nothing contracted, so no skeleton or verdict to give
+        reason = (final.message or final.termination).replace("; the last good state is kept", "")
+        raise SolverError(f"the first contraction step failed ({reason}); nothing "
+                          f"was contracted: check the per-point weights and the cloud's coordinates")
     _say(progress, f"stopped after iteration {final.iteration}: {final.message or final.termination}")
     return states
 

@@ -305,7 +305,7 @@ document.querySelectorAll('table.sortable th').forEach((th, column) => th.addEve
 
 
 def _verdict_html(verdict: dict) -> str:
-    label = verdict.get("label", "unknown")
+    label = verdict.get("label") or "none (no contraction step to judge)"
     reasons = "".join(f"<li>{html.escape(r)}</li>" for r in verdict.get("reasons", []))
     return (f"<p>Verdict: <b style='color:{LABEL_COLOURS.get(label, '#000')}'>{html.escape(label)}</b></p>"
             f"<ul>{reasons}</ul>")

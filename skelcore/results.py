@@ -139,15 +139,28 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
         temporary.unlink(missing_ok=True)
 
 
-def prepare_output(out_dir, force: bool = False) -> Path:
-    """The output folder, created; one that already holds a run's results is refused, or with `force`
-    emptied of them first (other files stay), so no file of an earlier run is left beside the new ones."""
+def check_output(out_dir, force: bool = False) -> list[Path]:
+    """The files of an earlier run in the output folder, checked before any work: a folder holding them is
+    refused unless `force`, a path that is a file always (nothing is created or removed here)."""
     out_dir = Path(out_dir)
+    if not str(out_dir).strip():
+        raise OutputError("--out: give a folder name")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputError(f"{out_dir}: is a file, not a folder")
     earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
     earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
     if earlier and not force:
         raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
                           f"choose another folder or pass --force to replace them")
+    return earlier
+
+
+def prepare_output(out_dir, force: bool = False) -> Path:
+    """The output folder, created, once the new results are ready to write (check_output first, before the
+    work): with `force` an earlier run's files are removed (other files stay), so none is left beside the
+    new ones, and a run that fails leaves the earlier results as they were."""
+    out_dir = Path(out_dir)
+    earlier = check_output(out_dir, force)
     try:
         for path in earlier:
             path.unlink()

@@ -37,6 +37,11 @@ from .sampling import ball_cover_by_piece
 from .surface import OriginalSurface
 
 
+# Below this the balls are smaller than the point spacing of a million-point scan (about 1e-3 of the diagonal):
+# every point would be a node, and the edges split into millions of pieces
+MIN_SAMPLE_RADIUS = 1e-3
+
+
 @dataclass(frozen=True)
 class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
@@ -65,9 +70,9 @@ class SkeletonParams:
             value = getattr(self, name)
             if not _real(value) or not math.isfinite(value) or value <= 0:
                 raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
-        if self.sample_radius > 1:
-            raise ParameterError(f"parameter sample_radius={self.sample_radius!r}: must be at most 1 "
-                                 "(a fraction of the diagonal)")
+        if not MIN_SAMPLE_RADIUS <= self.sample_radius <= 1:
+            raise ParameterError(f"parameter sample_radius={self.sample_radius!r}: must be between "
+                                 f"{MIN_SAMPLE_RADIUS:g} and 1 (a fraction of the diagonal)")
         angle = self.collinear_angle
         if not _real(angle) or not 0 <= angle < 180:
             raise ParameterError(f"parameter collinear_angle={angle!r}: must be a number of degrees in [0, 180)")

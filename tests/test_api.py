@@ -274,3 +274,11 @@ def test_inspect_without_an_installed_inspector_says_so(monkeypatch):
     monkeypatch.setattr(importlib.metadata, "entry_points", lambda **_: [])
     with pytest.raises(skelcore.SkelError, match="no inspector is installed"):
         skelcore.inspect(np.random.default_rng(0).random((50, 3)))
+
+
+def test_a_run_whose_first_step_fails_is_an_error_not_a_result():
+    from skelcore.shapes import make_shape
+
+    points = make_shape("torus", 800).points
+    with pytest.raises(skelcore.SkelError, match="first contraction step failed"):
+        skelcore.skeletonize(points, weights=np.full(len(points), 1e300))

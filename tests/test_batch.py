@@ -12,7 +12,7 @@ import pytest
 
 from skelcore import batch, batch_dask, batch_object
 from skelcore.cli import main
-from skelcore.errors import InputError, SkelError
+from skelcore.errors import InputError, ParameterError, SkelError
 from skelcore.results import RESULT_FILES
 from skelcore.shapes import write_shapes
 
@@ -258,3 +258,10 @@ def test_unreachable_scheduler_is_one_line(shapes_dir, tmp_path, monkeypatch):
     monkeypatch.setattr(batch_dask, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(SkelError, match=r"^--scheduler tcp://127.0.0.1:9: cannot connect"):
         batch.run_batch([str(shapes_dir)], tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
+
+
+def test_an_absurd_worker_count_is_refused_before_any_process_starts():
+    from skelcore.batch_dask import local_cluster
+
+    with pytest.raises(ParameterError, match="workers"):
+        local_cluster(100_000)

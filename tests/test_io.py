@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from skelcore import io
-from skelcore.errors import InputError
+from skelcore.errors import InputError, ParameterError
 
 
 def sphere(n=200, seed=0):
@@ -90,6 +90,10 @@ def test_ply_pcd_and_meshes(tmp_path):
     sampled = io.load(tmp_path / "m.obj", sample=500)
     assert sampled.faces is None and 400 <= len(sampled.points) <= 500
     assert np.allclose(np.linalg.norm(sampled.points, axis=1), 1, atol=0.05)
+    with pytest.raises(ParameterError, match="sample"):  # refused before a billion points are drawn
+        io.load(tmp_path / "m.obj", sample=10**9)
+    with pytest.raises(ParameterError, match="max_points"):
+        io.load(tmp_path / "m.obj", max_points=0)
 
 
 def test_load_bytes_names_the_upload_not_the_temp_path():

@@ -148,6 +148,20 @@ def test_an_output_folder_holding_a_run_is_refused_without_force(tmp_path, capsy
     assert main(args + ["--force"]) == 0
     assert not (out / "done.json").exists() and (out / "notes.txt").read_text() == "mine"
     assert all((out / name).exists() for name in results.RESULT_FILES)
+    second = (out / "metrics.json").read_bytes()
+    (tmp_path / "empty.xyz").write_text("")
+    for bad in (["run", str(tmp_path / "empty.xyz"), "--out", str(out), "--force"], args + ["--force", "--sl", "0"]):
+        assert main(bad) == 2  # a bad input or parameter with --force: the earlier results stay
+        assert (out / "metrics.json").read_bytes() == second
+
+
+def test_an_output_path_that_is_a_file_or_empty_is_refused_before_the_work(tmp_path, capsys):
+    path, taken = small_cloud(tmp_path), tmp_path / "taken"
+    taken.write_text("mine")
+    for out in (str(taken), ""):
+        assert main(["run", str(path), "--out", out, "--quiet"]) == 2
+        assert capsys.readouterr().err.count("\n") == 1
+    assert taken.read_text() == "mine" and not (tmp_path / "metrics.json").exists()
 
 
 def full_disk_after(monkeypatch, module, target_name: str):

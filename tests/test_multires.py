@@ -186,3 +186,10 @@ def test_an_error_on_the_helper_thread_is_the_runs_one_line_error(monkeypatch):
     cloud = validate(make_shape("capsule", 1500, seed=0).points, name="capsule.xyz")
     with pytest.raises(InputError, match="^capsule.xyz: points: something the metrics refuse$"):
         compute(cloud, RunOptions())
+
+
+def test_a_negative_point_budget_is_refused():
+    from skelcore.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="point_budget"):
+        multires.reduce_cloud(make_shape("torus", 1000).points, -1)

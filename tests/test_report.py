@@ -232,3 +232,9 @@ def test_fitted_histogram_spans_the_values_and_the_target(history):
     names = [trace.name for trace in figure.data]
     assert any(name.startswith("target") for name in names) and any(name.startswith("mean") for name in names)
     assert not figure.layout.annotations  # labels are legend entries: they cannot overlap
+
+
+def test_a_verdict_without_a_label_is_written_in_words():
+    from skelcore.report import _verdict_html
+
+    assert "none (no contraction step to judge)" in _verdict_html({"label": None, "reasons": []})

@@ -506,3 +506,21 @@ def test_a_thick_contracted_curve_keeps_the_resolution_of_a_thin_one():
     check_correspondence(thick, len(original))
     unsplit = skeleton_of(contracted, original, split_long_edges=False)
     assert unsplit.graph.number_of_nodes() < 0.5 * thin.graph.number_of_nodes()
+
+
+def test_many_cycles_get_a_short_basis_not_networkx_minimum_one():
+    """networkx's minimum cycle basis takes minutes on a skeleton meshed with false cycles (k = 4: rank 141 of 574
+    nodes, 64 s per basis); above loops.MINIMUM_BASIS_WORK the shortest cycle through each edge serves."""
+    grid = nx.convert_node_labels_to_integers(nx.grid_2d_graph(30, 30))
+    nx.set_edge_attributes(grid, 1.0, "length")
+    rank = grid.number_of_edges() - grid.number_of_nodes() + 1
+    basis, minimum = loops.short_cycle_basis(grid)
+    assert not minimum and len(basis) == rank and all(len(cycle) == 4 for cycle in basis)  # the unit squares
+    small = nx.cycle_graph(6)
+    nx.set_edge_attributes(small, 1.0, "length")
+    assert loops.short_cycle_basis(small)[1] and len(loops.short_cycle_basis(small)[0]) == 1
+
+
+def test_a_sample_radius_below_a_point_spacing_is_refused():
+    with pytest.raises(ParameterError, match="sample_radius"):
+        SkeletonParams(sample_radius=1e-9).validated()
