@@ -66,7 +66,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
                        help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
                             "left out (default: %(default)s)")
-    group.add_argument("--seed", type=int, default=0, help="seed for every random choice (default: %(default)s)")
+    group.add_argument("--seed", type=_seed, default=0, help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
@@ -117,6 +117,30 @@ def run_options(args: argparse.Namespace):
                       point_budget=None if args.full_resolution else args.point_budget)
 
 
+def _seed(text: str) -> int:
+    """A random seed: an integer >= 0 (numpy refuses negative ones)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid seed {text!r}: give an integer >= 0") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"invalid seed {value}: give an integer >= 0")
+    return value
+
+
+def _point_count(text: str) -> int:
+    """A number of points to make: between the fewest a run needs and the most a cloud may hold (skelcore.io)."""
+    from .io import MAX_POINTS, MIN_POINTS
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid point count {text!r}: give an integer") from None
+    if not MIN_POINTS <= value <= MAX_POINTS:
+        raise argparse.ArgumentTypeError(f"{value} points: give between {MIN_POINTS} and {MAX_POINTS:,}")
+    return value
+
+
 def _label_weight(text: str) -> tuple[int, float]:
     from .labels import parse_label_weight
 
@@ -144,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = commands.add_parser("bench", help="time whole runs per stage on noisy tori, LBC and GLSkeleton, "
                                                "against pc-skeletor's LBC, with peak memory and growth")
-    bench.add_argument("--points", type=int, nargs="+", default=list(SIZES), help="cloud sizes (default: %(default)s)")
+    bench.add_argument("--points", type=_point_count, nargs="+", default=list(SIZES), help="cloud sizes (default: %(default)s)")
     bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="both")
     bench.add_argument("--baseline-max", type=int, default=BASELINE_MAX,
                        help="time pc-skeletor's LBC up to this many points (0: never; default: %(default)s)")
@@ -168,8 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
                               "../shared/reference exists or --reference is given)")
     quality.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS), metavar="VARIANT",
                          help=f"of: {' '.join(VARIANTS)} (default: all)")
-    quality.add_argument("--points", type=int, default=10_000, help="points per shape (default: %(default)s)")
-    quality.add_argument("--seeds", type=int, nargs="+", default=[0], metavar="SEED",
+    quality.add_argument("--points", type=_point_count, default=10_000, help="points per shape (default: %(default)s)")
+    quality.add_argument("--seeds", type=_seed, nargs="+", default=[0], metavar="SEED",
                          help="draws of the shapes' samples and of the variants, each a run of the whole grid "
                               "(default: 0)")
     quality.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
@@ -187,8 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
     shapes.add_argument("--out", required=True, help="output folder: NAME.ply (points) and NAME_centreline.json per shape")
     shapes.add_argument("--names", nargs="+", default=list(SHAPES), metavar="NAME",
                         help=f"shapes to write, of: {' '.join(SHAPES)} (default: all)")
-    shapes.add_argument("--n", type=int, default=3000, help="points per shape (default: %(default)s)")
-    shapes.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
+    shapes.add_argument("--n", type=_point_count, default=3000, help="points per shape (default: %(default)s)")
+    shapes.add_argument("--seed", type=_seed, default=0, help="random seed (default: %(default)s)")
     shapes.add_argument("--noise", type=float, default=0.0,
                         help="std of Gaussian noise, a fraction of the bounding-box diagonal (default: %(default)s)")
     shapes.add_argument("--nonuniform", type=float, default=0.0,
@@ -229,8 +253,8 @@ def build_parser() -> argparse.ArgumentParser:
                                               "shapes, variants, seeds and settings; calibrate the thresholds")
     study.add_argument("--out", required=True, help="output folder: runs.jsonl (resumable), study.csv, study.json, "
                                                     "thresholds.json, study.html")
-    study.add_argument("--points", type=int, default=3000, help="points per cloud (default: %(default)s)")
-    study.add_argument("--seeds", type=int, nargs="+", default=[0], help="sampling seeds (default: %(default)s)")
+    study.add_argument("--points", type=_point_count, default=3000, help="points per cloud (default: %(default)s)")
+    study.add_argument("--seeds", type=_seed, nargs="+", default=[0], help="sampling seeds (default: %(default)s)")
     study.add_argument("--settings", nargs="+", default=list(SETTINGS), metavar="SETTING",
                        help=f"parameter settings, of: {'; '.join(SETTINGS)} (default: all)")
     study.add_argument("--shapes", nargs="+", default=None, metavar="NAME", help="synthetic or benchmark shapes (default: all)")

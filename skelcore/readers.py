@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
+
 PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
     "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
@@ -132,8 +134,9 @@ def _ascii_ply(path: Path, body_start: int, n_vertices: int, vertex_properties, 
         values = np.array(body.split(), dtype=np.float64)
     except ValueError:
         return None
-    if len(values) != n_vertices * width:
-        return None
+    if len(values) != n_vertices * width:  # the general readers would take the rows there are: say so instead
+        raise InputError(f"{path.name}: the header promises {n_vertices:,} vertices of {width} values, the file "
+                         f"holds {len(values):,} values ({len(values) / width:,.4g} vertices)")
     table = values.reshape(n_vertices, width)
     columns = [name for name, _ in vertex_properties]
     return table[:, [columns.index(axis) for axis in "xyz"]].copy(), None

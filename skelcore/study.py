@@ -187,9 +187,14 @@ def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS),
     runs_path = out_dir / RUNS_FILE
     done = load_runs(runs_path)
     seen = {_record_key(r) for r in done}
+    inputs = list(study_inputs(points, seeds, benchmark, shapes))
+    missing = sorted(set(shapes or ()) - {item.shape for item in inputs})
+    if missing:
+        raise ParameterError(f"shapes {missing}: unknown (synthetic: skelcore shapes; benchmark: skelcore "
+                             f"bench-quality{'' if benchmark else '; --no-benchmark leaves those out'})")
     todo = [(item, [s for s in settings if f"{item.key}|{s}" not in seen
                     and (item.variant == "clean" or s in PERTURBED_SETTINGS)])
-            for item in study_inputs(points, seeds, benchmark, shapes)]
+            for item in inputs]
     todo = [(item, left) for item, left in todo if left]
     if progress:
         progress(f"study: {len(done)} runs done, {sum(len(left) for _, left in todo)} to go")

@@ -67,3 +67,16 @@ def test_uneven_or_commented_text_falls_back(tmp_path, text):
     path = tmp_path / "c.xyz"
     path.write_text(text)
     assert readers.read_xyz(path) is None
+
+
+def test_an_ascii_ply_whose_rows_disagree_with_its_header_is_refused(tmp_path):
+    from skelcore.errors import InputError
+    from skelcore.io import load
+
+    rows = "\n".join(" ".join(map(str, p)) for p in np.random.default_rng(0).random((100, 3)))
+    for promised in (80, 120):
+        path = tmp_path / f"promised{promised}.ply"
+        path.write_text(f"ply\nformat ascii 1.0\nelement vertex {promised}\nproperty float x\nproperty float y\n"
+                        f"property float z\nend_header\n{rows}\n")
+        with pytest.raises(InputError, match=f"promises {promised} vertices"):
+            load(path)

@@ -92,3 +92,11 @@ def test_calibration_keeps_the_floors_and_is_no_stricter_than_the_data_demand():
     assert fitted.d_theta_tolerance == StabilityThresholds().d_theta_tolerance  # not calibrated
     assert fitted.max_peaks == 100 and fitted.min_curve_share == 0.0  # criteria the data do not need: off
     assert fitted.min_spread_ratio == 0.2  # the size rule's floor, never off
+
+
+def test_an_unknown_shape_is_refused(tmp_path):
+    from skelcore.errors import ParameterError
+    from skelcore.study import run_study
+
+    with pytest.raises(ParameterError, match="nosuch"):
+        run_study(tmp_path / "study", points=300, shapes=["torus", "nosuch"], benchmark=False, progress=None)
