@@ -37,6 +37,9 @@ class RunOptions:
         if not self.label_weights:
             return None
         if cloud.labels is None:
+            if any(note.startswith("labels dropped") for note in cloud.notes):  # io.validate's note
+                raise InputError(f"{cloud.name}: label weights given but resampling (--sample or --voxel-size) "
+                                 f"dropped the labels: they belong to the input points")
             raise InputError(f"{cloud.name}: label weights given but the input has no labels "
                              f"(a PLY label property or --labels FILE)")
         return weights_from_labels(cloud.labels, dict(self.label_weights))

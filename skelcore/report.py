@@ -131,6 +131,8 @@ def write_report(run_dirs, out_path, rows=None) -> Path:
     rows = None if rows is None else [dict(row) for row in rows]
     if not run_dirs and not rows:
         raise ParameterError("report: no run folders given")
+    if Path(out_path).suffix.lower() not in (".html", ".htm"):  # never over a run's own files by a slip
+        raise ParameterError(f"report: {out_path}: the page's name must end in .html")
     detailed = len(run_dirs) <= MAX_DETAILED_RUNS  # above: neither clouds nor per-run sections, the page stays small
     runs, problems = [], {}
     for folder in run_dirs:

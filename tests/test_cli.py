@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from skelcore.cli import main
+from skelcore.shapes import make_shape
 
 
 def run_cli(*args, cwd=None):
@@ -96,3 +97,14 @@ def test_a_command_line_process_runs_with_the_collector_on_after_its_imports(tmp
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["0", "True", "True", "True"]
     assert (tmp_path / "out" / "metrics.json").exists()
+
+
+def test_label_weights_on_a_resampled_cloud_say_the_labels_were_dropped(tmp_path, capsys):
+    from skelcore.export import write_points_ply
+
+    points = make_shape("torus", 2000).points
+    path = write_points_ply(tmp_path / "labelled.ply", points, labels=(points[:, 0] > 0).astype(np.int64))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--label-weight", "1=5",
+                 "--voxel-size", "0.05"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "dropped the labels" in err

@@ -175,6 +175,9 @@ def test_cli_report(run_dir, tmp_path, capsys):
     assert main(["report", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x.html")]) != 0
     error = capsys.readouterr().err.strip()
     assert "nowhere" in error and "\n" not in error and "Traceback" not in error
+    before = (run_dir / "skeleton.json").read_bytes()
+    assert main(["report", str(run_dir), "--out", str(run_dir / "skeleton.json")]) == 2  # not over a run's file
+    assert (run_dir / "skeleton.json").read_bytes() == before and ".html" in capsys.readouterr().err
 
 
 def test_figure_builders_take_objects_and_dicts(history):
