@@ -253,8 +253,9 @@ def test_several_seeds_are_counted_apart_and_each_run_checked_against_the_clean_
 def test_bench_quality_refuses_seeds_that_are_no_draw(capsys):
     from skelcore.cli import main
 
-    assert main(["bench-quality", "--seeds", "-1", "--shapes", "block_1_hole", "--quiet"]) != 0
-    assert "seeds=[-1]" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:  # the command line refuses it as it reads its arguments
+        main(["bench-quality", "--seeds", "-1", "--shapes", "block_1_hole", "--quiet"])
+    assert stop.value.code == 2 and "invalid seed -1" in capsys.readouterr().err
 
 
 def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypatch, capsys, tmp_path):
