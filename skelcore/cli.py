@@ -217,6 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="std of Gaussian noise, a fraction of the bounding-box diagonal (default: %(default)s)")
     shapes.add_argument("--nonuniform", type=float, default=0.0,
                         help="in [0, 1): sampling density falls linearly along x from 1 to 1 - this (default: %(default)s)")
+    shapes.add_argument("--force", action="store_true", help="replace shape files already in --out")
     shapes.set_defaults(handler=_shapes)
     # -- evaluate (skelcore.evaluate) --
     evaluate = commands.add_parser("evaluate", help="score a skeleton against a ground-truth curve: distances and topology")
@@ -290,8 +291,15 @@ def _bench(args: argparse.Namespace) -> int:
 def _bench_quality(args: argparse.Namespace) -> int:
     import time
 
+    from pathlib import Path
+
+    from .errors import OutputError
     from .quality_bench import format_table, run_quality_bench, summarise, write_json
 
+    if args.json is not None:  # checked before the runs: a bad path would otherwise lose them at the end
+        folder = Path(args.json).resolve().parent
+        if Path(args.json).is_dir() or any(part.is_file() for part in (folder, *folder.parents)):
+            raise OutputError(f"--json {args.json}: cannot be written there (a folder, or under a file)")
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,
@@ -307,8 +315,18 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
 
 def _shapes(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .errors import OutputError
     from .shapes import write_shapes
 
+    out = Path(args.out)
+    if not str(args.out).strip() or out.is_file():
+        raise OutputError(f"{args.out!r}: give a folder for the shapes")
+    taken = [out / f"{name}{suffix}" for name in args.names for suffix in (".ply", "_centreline.json")
+             if (out / f"{name}{suffix}").exists()]
+    if taken and not args.force:
+        raise OutputError(f"{taken[0]}: already there; choose another folder or pass --force to replace it")
     for path in write_shapes(args.out, args.names, args.n, seed=args.seed, noise=args.noise, nonuniform=args.nonuniform):
         print(path)
     return 0

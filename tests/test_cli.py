@@ -108,3 +108,19 @@ def test_label_weights_on_a_resampled_cloud_say_the_labels_were_dropped(tmp_path
                  "--voxel-size", "0.05"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "dropped the labels" in err
+
+
+def test_outputs_under_a_file_or_over_earlier_shapes_are_refused_before_the_work(tmp_path, capsys):
+    taken = tmp_path / "taken"
+    taken.write_text("mine")
+    for args in (["bench-quality", "--shapes", "block_1_hole", "--variants", "clean", "--json", str(taken / "x.json")],
+                 ["study", "--out", str(taken), "--shapes", "torus", "--no-benchmark"]):
+        assert main([*args, "--quiet"] if args[0] == "bench-quality" else args) == 2
+        assert capsys.readouterr().err.count("\n") == 1
+    shapes = ["shapes", "--out", str(tmp_path / "shapes"), "--names", "torus", "--n", "200"]
+    assert main(shapes) == 0
+    first = (tmp_path / "shapes" / "torus.ply").read_bytes()
+    assert main([*shapes, "--seed", "1"]) == 2 and "--force" in capsys.readouterr().err
+    assert (tmp_path / "shapes" / "torus.ply").read_bytes() == first
+    assert main([*shapes, "--seed", "1", "--force"]) == 0
+    assert (tmp_path / "shapes" / "torus.ply").read_bytes() != first
