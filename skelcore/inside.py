@@ -20,6 +20,7 @@ from .neighbours import knn
 from .normals import orient_outward, pca_features
 
 SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
+MAX_CELLS = 2_000_000  # cells of an inside test's grid, about at most (a run's take a few hundred thousand)
 BORDER_LEAK = 0.02  # inside votes of a region touching the grid's border above which it is judged cell by cell
 
 
@@ -61,8 +62,10 @@ class InsideTest:
             tree = cKDTree(samples)
             spacing = tree.query(samples, k=2, workers=-1)[0][:, 1]
         extent = np.ptp(samples, axis=0)
-        # Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis.
-        size = max(band, 2.0 * float(np.quantile(spacing, 0.9)), float(extent.max()) / 256, 1e-12)
+        # Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis and about
+        # MAX_CELLS in all (a small piece far from the rest would otherwise span 17M mostly empty cells)
+        size = max(band, 2.0 * float(np.quantile(spacing, 0.9)), float(extent.max()) / 256,
+                   (float(np.prod(extent + 1e-12 * extent.max())) / MAX_CELLS) ** (1 / 3), 1e-12)
         origin = samples.min(axis=0) - 2.5 * size
         shape = tuple(np.ceil(extent / size).astype(int) + 6)
         occupied = np.zeros(shape, bool)

@@ -64,3 +64,13 @@ def test_the_loop_probe_takes_the_metrics_surface_of_the_same_points(monkeypatch
         np.testing.assert_array_equal(inside.cells, made.cells)
         np.testing.assert_array_equal(inside.normals, made.normals)
         np.testing.assert_array_equal(inside.samples, points)
+
+
+def test_a_far_small_piece_does_not_blow_up_the_inside_tests_grid():
+    from skelcore.inside import MAX_CELLS, InsideTest
+
+    torus = make_shape("torus", 2000).points
+    far = torus[:3] + 50.0  # three points far away: the grid spans both
+    test = InsideTest.of_cloud(np.vstack([torus, far]), band=0.03, collapsed=1e-9)
+    assert test.cells.size <= MAX_CELLS * 1.25  # and its border; 262^3 = 18M cells before the cap (101 s a run)
+    assert test.contains(np.zeros((1, 3))).tolist() == [False]  # the torus's hole is outside
