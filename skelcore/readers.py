@@ -9,6 +9,7 @@ file. Reading a million-point binary PLY this way takes milliseconds; importing 
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ PLY_TYPES = {
     "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
 }
 PLY_ENDIAN = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": ""}
+DECIMAL_COMMAS = re.compile(rb"-?\d+,\d+[ \t]+-?\d+,\d+[ \t]+-?\d+,\d+")  # three numbers with decimal commas
 HEADER_LIMIT = 1 << 16  # a PLY header longer than this is not a common file
 
 
@@ -66,6 +68,9 @@ def read_xyz(path: Path) -> np.ndarray | None:
     data = Path(path).read_bytes()
     if b"#" in data or b"//" in data:
         return None
+    if b"." not in data and DECIMAL_COMMAS.search(data):  # "-0,845 -0,983": commas would split every number
+        raise InputError(f"{Path(path).name}: the coordinates are written with decimal commas (like "
+                         f"{DECIMAL_COMMAS.search(data).group(0).split()[0].decode()}); write them with decimal points")
     data = data.replace(b",", b" ")
     widths = _tokens_per_line(data)
     widths = widths[widths > 0]

@@ -80,3 +80,16 @@ def test_an_ascii_ply_whose_rows_disagree_with_its_header_is_refused(tmp_path):
                         f"property float z\nend_header\n{rows}\n")
         with pytest.raises(InputError, match=f"promises {promised} vertices"):
             load(path)
+
+
+def test_decimal_commas_are_refused_not_read_as_more_columns(tmp_path):
+    from skelcore.errors import InputError
+    from skelcore.io import load
+
+    points = np.random.default_rng(1).random((50, 3))
+    path = tmp_path / "comma.xyz"
+    path.write_text("\n".join(" ".join(f"{v:.6f}".replace(".", ",") for v in p) for p in points))
+    with pytest.raises(InputError, match="decimal commas"):
+        load(path)
+    path.write_text("\n".join(",".join(f"{v:.6f}" for v in p) for p in points))  # commas between numbers: read
+    np.testing.assert_allclose(load(path).points, points, atol=1e-6)
