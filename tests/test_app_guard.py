@@ -156,7 +156,7 @@ def test_an_idle_transfer_is_dropped_while_its_client_stays(served):
         settle(lambda: guard.in_flight() == 4 * MIB or abandoned(), "the transfer to start")
         settle(lambda: guard.in_flight() == 0, "the idle transfer to be dropped")
         assert transfer not in server.gui._current_file_upload_states
-        assert abandoned()
+        settle(abandoned, "the abandoned refusal")  # said just after the transfer is dropped
         client.close()
     finally:
         guard.idle_seconds = 30.0
