@@ -91,6 +91,11 @@ class Presenter:
             self.analyst.request((viewer, run, index), client, key=viewer.id)
             self.skeletons.request((viewer, run, index), client, key=viewer.id)
 
+    def _skeleton_wanted(self, viewer: Viewer, readiness) -> bool:
+        """Whether a viewer draws the skeleton of a state of this readiness: shown, and final or provisional
+        ones asked for."""
+        return viewer.view.visible["skeleton"] and (not readiness.provisional or self.ui.view.provisional.value)
+
     def draw_frame(self, viewer: Viewer, run, index: int) -> None:
         """history[index] drawn at once in one viewer as its view settings draw it (colours of that iteration,
         skeleton when wanted): what `show` and the analysis threads draw in turn, for a frame of an animation."""
@@ -98,7 +103,7 @@ class Presenter:
         colours = (self.analyses.colours(run, index, self.colour_by, self.colour_original)
                    if self.colour_by in COLOUR_RANGES else None)
         readiness = self.analyses.readiness(run, index)
-        wanted = viewer.view.visible["skeleton"] and (not readiness.provisional or self.ui.view.provisional.value)
+        wanted = self._skeleton_wanted(viewer, readiness)
         skeleton = self.session.skeleton(index, run) if wanted else None
         with viewer.client.atomic():
             viewer.view.show_points((run, index), state.points)
@@ -165,7 +170,7 @@ class Presenter:
         if not viewer.showing(run, index):
             return
         readiness = self.analyses.readiness(run, index)
-        wanted = viewer.view.visible["skeleton"] and (not readiness.provisional or self.ui.view.provisional.value)
+        wanted = self._skeleton_wanted(viewer, readiness)
         if not wanted:
             viewer.view.clear_skeleton()
             return

@@ -295,11 +295,12 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
     from .errors import OutputError
     from .quality_bench import format_table, run_quality_bench, summarise, write_json
+    from .io import writable_folder
 
     if args.json is not None:  # checked before the runs: a bad path would otherwise lose them at the end
-        folder = Path(args.json).resolve().parent
-        if Path(args.json).is_dir() or any(part.is_file() for part in (folder, *folder.parents)):
-            raise OutputError(f"--json {args.json}: cannot be written there (a folder, or under a file)")
+        writable_folder(Path(args.json).resolve().parent, "--json")
+        if Path(args.json).is_dir():
+            raise OutputError(f"--json {args.json}: is a folder, not a file")
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,
@@ -315,14 +316,11 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
 
 def _shapes(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from .errors import OutputError
+    from .io import writable_folder
     from .shapes import write_shapes
 
-    out = Path(args.out)
-    if not str(args.out).strip() or out.is_file():
-        raise OutputError(f"{args.out!r}: give a folder for the shapes")
+    out = writable_folder(args.out, "--out")
     taken = [out / f"{name}{suffix}" for name in args.names for suffix in (".ply", "_centreline.json")
              if (out / f"{name}{suffix}").exists()]
     if taken and not args.force:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import memory, readers, sizing
-from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
+from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 from .normalise import object_diagonal
 
@@ -23,6 +23,7 @@ POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
 FORMATS = POINT_FORMATS + MESH_FORMATS
 MIN_POINTS = 20
+LABELS_DROPPED = "labels dropped: they belong to the input points, not to a resampled cloud"  # a Cloud note
 MAX_POINTS = 2_000_000
 # Coordinates beyond these magnitudes are rescaled by a power of two (exact) before anything squares a
 # distance or divides by an extent: squares overflow past ~1e154, extents past ~1e308.
@@ -145,6 +146,17 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
     return cloud
 
 
+def writable_folder(folder, what: str) -> Path:
+    """`folder` as a Path, or an OutputError naming `what` when it is blank, a file, or under a file (checked
+    before any work, so that no result is lost to a path that cannot hold it)."""
+    if not str(folder).strip():
+        raise OutputError(f"{what}: give a folder name")
+    folder = Path(folder)
+    if any(part.is_file() for part in (folder, *folder.parents)):
+        raise OutputError(f"{what} {folder}: is a file, or under one, not a folder")
+    return folder
+
+
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
              voxel_size: float | None = None, max_points: int = MAX_POINTS, budget: int | None = None,
              seed: int = 0, labels=None, drop_nonfinite: bool = False) -> Cloud:
@@ -161,7 +173,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         labels = as_labels(labels, len(points), name)
         if sample is not None or voxel_size is not None:
             labels = None
-            notes.append("labels dropped: they belong to the input points, not to a resampled cloud")
+            notes.append(LABELS_DROPPED)
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         if len(faces) == 0:

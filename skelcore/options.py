@@ -37,7 +37,7 @@ class RunOptions:
         if not self.label_weights:
             return None
         if cloud.labels is None:
-            if any(note.startswith("labels dropped") for note in cloud.notes):  # io.validate's note
+            if io.LABELS_DROPPED in cloud.notes:
                 raise InputError(f"{cloud.name}: label weights given but resampling (--sample or --voxel-size) "
                                  f"dropped the labels: they belong to the input points")
             raise InputError(f"{cloud.name}: label weights given but the input has no labels "

@@ -68,9 +68,10 @@ def read_xyz(path: Path) -> np.ndarray | None:
     data = Path(path).read_bytes()
     if b"#" in data or b"//" in data:
         return None
-    if b"." not in data and DECIMAL_COMMAS.search(data):  # "-0,845 -0,983": commas would split every number
+    commas = DECIMAL_COMMAS.search(data) if b"." not in data else None  # "-0,845 -0,983": commas would split numbers
+    if commas:
         raise InputError(f"{Path(path).name}: the coordinates are written with decimal commas (like "
-                         f"{DECIMAL_COMMAS.search(data).group(0).split()[0].decode()}); write them with decimal points")
+                         f"{commas.group(0).split()[0].decode()}); write them with decimal points")
     data = data.replace(b",", b" ")
     widths = _tokens_per_line(data)
     widths = widths[widths > 0]

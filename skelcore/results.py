@@ -142,11 +142,7 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
 def check_output(out_dir, force: bool = False) -> list[Path]:
     """The files of an earlier run in the output folder, checked before any work: a folder holding them is
     refused unless `force`, a path that is a file always (nothing is created or removed here)."""
-    out_dir = Path(out_dir)
-    if not str(out_dir).strip():
-        raise OutputError("--out: give a folder name")
-    if out_dir.exists() and not out_dir.is_dir():
-        raise OutputError(f"{out_dir}: is a file, not a folder")
+    out_dir = io.writable_folder(out_dir, "--out")
     earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
     earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
     if earlier and not force:

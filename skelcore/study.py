@@ -19,7 +19,8 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .clean import CleaningParams, clean
-from .errors import OutputError, ParameterError
+from . import io
+from .errors import ParameterError
 from .metrics import NORMAL_CONVENTIONS, MetricsReference
 from .params import ContractionParams
 
@@ -182,9 +183,7 @@ def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS),
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown:
         raise ParameterError(f"settings {unknown}: unknown (choose from {', '.join(SETTINGS)})")
-    out_dir = Path(out_dir)
-    if any(part.is_file() for part in (out_dir, *out_dir.parents)):
-        raise OutputError(f"{out_dir}: cannot be the study's folder (it is a file, or under one)")
+    out_dir = io.writable_folder(out_dir, "study folder")
     out_dir.mkdir(parents=True, exist_ok=True)
     runs_path = out_dir / RUNS_FILE
     done = load_runs(runs_path)
