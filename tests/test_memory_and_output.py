@@ -155,7 +155,8 @@ def test_an_output_folder_holding_a_run_is_refused_without_force(tmp_path, capsy
         assert (out / "metrics.json").read_bytes() == second
 
 
-def test_an_output_path_that_is_a_file_or_empty_is_refused_before_the_work(tmp_path, capsys):
+def test_an_output_path_that_is_a_file_or_empty_is_refused_before_the_work(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # an empty --out taken as "here" would write into the working folder
     path, taken = small_cloud(tmp_path), tmp_path / "taken"
     taken.write_text("mine")
     for out in (str(taken), ""):
