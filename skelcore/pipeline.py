@@ -16,6 +16,7 @@ import numpy as np
 from . import io, multires
 from .clean import clean, cleaned
 from .contraction import IterationState, contract, record
+from .step import REJECTION_CAUSES
 from .curveness import skeleton_scale_share
 from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
@@ -291,7 +292,7 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
                            f"points={state.n_points} ({seconds:.2f} s)")
     final = states[-1]
     if final.iteration == 0:  # the first step was rejected: nothing contracted, so no skeleton or verdict to give
-        reason = (final.message or final.termination).replace("; the last good state is kept", "")
+        reason = "; ".join(filter(None, [REJECTION_CAUSES.get(final.termination, final.termination), final.detail]))
         raise SolverError(f"the first contraction step failed ({reason}); nothing "
                           f"was contracted: check the per-point weights and the cloud's coordinates")
     _say(progress, f"stopped after iteration {final.iteration}: {final.message or final.termination}")

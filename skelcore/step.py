@@ -38,16 +38,20 @@ from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
+KEPT = "the last good state is kept"
+REJECTION_CAUSES = {  # a step rejected for these ends the run on the state before it
+    "nan": "the solve produced NaN",
+    "solver_failure": "the sparse solver failed",
+    "bbox_growth": "the bounding box grew past its limit",
+    "collapse": "one step shrank the cloud's length past its limit (a curve collapsing)",
+    "torn": "the step tore the cloud apart (many one-rings widened)",
+    "flung": "the step flung points out of the input's bounding box",
+}
 TERMINATION_MESSAGES = {
     "ring_ratio": "the one-ring size ratio stopped falling",
     "max_iterations": "the maximum number of iterations was reached",
-    "nan": "the solve produced NaN; the last good state is kept",
-    "solver_failure": "the sparse solver failed; the last good state is kept",
-    "bbox_growth": "the bounding box grew past its limit; the last good state is kept",
-    "collapse": "one step shrank the cloud's length past its limit (a curve collapsing); the last good state is kept",
     "covariance": "the cloud's covariance shows a converged curve",
-    "torn": "the step tore the cloud apart (many one-rings widened); the last good state is kept",
-    "flung": "the step flung points out of the input's bounding box; the last good state is kept",
+    **{reason: f"{cause}; {KEPT}" for reason, cause in REJECTION_CAUSES.items()},
 }
 TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
 TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
@@ -70,6 +74,7 @@ class IterationState:
     termination: str | None = None  # set on the last state of a run (see TERMINATION_MESSAGES)
     anchored: int = 0  # present points anchored on a thin handle's axis (skelcore.step.anchored)
     message: str = ""
+    detail: str = ""  # of a stop or rejection: its figures and notes, without its words (TERMINATION_MESSAGES)
 
     @property
     def n_points(self) -> int:
@@ -317,8 +322,9 @@ def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParam
 
 def stopped(state: IterationState, reason: str, detail: str, notes: list[str]) -> IterationState:
     """The last good state again, carrying the reason its successor was rejected."""
-    message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail, *notes]))
-    return dataclasses.replace(state, termination=reason, message=message)
+    detail = "; ".join(filter(None, [detail, *notes]))
+    message = "; ".join(filter(None, [TERMINATION_MESSAGES[reason], detail]))
+    return dataclasses.replace(state, termination=reason, message=message, detail=detail)
 
 
 def rejected(state: IterationState, earlier: IterationState | None, run: RunStart, reason: str, detail: str,
