@@ -315,67 +315,6 @@ def _one_line(error: Exception) -> str:
     return text[:160] or type(error).__name__
 
 
-def _read_off(path: Path):
-    with open(path, "r", encoding="utf-8", errors="strict") as handle:
-        lines = [line.split("#", 1)[0].split() for line in handle]
-    lines = [fields for fields in lines if fields]
-    if not lines:
-        raise InputError(f"{path}: the file holds no points")
-    try:
-        layout = sizing.off_layout(lines[0])
-    except InputError as error:
-        raise InputError(f"{path}: {error}") from None
-    if layout == "rows":
-        return _read_text(path)
-    if layout == "counts":
-        counts, body = lines[0], lines[1:]
-    else:
-        counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 or len(lines) < 2 else (lines[1], lines[2:])
-    if len(counts) < 2 or not all(value.isdigit() for value in counts[:2]):
-        raise InputError(f"{path}: the OFF header needs two non-negative whole counts (vertices, faces), "
-                         f"got {' '.join(counts)[:40]!r}")
-    n_vertices, n_faces = int(counts[0]), int(counts[1])
-    if len(body) < n_vertices + n_faces:
-        raise InputError(f"{path}: the OFF header promises {n_vertices} vertices and {n_faces} faces but the "
-                         f"file has {len(body)} rows")
-    # vertex lines may carry a normal (N) and a colour (C) after x y z
-    if any(len(fields) < 3 for fields in body[:n_vertices]):
-        raise InputError(f"{path}: an OFF vertex row has fewer than 3 coordinates")
-    points = np.asarray([fields[:3] for fields in body[:n_vertices]], dtype=np.float64)
-    triangles = []
-    for row, fields in enumerate(body[n_vertices:n_vertices + n_faces], start=1):
-        size = int(fields[0])
-        if size < 3 or len(fields) < 1 + size:
-            raise InputError(f"{path}: OFF face {row} has {min(size, len(fields) - 1)} vertex indices; "
-                             f"a face needs at least 3")
-        polygon = [int(value) for value in fields[1:1 + size]]
-        triangles.extend([polygon[0], polygon[i], polygon[i + 1]] for i in range(1, len(polygon) - 1))
-    return points, (np.asarray(triangles, dtype=np.int64) if triangles else None)
-
-
-def _read_text(path: Path):
-    fast = readers.read_xyz(path)
-    if fast is not None:
-        return fast, None
-    rows = []
-    with open(path, "r", encoding="utf-8", errors="strict") as handle:
-        for line in handle:
-            fields = line.replace(",", " ").split()
-            if not fields or fields[0].startswith(("#", "//")):
-                continue
-            if len(fields) < 3:
-                if len(rows) == 0 and len(fields) == 1 and fields[0].isdigit():
-                    continue  # .pts point-count header
-                raise InputError(f"{path}: line {len(rows) + 1} has fewer than 3 coordinates")
-            rows.append(fields[:3])
-    if not rows:
-        raise InputError(f"{path}: the file holds no points")
-    try:
-        return np.asarray(rows, dtype=np.float64), None
-    except ValueError:
-        raise InputError(f"{path}: coordinates are not numbers") from None
-
-
 def _read_ply(path: Path):
     fast = readers.read_ply(path)
     if fast is not None:
@@ -401,6 +340,11 @@ def _read_pcd(path: Path):
     return points, None
 
 
+def _read_obj(path: Path):
+    points = readers.read_obj_points(path)
+    return (points, None) if points is not None else _read_mesh(path)
+
+
 def _read_mesh(path: Path):
     import trimesh
 
@@ -410,14 +354,18 @@ def _read_mesh(path: Path):
     return np.asarray(loaded.vertices), np.asarray(loaded.faces)
 
 
+def _read_text(path: Path):
+    return readers.read_text(path), None
+
+
 _READERS = {
-    ".off": _read_off,
+    ".off": readers.read_off,
     ".xyz": _read_text,
     ".pts": _read_text,
     ".txt": _read_text,
     ".ply": _read_ply,
     ".pcd": _read_pcd,
-    ".obj": _read_mesh,
+    ".obj": _read_obj,
     ".stl": _read_mesh,
     ".glb": _read_mesh,
 }

@@ -1,11 +1,16 @@
-"""Direct numpy readers for the common point-cloud files: PLY (binary either endianness, or ASCII) and plain
-whitespace-separated XYZ text.
+"""Numpy readers for the point files: PLY (binary either endianness, or ASCII vertices), XYZ/TXT/PTS text,
+OFF, and OBJ files of vertices only.
 
-They cover the files that need no general parser: a PLY whose first element is `vertex` with scalar x, y, z
-properties (any others are skipped), followed by nothing or by a `face` element of triangles; an XYZ/TXT/PTS
-file whose lines all hold the same number (>= 3) of numbers. Anything else returns None and the caller
-falls back to trimesh (PLY) or the line-by-line reader (text), which also words the error of a malformed
-file. Reading a million-point binary PLY this way takes milliseconds; importing trimesh alone takes longer.
+`read_ply` covers the PLY files that need no general parser: a first element `vertex` with scalar x, y, z
+properties (any others are skipped), followed by nothing or by a `face` element of triangles; anything else
+returns None and the caller falls back to trimesh. Reading a million-point binary PLY this way takes
+milliseconds; importing trimesh alone takes longer.
+
+Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
+(`#`, `//`), one line of column names (`x y z`) or a .pts point count, values separated by blanks, commas or
+semicolons (between semicolons, a comma is a decimal comma). Files of equal lines are parsed at once, others
+line by line. Blank-separated decimal commas (`-0,845 -0,983`) are refused: they cannot be told from commas
+between numbers.
 """
 from __future__ import annotations
 
@@ -15,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .sizing import is_number, off_layout
 
 PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -24,6 +30,11 @@ PLY_TYPES = {
 PLY_ENDIAN = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": ""}
 DECIMAL_COMMAS = re.compile(rb"-?\d+,\d+[ \t]+-?\d+,\d+[ \t]+-?\d+,\d+")  # three numbers with decimal commas
 HEADER_LIMIT = 1 << 16  # a PLY header longer than this is not a common file
+BOM = b"\xef\xbb\xbf"  # UTF-8's byte order mark, which some Windows programs write first
+COMMENTS = (b"#", b"//")
+WORDS = re.compile(rb"[\s,;]+")  # what separates the words of a text line, before its separators are known
+OBJ_FACE = re.compile(rb"^[ \t]*f[ \t]", re.MULTILINE)
+OBJ_VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)  # x y z [w | r g b]
 
 
 def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
@@ -63,25 +74,150 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
     return points, faces
 
 
-def read_xyz(path: Path) -> np.ndarray | None:
-    """(n,3) float64 from a text file of equal lines of >= 3 numbers (x y z first); None otherwise."""
+def read_text(path: Path) -> np.ndarray:
+    """(n,3) float64 from an XYZ/TXT/PTS file: x y z first on each line (the module docstring says what else)."""
+    return text_points(Path(path).read_bytes(), path)
+
+
+def text_points(data: bytes, path) -> np.ndarray:
+    """The points of a text cloud's bytes `data`, read from `path` (which messages name)."""
+    start, skipped = _header(data)
+    body = _separated(data[start:], path)
+    points = _equal_rows(body)
+    return points if points is not None else _rows(body, skipped, data, path)
+
+
+def read_off(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """Vertices (n,3) and triangles (m,3, polygons fanned) or None of an OFF file. The first line tells the
+    layout (sizing.off_layout): a file of bare vertex rows is read as a text cloud, in the same single pass."""
     data = Path(path).read_bytes()
-    if b"#" in data or b"//" in data:
+    first = _first_words(data)
+    if not first:
+        raise InputError(f"{path}: the file holds no points")
+    try:
+        layout = off_layout(first)
+    except InputError as error:
+        raise InputError(f"{path}: {error}") from None
+    if layout == "rows":
+        return text_points(data, path), None
+    lines = [line.split("#", 1)[0].split() for line in data.decode("utf-8").removeprefix("\ufeff").split("\n")]
+    lines = [fields for fields in lines if fields]
+    if layout == "counts":
+        counts, body = lines[0], lines[1:]
+    else:
+        counts, body = (lines[0][1:], lines[1:]) if len(lines[0]) > 1 or len(lines) < 2 else (lines[1], lines[2:])
+    if len(counts) < 2 or not all(value.isdigit() for value in counts[:2]):
+        raise InputError(f"{path}: the OFF header needs two non-negative whole counts (vertices, faces), "
+                         f"got {' '.join(counts)[:40]!r}")
+    n_vertices, n_faces = int(counts[0]), int(counts[1])
+    if len(body) < n_vertices + n_faces:
+        raise InputError(f"{path}: the OFF header promises {n_vertices} vertices and {n_faces} faces but the "
+                         f"file has {len(body)} rows")
+    # vertex lines may carry a normal (N) and a colour (C) after x y z
+    if any(len(fields) < 3 for fields in body[:n_vertices]):
+        raise InputError(f"{path}: an OFF vertex row has fewer than 3 coordinates")
+    points = np.asarray([fields[:3] for fields in body[:n_vertices]], dtype=np.float64)
+    triangles = []
+    for row, fields in enumerate(body[n_vertices:n_vertices + n_faces], start=1):
+        size = int(fields[0])
+        if size < 3 or len(fields) < 1 + size:
+            raise InputError(f"{path}: OFF face {row} has {min(size, len(fields) - 1)} vertex indices; "
+                             f"a face needs at least 3")
+        polygon = [int(value) for value in fields[1:1 + size]]
+        triangles.extend([polygon[0], polygon[i], polygon[i + 1]] for i in range(1, len(polygon) - 1))
+    return points, (np.asarray(triangles, dtype=np.int64) if triangles else None)
+
+
+def read_obj_points(path: Path) -> np.ndarray | None:
+    """The vertices (n,3) of an OBJ file without faces, a point cloud (which trimesh refuses as no mesh);
+    None when it has faces: a mesh, for trimesh."""
+    data = Path(path).read_bytes()
+    if OBJ_FACE.search(data):
         return None
-    commas = DECIMAL_COMMAS.search(data) if b"." not in data else None  # "-0,845 -0,983": commas would split numbers
-    if commas:
-        raise InputError(f"{Path(path).name}: the coordinates are written with decimal commas (like "
+    coordinates = OBJ_VERTEX.findall(data)
+    if not coordinates:
+        raise InputError(f"{path}: an OBJ file without faces or vertices (lines 'v x y z')")
+    try:
+        return np.array(coordinates, dtype=np.float64)
+    except ValueError:
+        raise InputError(f"{path}: OBJ vertex coordinates are not numbers") from None
+
+
+def _header(data: bytes) -> tuple[int, int]:
+    """(bytes, lines) before a text cloud's values: a byte order mark, blank and comment lines, and one line
+    of column names (none of its words a number) or a .pts point count."""
+    start = len(BOM) if data.startswith(BOM) else 0
+    lines, named = 0, False
+    while start < len(data):
+        end = data.find(b"\n", start) + 1 or len(data)
+        line = data[start:end].strip()
+        if line and not line.startswith(COMMENTS):
+            if named or not (line.isdigit() or not any(map(is_number, WORDS.split(line)))):
+                break
+            named = True
+        start, lines = end, lines + 1
+    return start, lines
+
+
+def _separated(body: bytes, path) -> bytes:
+    """`body` with its values separated by blanks only: semicolons and commas become blanks, except that
+    between semicolons a comma is a decimal comma when no value has a decimal point."""
+    decimal = b";" in body and b"." not in body
+    commas = DECIMAL_COMMAS.search(body) if b"." not in body and not decimal else None
+    if commas:  # "-0,845 -0,983": read as separators, the commas would split every number in two
+        raise InputError(f"{path}: the coordinates are written with decimal commas (like "
                          f"{commas.group(0).split()[0].decode()}); write them with decimal points")
-    data = data.replace(b",", b" ")
-    widths = _tokens_per_line(data)
+    return body.translate(bytes.maketrans(b";,", b" ." if decimal else b"  "))
+
+
+def _equal_rows(body: bytes) -> np.ndarray | None:
+    """(n,3) float64 from lines that all hold the same number (>= 3) of numbers, parsed at once; None otherwise."""
+    if b"#" in body or b"//" in body:
+        return None
+    widths = _tokens_per_line(body)
     widths = widths[widths > 0]
     if not len(widths) or widths[0] < 3 or (widths != widths[0]).any():
         return None
     try:
-        values = np.array(data.split(), dtype=np.float64)
+        values = np.array(body.split(), dtype=np.float64)
     except ValueError:
         return None
     return values.reshape(len(widths), widths[0])[:, :3].copy()
+
+
+def _rows(body: bytes, skipped: int, data: bytes, path) -> np.ndarray:
+    """Line by line (lines of unequal length, comments among them): x y z the first three values of each line.
+    `skipped`: the header's lines, so that messages count lines as the file does."""
+    rows, numbers = [], []
+    for number, line in enumerate(body.split(b"\n"), start=skipped + 1):
+        fields = line.split()
+        if not fields or fields[0].startswith(COMMENTS):
+            continue
+        if len(fields) < 3:
+            raise InputError(f"{path}: line {number} has fewer than 3 coordinates")
+        rows.append(fields[:3])
+        numbers.append(number)
+    if not rows:
+        raise InputError(f"{path}: the file holds no points")
+    try:
+        return np.asarray(rows, dtype=np.float64)
+    except ValueError:
+        data.decode("utf-8")  # a file that is not text is refused as such (io.load words the UnicodeDecodeError)
+        bad = next(row for row, values in enumerate(rows) if not all(map(is_number, values)))
+        words = b" ".join(rows[bad]).decode()[:40]
+        raise InputError(f"{path}: line {numbers[bad]} holds {words!r}, not three numbers") from None
+
+
+def _first_words(data: bytes) -> list[str]:
+    """The words of the first line of `data` that holds any (after a byte order mark; `#` comments left out)."""
+    start = len(BOM) if data.startswith(BOM) else 0
+    while start < len(data):
+        end = data.find(b"\n", start) + 1 or len(data)
+        words = data[start:end].split(b"#", 1)[0].split()
+        if words:
+            return [word.decode("utf-8", "replace") for word in words]
+        start = end
+    return []
 
 
 def _tokens_per_line(data: bytes) -> np.ndarray:

@@ -157,12 +157,13 @@ def off_layout(first_line: list[str]) -> str:
         return "keyword"
     if len(first_line) == 3 and all(word.isdigit() for word in first_line):
         return "counts"
-    if len(first_line) >= 3 and all(_is_number(word) for word in first_line):
+    if len(first_line) >= 3 and all(is_number(word) for word in first_line):
         return "rows"
     raise InputError(f"not an OFF file (it starts with {' '.join(first_line)[:30]!r}, not OFF)")
 
 
-def _is_number(word: str) -> bool:
+def is_number(word: str | bytes) -> bool:
+    """True when `word` reads as a float (Python's float(): "1e3", "nan", "-0.5")."""
     try:
         float(word)
     except ValueError:
@@ -175,7 +176,7 @@ def _off(path: Path, lines: int) -> int:
     words: list[str] = []
     with open(path, "rb") as handle:
         for raw in handle:
-            line = raw.split(b"#", 1)[0].decode("utf-8", "replace").split()
+            line = raw.split(b"#", 1)[0].decode("utf-8", "replace").removeprefix("\ufeff").split()
             if not words and line:
                 try:
                     layout = off_layout(line)

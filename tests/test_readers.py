@@ -56,17 +56,81 @@ def test_unusual_ply_falls_back(tmp_path, header):
 def test_xyz_equal_lines_and_commas(tmp_path, cloud):
     points = cloud[0]
     np.savetxt(tmp_path / "a.xyz", np.column_stack([points, points[:, :1]]))
-    np.testing.assert_allclose(readers.read_xyz(tmp_path / "a.xyz"), points)
+    np.testing.assert_allclose(readers.read_text(tmp_path / "a.xyz"), points)
     np.savetxt(tmp_path / "b.txt", points, delimiter=",")
-    np.testing.assert_allclose(readers.read_xyz(tmp_path / "b.txt"), points)
+    np.testing.assert_allclose(readers.read_text(tmp_path / "b.txt"), points)
 
 
-@pytest.mark.parametrize("text", ["1 2 3\n4 5\n6 7 8\n", "1 2 3\n4 5 6 7\n8 9\n", "# comment\n1 2 3\n",
-                                  "1 2 x\n", "3\n1 2 3\n4 5 6\n7 8 9\n"])
-def test_uneven_or_commented_text_falls_back(tmp_path, text):
+@pytest.mark.parametrize("text, rows", [
+    ("1 2 3\n4 5 6 7\n8 9 10\n", [[1, 2, 3], [4, 5, 6], [8, 9, 10]]),  # unequal lines: line by line
+    ("# comment\n1 2 3\n// another\n4 5 6\n", [[1, 2, 3], [4, 5, 6]]),
+    ("3\n1 2 3\n4 5 6\n7 8 9\n", [[1, 2, 3], [4, 5, 6], [7, 8, 9]]),  # a .pts count
+])
+def test_uneven_or_commented_text_is_read_line_by_line(tmp_path, text, rows):
     path = tmp_path / "c.xyz"
     path.write_text(text)
-    assert readers.read_xyz(path) is None
+    np.testing.assert_array_equal(readers.read_text(path), rows)
+
+
+@pytest.mark.parametrize("text, words", [("1 2 3\n4 5\n6 7 8\n", "line 2 has fewer than 3"),
+                                         ("1 2 3\n1 2 x\n4 5 6 7\n", "line 2 holds '1 2 x', not three numbers"),
+                                         ("x y z\n", "holds no points")])
+def test_text_that_is_not_points_is_refused_naming_the_line(tmp_path, text, words):
+    from skelcore.errors import InputError
+
+    path = tmp_path / "c.xyz"
+    path.write_text(text)
+    with pytest.raises(InputError, match=words):
+        readers.read_text(path)
+
+
+@pytest.mark.parametrize("name, text", [
+    ("bom.xyz", "\ufeff{rows}"),
+    ("names.xyz", "x y z\n{rows}"),
+    ("comment_names.xyz", "# x y z\n{rows}"),
+    ("quoted_names.csv.txt", '"X","Y","Z"\r\n{rows}'),
+    ("bom_names.txt", "\ufeffx;y;z\n{rows}"),
+    ("semicolons.txt", "{semicolons}"),
+    ("semicolons_decimal_commas.txt", "x;y;z\n{decimal}"),
+    ("commas.pts", "{commas}"),
+])
+def test_text_clouds_as_their_writers_make_them_are_read(tmp_path, cloud, name, text):
+    points = np.round(cloud[0], 6)
+    table = [[f"{v:.6f}" for v in row] for row in points]
+    content = text.format(rows="\n".join(" ".join(row) for row in table),
+                          semicolons="\n".join("; ".join(row) for row in table),
+                          decimal="\n".join(";".join(v.replace(".", ",") for v in row) for row in table),
+                          commas="\n".join(",".join(row) for row in table))
+    path = tmp_path / name
+    path.write_bytes(content.encode("utf-8"))
+    np.testing.assert_array_equal(io.load(path).points, points)
+
+
+def test_obj_and_off_of_vertices_only_are_point_clouds(tmp_path, cloud):
+    points = cloud[0]
+    obj = tmp_path / "points.obj"
+    obj.write_text("# scan\n" + "".join(f"v {x!r} {y!r} {z!r}\nvn 0 0 1\n" for x, y, z in points.tolist()))
+    loaded = io.load(obj)
+    np.testing.assert_array_equal(loaded.points, points)
+    assert loaded.faces is None
+    off = tmp_path / "points.off"
+    off.write_text(f"OFF\n{len(points)} 0 0\n" + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in points.tolist()))
+    np.testing.assert_array_equal(io.load(off).points, points)
+    mesh = tmp_path / "mesh.obj"  # with faces it is a mesh, read by trimesh
+    mesh.write_text(obj.read_text() + "".join(f"f 1 {i} {i + 1}\n" for i in range(2, len(points))))
+    assert len(io.load(mesh).faces) == len(points) - 2
+
+
+def test_an_off_file_of_bare_rows_is_parsed_once(tmp_path, cloud, monkeypatch):
+    points = cloud[0]
+    path = tmp_path / "rows.off"
+    path.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in points.tolist()))
+    parses = []
+    equal_rows = readers._equal_rows
+    monkeypatch.setattr(readers, "_equal_rows", lambda body: parses.append(1) or equal_rows(body))
+    monkeypatch.setattr(readers, "_rows", lambda *args: pytest.fail("parsed line by line as well"))
+    np.testing.assert_array_equal(io.load(path).points, points)
+    assert parses == [1]
 
 
 def test_an_ascii_ply_whose_rows_disagree_with_its_header_is_refused(tmp_path):
