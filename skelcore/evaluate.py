@@ -27,6 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import InputError
+from .io import EXTREME
 
 SAMPLE_SPACING = 1e-3  # edge sampling step, fraction of the truth's bounding-box diagonal
 MAX_SAMPLES = 2_000_000  # per graph; the step grows for graphs longer than this allows
@@ -125,14 +126,22 @@ def sample_edges(nodes: np.ndarray, edges: np.ndarray, spacing: float) -> tuple[
 
 def evaluate(skeleton: CurveGraph, truth: CurveGraph) -> dict:
     """Distances (fractions of the truth's bounding-box diagonal) and topology of skeleton vs truth."""
-    diagonal = float(np.linalg.norm(truth.nodes.max(axis=0) - truth.nodes.min(axis=0)))
-    if diagonal <= 0:
+    half = float(np.max(truth.nodes.max(axis=0) / 2 - truth.nodes.min(axis=0) / 2))  # halves: no overflow
+    if half <= 0:
         raise InputError(f"{truth.name}: the ground truth has no extent (all nodes at one point)")
+    # Both graphs at the power of two (exact) that brings the truth's extent to about 1: the distances are
+    # fractions of its diagonal, and huge or tiny coordinates then neither overflow nor underflow.
+    unit = float(np.ldexp(1.0, np.frexp(half)[1]))
+    if max(float(np.abs(graph.nodes).max()) for graph in (skeleton, truth)) / unit >= EXTREME:
+        raise InputError(f"{skeleton.name}: its nodes lie more than {EXTREME:.3g} times the truth's extent away from "
+                         f"the origin of the truth's coordinates: not in the same coordinates as {truth.name}")
+    diagonal = float(np.linalg.norm(np.ptp(truth.nodes / unit, axis=0)))
     sides = []
     for graph in (skeleton, truth):
-        lengths = np.linalg.norm(graph.nodes[graph.edges[:, 1]] - graph.nodes[graph.edges[:, 0]], axis=1)
+        scaled = graph.nodes / unit
+        lengths = np.linalg.norm(scaled[graph.edges[:, 1]] - scaled[graph.edges[:, 0]], axis=1)
         spacing = max(SAMPLE_SPACING * diagonal, lengths.sum() / MAX_SAMPLES)
-        sides.append(sample_edges(graph.nodes, graph.edges, spacing) + (graph.nodes,))
+        sides.append(sample_edges(scaled, graph.edges, spacing) + (scaled,))
     to_truth = _distances(sides[0][0], *sides[1])
     to_skeleton = _distances(sides[1][0], *sides[0])
     topology = {"skeleton": graph_topology(len(skeleton.nodes), skeleton.edges),
@@ -141,7 +150,7 @@ def evaluate(skeleton: CurveGraph, truth: CurveGraph) -> dict:
     return {
         "skeleton": skeleton.name,
         "truth": truth.name,
-        "diagonal": diagonal,
+        "diagonal": diagonal * unit,
         "normalised_by": "ground truth bounding-box diagonal",
         "chamfer": float(to_truth.mean() + to_skeleton.mean()) / 2 / diagonal,
         "hausdorff": float(max(to_truth.max(), to_skeleton.max())) / diagonal,

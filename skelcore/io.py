@@ -17,7 +17,7 @@ import numpy as np
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
-from .normalise import object_diagonal
+from .normalise import object_core, object_diagonal
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
@@ -25,10 +25,12 @@ FORMATS = POINT_FORMATS + MESH_FORMATS
 MIN_POINTS = 20
 LABELS_DROPPED = "labels dropped: they belong to the input points, not to a resampled cloud"  # a Cloud note
 MAX_POINTS = 2_000_000
-# Coordinates beyond these magnitudes are rescaled by a power of two (exact) before anything squares a
-# distance or divides by an extent: squares overflow past ~1e154, extents past ~1e308.
-EXTREME_MAGNITUDE = 2.0 ** 128
-EXTREME_EXTENT = 2.0 ** -128
+# A cloud whose core (normalise.object_core) spans less than 1/EXTREME, or whose coordinates reach EXTREME, is
+# computed at an exact power-of-two scale that brings the core's extent to about 1: the engine's floors
+# (1e-300, 1e-12 of a norm) and its squares and cubes of distances then stay far from underflow and overflow.
+EXTREME = 2.0 ** 64
+# No scale keeps a point farther than EXTREME core extents from the core and the core both in that range.
+MIN_STEPS = 4096  # float64 steps the core's extent must span at its coordinates (fewer: a coarse grid of values)
 
 
 @dataclass
@@ -221,15 +223,9 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         labels = None if labels is None else labels[order]
     if len(points) < MIN_POINTS:
         raise InputError(f"{name}: only {len(points)} distinct points, at least {MIN_POINTS} are needed")
-    points, scale = _tame(points)
+    points, scale = _scaled(points, name)
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
-    centred = points - points.mean(axis=0)
-    singular = np.linalg.svd(centred[:: max(1, len(points) // 100_000)], compute_uv=False)
-    if singular[0] <= 1e-12 * max(1.0, np.abs(points).max()):
-        raise InputError(f"{name}: all points are identical")
-    if singular[1] <= 1e-9 * singular[0]:
-        raise InputError(f"{name}: all points lie on one line; a surface is needed")
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale)
 
 
@@ -243,14 +239,35 @@ def _may_repeat(points: np.ndarray) -> bool:
     return bool((hashes[1:] == hashes[:-1]).any())
 
 
-def _tame(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """Points scaled by a power of two so that the largest coordinate is about 1, when they are extreme."""
+def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
+    """The points at the power-of-two scale they are computed at (see EXTREME), and that scale; or an InputError
+    when the shape cannot be computed: its core (the object without far strays, which cleaning removes) is
+    too small for float64 at its coordinates, or lies on one line, or a point lies absurdly far from it."""
     magnitude = float(np.abs(points).max())
-    extent = float(np.max(points.max(axis=0) / 2 - points.min(axis=0) / 2))  # halves: no overflow
-    if EXTREME_EXTENT < extent and magnitude < EXTREME_MAGNITUDE:
-        return points, 1.0
-    exponent = np.frexp(magnitude)[1]
-    return np.ldexp(points, -exponent), float(np.ldexp(1.0, exponent))
+    inside = object_core(np.ldexp(points, -np.frexp(magnitude)[1]))  # at magnitude ~1: its margins cannot overflow
+    core = points if inside is None else points[inside]
+    low, high = core.min(axis=0), core.max(axis=0)
+    half = float(np.max(high / 2 - low / 2))  # halves: no overflow
+    steps = 2 * half / float(np.spacing(np.abs(core).max()))
+    if steps < MIN_STEPS:
+        raise InputError(f"{name}: the cloud's extent is too small: it spans {2 * half:.3g} at coordinates of "
+                         f"magnitude {np.abs(core).max():.3g}, which float64 resolves in only {steps:,.0f} steps "
+                         f"(at least {MIN_STEPS:,} are needed)")
+    reach = np.abs(points / 2 - (low / 2 + high / 2) / 2).max(axis=1)  # half of each point's distance to the core
+    if reach.max() > EXTREME * half:
+        far, count = int(np.argmax(reach)), int((reach > EXTREME * half).sum())
+        which = "a point lies" if count == 1 else f"{count} points lie, the farthest"
+        raise InputError(f"{name}: {which} absurdly far from the rest of the cloud: at "
+                         f"({', '.join(f'{value:.3g}' for value in points[far])}), {float(reach[far]) / half:.3g} "
+                         f"times the extent of the rest; remove {'it' if count == 1 else 'them'} from the file")
+    scale = 1.0
+    if half < 0.5 / EXTREME or magnitude >= EXTREME:
+        scale = float(np.ldexp(1.0, np.frexp(half)[1]))
+        points, core = points / scale, core / scale  # exact: a power of two
+    singular = np.linalg.svd(core[:: max(1, len(core) // 100_000)] - core.mean(axis=0), compute_uv=False)
+    if singular[1] <= 1e-9 * singular[0]:
+        raise InputError(f"{name}: all points lie on one line; a surface is needed")
+    return points, scale
 
 
 def as_points(value, name: str) -> np.ndarray:

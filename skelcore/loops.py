@@ -164,7 +164,7 @@ def _triangle_distance(points: np.ndarray, triangle: np.ndarray) -> np.ndarray:
     # barycentric coordinates of the foot
     d00, d01, d11 = ab @ ab, ab @ ac, ac @ ac
     d20, d21 = foot @ ab, foot @ ac
-    denom = d00 * d11 - d01 * d01
+    denom = area2 * area2  # = d00 d11 - d01^2 (Lagrange), without its cancellation on a thin sliver
     v = (d11 * d20 - d01 * d21) / denom
     w = (d00 * d21 - d01 * d20) / denom
     inside = (v >= 0) & (w >= 0) & (v + w <= 1)

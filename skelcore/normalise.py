@@ -58,16 +58,21 @@ def robust_extent(points: np.ndarray) -> np.ndarray:
     return high - low
 
 
-def object_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The bounding box of the points within OBJECT_FENCE robust extents of the middle 98% on every axis:
-    the whole cloud's box when nothing lies far out, the object's alone when strays do."""
+def object_core(points: np.ndarray) -> np.ndarray | None:
+    """(n,) True for the points within OBJECT_FENCE robust extents of the middle 98% on every axis, the object
+    without the strays far out; None when nothing lies far out (every point belongs)."""
     low, high = _middle_box(points)
     margin = OBJECT_FENCE * (high - low)
-    lowest, highest = points.min(axis=0), points.max(axis=0)
-    if (lowest >= low - margin).all() and (highest <= high + margin).all():  # nothing far out: the whole box
-        return lowest, highest
-    inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
-    kept = points[inside]
+    if (points.min(axis=0) >= low - margin).all() and (points.max(axis=0) <= high + margin).all():
+        return None
+    return np.all((points >= low - margin) & (points <= high + margin), axis=1)
+
+
+def object_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box of the object_core: the whole cloud's box when nothing lies far out, the object's alone
+    when strays do."""
+    inside = object_core(points)
+    kept = points if inside is None else points[inside]
     return kept.min(axis=0), kept.max(axis=0)
 
 

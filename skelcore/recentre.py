@@ -53,7 +53,8 @@ def recentre(adj: Adjacency, xyz: list, node_of_point: np.ndarray, original: np.
     radius = np.sqrt(np.maximum(solution[:, 2] + cx * cx + cy * cy, 0))
     dx, dy = x - cx[row], y - cy[row]
     distance = np.hypot(dx, dy)
-    spread = np.sqrt(total((distance - radius[row]) ** 2) / np.maximum(n, 1)) / np.maximum(radius, 1e-300)
+    rms = np.sqrt(total((distance - radius[row]) ** 2) / np.maximum(n, 1))
+    spread = np.divide(rms, radius, out=np.full(len(middle), np.inf), where=radius > 0)  # a floor would overflow
     around = np.hypot(total(dx / np.maximum(distance, 1e-300)), total(dy / np.maximum(distance, 1e-300))) / np.maximum(n, 1)
     round_section = solvable & (n >= 6) & (radius > 0) & (spread < 0.2) & (around < 0.5)
     cx, cy = np.where(round_section, cx, sx / np.maximum(n, 1)), np.where(round_section, cy, sy / np.maximum(n, 1))

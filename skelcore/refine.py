@@ -104,17 +104,19 @@ def prune_spurs(adj: Adjacency, xyz: list, parent: np.ndarray, limit: float) -> 
 
 
 def split_long_edges(adj: Adjacency, xyz: list, node_of_point: np.ndarray, contracted: np.ndarray,
-                     max_length: float) -> np.ndarray:
+                     max_length: float, longest: float) -> np.ndarray:
     """Split every edge longer than `max_length` into equal pieces with new degree-2 nodes (appended to `xyz`
     and `adj`), and return the points' nodes with each point of a split edge's end moved to the nearest of
     that end and the new nodes on its edges (by its contracted position); a new node that no point chose is
-    taken out again.
+    taken out again. Edges longer than `longest` (the object's diagonal) stay whole: no chord of the object is
+    that long, so one reaches a stray the cleaning was told to keep, across empty space (split, a stray far
+    out would make billions of nodes).
 
     Why: contracting the sample complex merges runs of samples where the contracted points stayed thick
     (noise, a sheet), so one edge can span many ball radii and cut across a bending curve as a chord. Split
     to the ball cover's spacing, the curve has the same resolution however thick its points stayed, and the
     new nodes, given their points, are recentred like any other."""
-    long_edges = [(u, v) for u in adj for v in adj[u] if u < v and math.dist(xyz[u], xyz[v]) > max_length]
+    long_edges = [(u, v) for u in adj for v in adj[u] if u < v and max_length < math.dist(xyz[u], xyz[v]) <= longest]
     if not long_edges:
         return node_of_point
     pos = np.asarray(xyz, dtype=float)

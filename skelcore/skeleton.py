@@ -150,7 +150,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         prune_spurs(adj, xyz, parent, params.spur_length * radius)
     node_of_point = _roots(parent)[owner]
     if params.split_long_edges:
-        node_of_point = split_long_edges(adj, xyz, node_of_point, contracted, params.edge_length * radius)
+        node_of_point = split_long_edges(adj, xyz, node_of_point, contracted, params.edge_length * radius,
+                                         known.diagonal)
         parent = np.r_[parent, np.arange(len(parent), len(xyz))]
     if params.recentre:
         recentre(adj, xyz, node_of_point, original)

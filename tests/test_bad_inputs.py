@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import struct
+import warnings
 
 import numpy as np
 import pytest
@@ -133,17 +134,53 @@ def test_malformed_off_messages_say_what_is_wrong(tmp_path, capsys):
         assert words in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("magnitude", [1e300, 1e307, 1e-300])
+@pytest.mark.parametrize("magnitude", [1e300, 1e307, 1e38, 1e-30, 1e-300])
 def test_extreme_coordinates_run_and_come_back_in_file_units(magnitude, tmp_path, capsys):
     points = make_shape("torus", 800).points * magnitude
     path = tmp_path / "extreme.xyz"
     path.write_text(_rows(points))
-    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--max-iterations", "3"]) == 0, \
-        capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warnings, with their source paths, never reach a user
+        code = main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--max-iterations", "3"])
+    assert code == 0, capsys.readouterr().err
     nodes = np.asarray(json.loads((tmp_path / "out" / "skeleton.json").read_text())["nodes"])
     assert np.isfinite(nodes).all()
     span = np.ptp(points, axis=0).max()
     assert 0.2 * span < np.ptp(nodes, axis=0).max() < 1.5 * span  # in the file's coordinates
+
+
+@pytest.mark.parametrize("cleaning", [[], ["--no-outlier-removal", "--no-stray-removal"]])
+def test_one_far_stray_point_is_left_to_the_cleaning(cleaning, tmp_path, capsys):
+    """A scan's stray point far out is not the shape of the cloud: it runs, and cleaning removes the stray; kept,
+    the run still ends with results (the stray's edge to the object is not split into a billion pieces)."""
+    points = np.vstack([make_shape("torus", 800).points, [[1e12, 0, 0]]])
+    path = tmp_path / "stray.xyz"
+    path.write_text(_rows(points))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code = main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--max-iterations", "3", *cleaning])
+    assert code == 0, capsys.readouterr().err
+    if not cleaning:
+        assert json.loads((tmp_path / "out" / "metrics.json").read_text())["cleaning"]["outliers_removed"] >= 1
+        assert len(json.loads((tmp_path / "out" / "skeleton.json").read_text())["nodes"]) > 20
+
+
+@pytest.mark.parametrize("where, words", [
+    ([1e200, 0, 0], ["a point lies absurdly far from the rest", "(1e+200, 0, 0)", "remove it"]),
+    ("offset", ["extent is too small", "magnitude 1e+200", "float64"]),
+])
+def test_a_shape_lost_in_its_coordinates_is_refused_with_the_reason(where, words, tmp_path, capsys):
+    torus = make_shape("torus", 800).points
+    points = torus * 1e186 + 1e200 if where == "offset" else np.vstack([torus, [where]])
+    path = tmp_path / "lost.xyz"
+    path.write_text(_rows(points))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "lost.xyz" in err and "one line" not in err and "identical" not in err, err
+    for word in words:
+        assert word in err, err
 
 
 def test_two_small_clusters_far_apart_give_a_message(tmp_path, capsys):

@@ -1,4 +1,5 @@
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -20,6 +21,25 @@ def test_identical_skeleton_scores_zero():
     assert result["hausdorff"] == pytest.approx(0.0, abs=1e-12)
     assert result["topology"]["matches"]
     assert result["topology"]["truth"]["cycles"] == 2
+
+
+@pytest.mark.parametrize("magnitude", [1e300, 1e200, 1e-300])
+def test_extreme_coordinates_are_scored_without_overflow(magnitude):
+    truth = truth_of("torus")
+    delta = 0.05
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = evaluate(make_graph((truth.nodes + [0, 0, delta]) * magnitude, truth.edges),
+                          make_graph(truth.nodes * magnitude, truth.edges))
+    diagonal = np.linalg.norm(truth.nodes.max(0) - truth.nodes.min(0))
+    assert result["chamfer"] == pytest.approx(delta / diagonal, rel=1e-9)
+    assert result["diagonal"] == pytest.approx(diagonal * magnitude)
+
+
+def test_a_skeleton_in_other_coordinates_than_its_truth_is_refused():
+    truth = truth_of("torus")
+    with pytest.raises(InputError, match="not in the same coordinates"):
+        evaluate(make_graph(truth.nodes * 1e300, truth.edges), make_graph(truth.nodes * 1e-300, truth.edges))
 
 
 def test_shifted_skeleton_distances():

@@ -155,8 +155,15 @@ def test_identical_points(tmp_path):
         io.validate(np.tile([[1.0, 2.0, 3.0]], (100, 1)), name="same.xyz")
     assert_one_line(error, "same.xyz")
     with pytest.raises(InputError) as error:
-        io.validate(points, name="same.xyz")
-    assert_one_line(error, "same.xyz", "identical")
+        io.validate(points, name="same.xyz")  # distinct, but within 54 float64 steps of each other
+    assert_one_line(error, "same.xyz", "extent is too small", "54 steps")
+
+
+def test_a_tiny_cloud_is_judged_by_its_own_extent():
+    points = sphere() * 1e-30  # tiny, but its points are as distinct as those of a unit sphere
+    cloud = io.validate(points, name="tiny")
+    np.testing.assert_array_equal(cloud.points * cloud.scale, points)
+    assert cloud.scale == 2.0 ** -99  # computed at an extent of about 1
 
 
 def test_collinear_points(tmp_path):
