@@ -28,8 +28,8 @@ from .evidence import skeleton_evidence
 from .labels import as_labels, check_label_weights, check_weights
 from .metrics import IterationMetrics
 from .options import RunOptions
-from .params import ContractionParams
-from .results import write_results
+from .params import ContractionParams, check_flag
+from .results import prepare_output, write_results
 from .skeleton import Skeleton
 from .verdict import run_verdict
 
@@ -108,13 +108,17 @@ class Result:
         """The skeleton's components, cycles, junctions and ends."""
         return self.skeleton.topology()
 
-    def save(self, out_dir) -> Path:
+    def save(self, out_dir, *, force: bool = False) -> Path:
         """Write the files of `skelcore run` into `out_dir` (created if needed): skeleton.json, skeleton.ply,
-        contracted.ply, metrics.json, params.json. Returns the folder."""
+        contracted.ply, metrics.json, params.json. Returns the folder. A folder that holds the results of a run
+        already is refused (an OutputError), as by `skelcore run`; force=True replaces them (other files stay),
+        as `skelcore run --force` does."""
+        check_flag("force", force)
+        out_dir = prepare_output(out_dir, force, what="folder", replace="save with force=True")
         write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
                       input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
                       reduction=self.reduction, evidence=self._evidence)
-        return Path(out_dir)
+        return out_dir
 
     def report(self, path) -> Path:
         """Write the HTML page of `skelcore report` for this run (the paper's figures, verdict, clouds, skeleton)."""
@@ -182,6 +186,11 @@ def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weig
     """`skeletonize` with its options gathered in a skelcore.options.RunOptions (what `skelcore run` calls).
     labels: an (n,) array of labels (a label file or property goes in options.labels)."""
     started = time.perf_counter()
+    if not isinstance(options, RunOptions):
+        raise ParameterError(f"parameter options={options!r}: must be a RunOptions")
+    options.validated()  # here too: an array's run drops the sampling options below
+    if progress is not None and not callable(progress):
+        raise ParameterError(f"parameter progress={progress!r}: must be a function of one line (such as print)")
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
         points_or_path, labels = as_cloud(points_or_path, labels), None

@@ -25,6 +25,7 @@ from typing import Iterator
 from . import __version__, io
 from .batch_object import (DONE_FILE, RUN_COLUMNS, SUMMARY_COLUMNS, Job, one_line, options_digest, run_object,
                            write_text_atomic)
+from .batch_dask import check_workers
 from .errors import InputError
 from .options import RunOptions
 from .results import RESULT_FILES
@@ -142,8 +143,8 @@ def run_batch(inputs: list[str], out_dir, options: RunOptions = RunOptions(), *,
     report: also write report.html (it loads every object's clouds again: skip it for very large batches).
     """
     started = time.perf_counter()
-    options.params.validated()
-    options.skeleton_params()  # bad parameters fail before any work
+    options.validated()  # bad parameters fail before any work
+    check_workers(workers)
     out_dir = Path(out_dir)
     jobs = plan(inputs, out_dir, options, force)
     try:

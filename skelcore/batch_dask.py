@@ -15,6 +15,7 @@ from typing import Iterator
 
 from .batch_object import Job, failed_row, one_line, run_object
 from .errors import ParameterError, SkelError
+from .params import is_integer
 
 CONNECT_TIMEOUT = "15s"  # to an existing Dask scheduler
 
@@ -56,13 +57,21 @@ def on_dask(jobs: list[Job], workers: int | None, scheduler: str | None, bar) ->
             cluster.close()
 
 
+def check_workers(workers) -> None:
+    """None (no cluster), 0 (one per CPU core) or a whole number of workers up to MAX_WORKERS_PER_CPU per core,
+    else a ParameterError (checked before a batch starts)."""
+    if workers is None or (workers == 0 and is_integer(workers)):
+        return
+    if not is_integer(workers) or not 1 <= workers <= MAX_WORKERS_PER_CPU * cpus():
+        raise ParameterError(f"parameter workers={workers!r}: must be between 1 and {MAX_WORKERS_PER_CPU * cpus()} "
+                             f"({MAX_WORKERS_PER_CPU} per CPU core; no value: one per core)")
+
+
 def local_cluster(workers: int):
     """A Dask cluster on this machine: `workers` processes of one thread each, reachable from 127.0.0.1 only."""
     from distributed import LocalCluster
 
-    if not 1 <= workers <= MAX_WORKERS_PER_CPU * cpus():
-        raise ParameterError(f"parameter workers={workers}: must be between 1 and {MAX_WORKERS_PER_CPU * cpus()} "
-                             f"({MAX_WORKERS_PER_CPU} per CPU core; no value: one per core)")
+    check_workers(workers)
     try:
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                             dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)

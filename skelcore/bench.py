@@ -25,6 +25,7 @@ makes either impractical past --baseline-max points.
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -33,6 +34,8 @@ import time
 from pathlib import Path
 
 from . import startup
+from .errors import ParameterError
+from .params import is_integer, is_real
 
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
@@ -47,6 +50,11 @@ def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int =
     `pc_skeletor`: a Python interpreter with pc-skeletor installed (module docstring); None looks for it in
     the current one."""
     from .solver import backend
+
+    if not is_integer(baseline_max) or baseline_max < 0:
+        raise ParameterError(f"bench: baseline_max={baseline_max!r} must be a whole number of points >= 0 (0: never)")
+    if not is_real(noise) or not 0 <= noise < math.inf:
+        raise ParameterError(f"bench: noise={noise!r} must be a finite number >= 0")
 
     peer = _pc_skeletor_interpreter(pc_skeletor)
     compiled = compile_package()

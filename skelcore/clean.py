@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 from .errors import ParameterError
 from .io import Cloud
 from .neighbours import CHUNK, knn, local_frames
+from .params import check_flags, is_integer, is_real
 
 
 @dataclass(frozen=True)
@@ -51,14 +52,15 @@ class CleaningParams:
         return self.neighbours if self.denoise else 0
 
     def validated(self) -> "CleaningParams":
-        """These parameters, or a ParameterError naming the first out of range."""
-        if int(self.neighbours) != self.neighbours or not 2 <= self.neighbours <= 200:
+        """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
+        check_flags(self)
+        if not is_integer(self.neighbours) or not 2 <= self.neighbours <= 200:
             raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
         for name in ("outlier_ratio", "outlier_spread", "piece_gap"):
             value = getattr(self, name)
-            if not math.isfinite(value) or value <= 0:
+            if not is_real(value) or not math.isfinite(value) or value <= 0:
                 raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
-        if not 0 <= self.min_piece_share < 0.5:
+        if not is_real(self.min_piece_share) or not 0 <= self.min_piece_share < 0.5:
             raise ParameterError(f"parameter min_piece_share={self.min_piece_share!r}: must be a number in [0, 0.5)")
         return self
 

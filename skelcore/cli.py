@@ -267,13 +267,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from .api import run
-    from .results import check_output, prepare_output
+    from .results import check_output
 
     check_output(args.out, force=args.force)  # before the work; the earlier results go only once it succeeded
     progress = None if args.quiet else print
     result = run(args.input, run_options(args), progress=progress)
-    prepare_output(args.out, force=args.force)
-    out = result.save(args.out)
+    out = result.save(args.out, force=args.force)
     if not args.quiet:
         print(f"{result.summary()} -> {out}")
     return 0
@@ -293,7 +292,7 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
     from pathlib import Path
 
-    from .errors import OutputError
+    from .errors import InputError, OutputError
     from .quality_bench import format_table, run_quality_bench, summarise, write_json
     from .io import writable_folder
 
@@ -301,6 +300,8 @@ def _bench_quality(args: argparse.Namespace) -> int:
         writable_folder(Path(args.json).resolve().parent, "--json")
         if Path(args.json).is_dir():
             raise OutputError(f"--json {args.json}: is a folder, not a file")
+    if args.reference is not None and not Path(args.reference).is_dir():  # else: silently no reference shapes
+        raise InputError(f"--reference {args.reference}: no such folder")
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,

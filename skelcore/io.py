@@ -18,6 +18,7 @@ from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 from .normalise import object_core, object_diagonal
+from .params import is_integer, is_real
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
@@ -63,6 +64,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
     budget: bytes a run on the cloud may take (default: skelcore.memory's share for the command line);
     the file is sized before it is parsed, and the cloud's points are checked against it.
     """
+    check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)  # before reading
     path = Path(path)
     budget = memory.budget_bytes() if budget is None else budget
     suffix = path.suffix.lower()
@@ -159,12 +161,25 @@ def writable_folder(folder, what: str) -> Path:
     return folder
 
 
+def check_sampling(*, sample=None, voxel_size=None, max_points=MAX_POINTS, seed=0) -> None:
+    """The loading options (see `load`), or a ParameterError naming the first of the wrong type or range."""
+    if sample is not None and (not is_integer(sample) or sample < MIN_POINTS):
+        raise ParameterError(f"parameter sample={sample!r}: must be a whole number of points, at least {MIN_POINTS}")
+    if voxel_size is not None and (not is_real(voxel_size) or not 0 < voxel_size < float("inf")):
+        raise ParameterError(f"parameter voxel_size={voxel_size!r}: must be a positive finite number")
+    if not is_integer(max_points) or max_points < MIN_POINTS:
+        raise ParameterError(f"parameter max_points={max_points!r}: must be a whole number, at least {MIN_POINTS}")
+    if not is_integer(seed) or seed < 0:  # numpy's generators refuse negative seeds
+        raise ParameterError(f"parameter seed={seed!r}: must be a whole number >= 0")
+
+
 def validate(points, faces=None, *, name: str = "cloud", sample: int | None = None,
              voxel_size: float | None = None, max_points: int = MAX_POINTS, budget: int | None = None,
              seed: int = 0, labels=None, drop_nonfinite: bool = False) -> Cloud:
     """Check an array of points (and optional faces, per-point labels) and return a clean Cloud; more points
     than max_points or the memory budget allows raise a TooLargeError with the voxel size that fits.
     drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing them (NonFiniteError)."""
+    check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)
     notes: list[str] = []
     if drop_nonfinite:
         points, faces, labels, dropped = _drop_nonfinite(points, faces, labels, name)
@@ -182,21 +197,17 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             faces = None
         elif faces.min() < 0 or faces.max() >= len(points):
             raise InputError(f"{name}: faces refer to vertices that do not exist")
-    if max_points < MIN_POINTS:
-        raise ParameterError(f"max_points={max_points}: must be at least {MIN_POINTS}")
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     if sample is not None:
         if faces is None:
             raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
-        if int(sample) > cap:  # refused before drawing them: a huge sample would exhaust the memory first
-            raise ParameterError(f"sample={int(sample):,}: more points than the cap of {cap:,}")
+        if sample > cap:  # refused before drawing them: a huge sample would exhaust the memory first
+            raise ParameterError(f"parameter sample={sample:,}: more points than the cap of {cap:,}")
         points = _sample_surface(points, faces, int(sample), seed)
         faces = None
         notes.append(f"sampled {len(points)} points evenly over the mesh surface")
     if voxel_size is not None:
-        if not np.isfinite(voxel_size) or voxel_size <= 0:
-            raise InputError(f"{name}: voxel size must be a positive number, got {voxel_size}")
         before = len(points)
         points = voxel_downsample(points, voxel_size)
         faces = None
@@ -320,8 +331,6 @@ def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
 def _sample_surface(vertices, faces, count: int, seed: int) -> np.ndarray:
     import trimesh
 
-    if count < MIN_POINTS:
-        raise InputError(f"surface sample of {count} points is too small, at least {MIN_POINTS} are needed")
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=seed)
     return np.asarray(points, dtype=np.float64)

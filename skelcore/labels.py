@@ -19,11 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, ParameterError
+from .params import is_integer, is_real
 
 # PLY vertex properties read as labels when present, in this order (case-insensitive)
 LABEL_PROPERTIES = ("label", "labels", "class", "classification", "scalar_label", "scalar_labels",
                     "scalar_class", "semantic", "segment", "part")
 LABEL_FILE_FORMATS = (".txt", ".csv", ".labels", ".npy")
+INT64 = 2 ** 63  # labels are int64: within [-INT64, INT64)
+FLOAT_LABELS = 2 ** 53  # labels read as floats are exact integers up to this magnitude, no further
 
 
 def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
@@ -41,30 +44,23 @@ def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
 
 
 def check_label_weights(label_weights) -> dict[int, float]:
-    """{label: weight} with integer labels and positive finite weights, or a ParameterError."""
+    """{label: weight} with integer labels and positive finite weights (numbers, not text), or a ParameterError."""
     checked = {}
     for label, weight in dict(label_weights or {}).items():
-        key = as_label(label, "label_weights")
-        try:
-            value = float(weight)
-        except (TypeError, ValueError):
-            value = math.nan
-        if not math.isfinite(value) or value <= 0:
+        if not is_real(weight) or not 0 < weight < math.inf:
             raise ParameterError(f"parameter label_weights: weight {weight!r} of label {label!r} must be a positive "
                                  f"finite number")
-        checked[key] = value
+        checked[as_label(label, "label_weights")] = float(weight)
     return checked
 
 
 def as_label(value, name: str) -> int:
-    """An integer label from an int, an integral float or a string such as '2'."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
-    if not math.isfinite(number) or number != int(number):
+    """An integer label from an integer or an integral float, within the range of the labels (as_labels)."""
+    if not (is_integer(value) or is_real(value) and math.isfinite(value) and value == int(value)):
         raise ParameterError(f"parameter {name}: label {value!r} is not an integer")
-    return int(number)
+    if not -INT64 <= int(value) < INT64:
+        raise ParameterError(f"parameter {name}: label {value!r} is too large (labels are 64-bit integers)")
+    return int(value)
 
 
 def parse_label_weight(text: str) -> tuple[int, float]:
@@ -73,10 +69,20 @@ def parse_label_weight(text: str) -> tuple[int, float]:
     try:
         if not sep:
             raise ParameterError("no '='")
-        return next(iter(check_label_weights({label.strip(): weight.strip()}).items()))
+        return next(iter(check_label_weights({_number(label): _number(weight)}).items()))
     except ParameterError as error:
         detail = str(error).removeprefix("parameter label_weights: ")
         raise ParameterError(f"{text!r}: {detail} (LABEL=W: an integer label and a positive weight, e.g. 1=10)") from None
+
+
+def _number(text: str):
+    """`text` as an int, else a float, else itself (which the checks then refuse by name)."""
+    for kind in (int, float):
+        try:
+            return kind(text.strip())
+        except ValueError:
+            pass
+    return text.strip()
 
 
 def weights_from_labels(labels: np.ndarray, label_weights) -> np.ndarray:
@@ -89,15 +95,24 @@ def weights_from_labels(labels: np.ndarray, label_weights) -> np.ndarray:
 
 
 def as_labels(values, n: int | None, name: str) -> np.ndarray:
-    """`values` as an (n,) int64 array of labels, or an InputError naming `name`."""
+    """`values` as an (n,) int64 array of labels, or an InputError naming `name`. Integers are taken as they
+    are, within int64; others are read as floats, exact integers only within +-2^53 (FLOAT_LABELS)."""
     try:
-        array = np.asarray(values, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
+        array = np.asarray(values).ravel()
+        if array.dtype.kind not in "iu":
+            array = array.astype(np.float64)
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"{name}: labels are not numbers") from None
     if n is not None and len(array) != n:
         raise InputError(f"{name}: {len(array)} labels for {n} points")
-    if not np.isfinite(array).all() or (array != np.round(array)).any():
+    if array.dtype.kind == "f" and (not np.isfinite(array).all() or (array != np.round(array)).any()):
         raise InputError(f"{name}: labels must be integers")
+    if array.dtype.kind == "f":  # a float beyond 2^53 may already be another label rounded to it
+        beyond, limit = np.abs(array) > FLOAT_LABELS, f"within +-{FLOAT_LABELS:,} when written as decimals"
+    else:  # only unsigned 64-bit ones can pass int64, which would wrap them
+        beyond, limit = array > INT64 - 1, f"up to {INT64 - 1:,}"
+    if beyond.any():
+        raise InputError(f"{name}: label {array[np.argmax(beyond)]:.0f} is too large (labels are integers {limit})")
     return array.astype(np.int64)
 
 
@@ -144,7 +159,11 @@ def _read_label_file(path: Path, n: int | None) -> np.ndarray:
         if path.suffix.lower() == ".npy":
             values = np.load(path, allow_pickle=False)
         else:
-            values = np.loadtxt(path, delimiter="," if path.suffix.lower() == ".csv" else None, ndmin=1)
+            delimiter = "," if path.suffix.lower() == ".csv" else None
+            try:  # integers exactly first: as floats, those beyond 2^53 would merge
+                values = np.loadtxt(path, delimiter=delimiter, ndmin=1, dtype=np.int64)
+            except ValueError:
+                values = np.loadtxt(path, delimiter=delimiter, ndmin=1)
     except (OSError, ValueError) as error:
         raise InputError(f"{path}: cannot read labels ({' '.join(str(error).split())[:120]})") from None
     return as_labels(values, n, str(path))

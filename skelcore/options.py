@@ -7,10 +7,10 @@ import numpy as np
 
 from . import io, multires
 from .clean import CleaningParams
-from .errors import InputError
-from .labels import weights_from_labels
+from .errors import InputError, ParameterError
+from .labels import check_label_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION
-from .params import ContractionParams
+from .params import ContractionParams, is_integer
 from .skeleton import SkeletonParams
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
@@ -31,6 +31,24 @@ class RunOptions:
     labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
     label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
     point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
+
+    def validated(self) -> "RunOptions":
+        """These options, or a ParameterError naming the first of the wrong type or range (before any work)."""
+        for name, kind in (("params", ContractionParams), ("cleaning", CleaningParams)):
+            if not isinstance(getattr(self, name), kind):
+                raise ParameterError(f"parameter {name}={getattr(self, name)!r}: must be a {kind.__name__}")
+        self.params.validated()
+        self.cleaning.validated()
+        self.skeleton_params()
+        io.check_sampling(sample=self.sample, voxel_size=self.voxel_size, max_points=self.max_points, seed=self.seed)
+        if not is_integer(self.metrics_k) or self.metrics_k < 3:
+            raise ParameterError(f"parameter metrics_k={self.metrics_k!r}: must be a whole number, at least 3")
+        if self.point_budget is not None and (not is_integer(self.point_budget) or self.point_budget < 0):
+            raise ParameterError(f"parameter point_budget={self.point_budget!r}: must be a whole number >= 0 or None")
+        if self.labels is not None and not isinstance(self.labels, str):
+            raise ParameterError(f"parameter labels={self.labels!r}: must be a label file or a vertex property name")
+        check_label_weights(dict(self.label_weights))
+        return self
 
     def weights(self, cloud: io.Cloud) -> np.ndarray | None:
         """Per-point contraction weights from the cloud's labels and `label_weights` (None: none given)."""

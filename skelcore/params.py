@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass
 
 from .errors import ParameterError
@@ -58,16 +59,17 @@ class ContractionParams:
     gl_merge_share: float = 0.3  # at most this share of the points may absorb a neighbour per step (1: no cap, as LCWR)
 
     def validated(self) -> "ContractionParams":
-        """These parameters, or a ParameterError naming the first out of range."""
+        """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
         if self.method not in METHODS:
             raise ParameterError(f"parameter method={self.method!r}: must be one of {', '.join(METHODS)}")
+        check_flags(self)
         for name, (low, high, closed) in LIMITS.items():
             value = getattr(self, name)
             if value is None and name in ("k", "wl0"):  # automatic
                 continue
-            if name in INTEGERS and (isinstance(value, bool) or value is None or int(value) != value):
+            if name in INTEGERS and not is_integer(value):
                 raise ParameterError(f"parameter {name}={value!r}: must be an integer between {low} and {high}")
-            if not _within(value, low, high, closed):
+            if not is_real(value) or not _within(value, low, high, closed):
                 raise ParameterError(f"parameter {name}={value!r}: must be {_describe_range(low, high, closed)}")
         return self
 
@@ -80,11 +82,31 @@ class ContractionParams:
         return dataclasses.asdict(self)
 
 
+def is_real(value) -> bool:
+    """A real number (numpy's too), not a bool nor a string that would read as one."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def is_integer(value) -> bool:
+    """An integer (numpy's too), not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def check_flag(name: str, value) -> None:
+    """`value` a bool, numpy's included, or a ParameterError naming the parameter (the string "no" reads as true)."""
+    if not (isinstance(value, bool) or getattr(value, "dtype", None) == bool):
+        raise ParameterError(f"parameter {name}={value!r}: must be True or False")
+
+
+def check_flags(params) -> None:
+    """check_flag on every switch of the parameter dataclass `params` (each field whose default is a bool)."""
+    for field in dataclasses.fields(params):
+        if isinstance(field.default, bool):
+            check_flag(field.name, getattr(params, field.name))
+
+
 def _within(value, low: float, high: float, closed: bool) -> bool:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        return False
+    value = float(value)
     if not math.isfinite(value) or value > high:
         return False
     return value >= low if closed else value > low

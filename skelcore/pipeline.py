@@ -210,8 +210,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     options.point_budget is contracted at reduced resolution, every input point carried (skelcore.multires).
     `clock` records the seconds of each stage."""
     clock = clock or StageClock()
-    options.params.validated()
-    options.skeleton_params()  # bad parameters fail before any work
+    options.validated()  # bad parameters fail before any work
     if weights is not None and options.label_weights:
         raise ParameterError("parameter weights: give per-point weights or label weights, not both")
     if isinstance(source, io.Cloud):

@@ -139,24 +139,25 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
         temporary.unlink(missing_ok=True)
 
 
-def check_output(out_dir, force: bool = False) -> list[Path]:
+def check_output(out_dir, force: bool = False, *, what: str = "--out", replace: str = "pass --force") -> list[Path]:
     """The files of an earlier run in the output folder, checked before any work: a folder holding them is
-    refused unless `force`, a path that is a file always (nothing is created or removed here)."""
-    out_dir = io.writable_folder(out_dir, "--out")
+    refused unless `force`, a path that is a file always (nothing is created or removed here). `what` names
+    the folder and `replace` says how to replace them, in the caller's terms (the command line's by default)."""
+    out_dir = io.writable_folder(out_dir, what)
     earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
     earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
     if earlier and not force:
         raise OutputError(f"{out_dir}: already holds the results of a run ({earlier[0].name}, ...); "
-                          f"choose another folder or pass --force to replace them")
+                          f"choose another folder or {replace} to replace them")
     return earlier
 
 
-def prepare_output(out_dir, force: bool = False) -> Path:
+def prepare_output(out_dir, force: bool = False, **terms) -> Path:
     """The output folder, created, once the new results are ready to write (check_output first, before the
     work): with `force` an earlier run's files are removed (other files stay), so none is left beside the
-    new ones, and a run that fails leaves the earlier results as they were."""
+    new ones, and a run that fails leaves the earlier results as they were. `terms`: check_output's."""
     out_dir = Path(out_dir)
-    earlier = check_output(out_dir, force)
+    earlier = check_output(out_dir, force, **terms)
     try:
         for path in earlier:
             path.unlink()

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from dataclasses import dataclass
 
 import networkx as nx
@@ -31,6 +30,7 @@ from .clean import CleaningParams
 from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
 from .loops import cut_false_loops
+from .params import check_flags, is_real
 from .recentre import recentre
 from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs, split_long_edges
 from .sampling import ball_cover_by_piece
@@ -65,16 +65,17 @@ class SkeletonParams:
     recentre: bool = True
 
     def validated(self) -> "SkeletonParams":
-        """These parameters, or a ParameterError naming the first out of range."""
+        """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
+        check_flags(self)
         for name in ("sample_radius", "junction_distance", "spur_length", "edge_length"):
             value = getattr(self, name)
-            if not _real(value) or not math.isfinite(value) or value <= 0:
+            if not is_real(value) or not math.isfinite(value) or value <= 0:
                 raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
         if not MIN_SAMPLE_RADIUS <= self.sample_radius <= 1:
             raise ParameterError(f"parameter sample_radius={self.sample_radius!r}: must be between "
                                  f"{MIN_SAMPLE_RADIUS:g} and 1 (a fraction of the diagonal)")
         angle = self.collinear_angle
-        if not _real(angle) or not 0 <= angle < 180:
+        if not is_real(angle) or not 0 <= angle < 180:
             raise ParameterError(f"parameter collinear_angle={angle!r}: must be a number of degrees in [0, 180)")
         return self
 
@@ -85,10 +86,6 @@ class SkeletonParams:
     def to_dict(self) -> dict:
         """The parameters as a plain dict (for params.json)."""
         return dataclasses.asdict(self)
-
-
-def _real(value) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 @dataclass

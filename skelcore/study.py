@@ -22,7 +22,7 @@ from .clean import CleaningParams, clean
 from . import io
 from .errors import ParameterError
 from .metrics import NORMAL_CONVENTIONS, MetricsReference
-from .params import ContractionParams
+from .params import ContractionParams, is_integer
 
 # name -> (changes to ContractionParams, W_L0 multiplier of the automatic W_L0)
 SETTINGS = {
@@ -180,6 +180,8 @@ def _job(args) -> list[dict]:
 def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS), shapes=None,
               benchmark: bool = True, jobs: int = 1, progress: Callable[[str], None] | None = print) -> list[dict]:
     """Run the grid into OUT/runs.jsonl (resuming), then analyse it (skelcore.study_analysis)."""
+    if not is_integer(jobs) or jobs < 1:
+        raise ParameterError(f"study: jobs={jobs!r} must be a whole number of worker processes, at least 1")
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown:
         raise ParameterError(f"settings {unknown}: unknown (choose from {', '.join(SETTINGS)})")

@@ -93,6 +93,58 @@ def test_bad_arguments_give_one_line_errors():
         skelcore.skeletonize(points, method="nope")
 
 
+@pytest.mark.parametrize("arguments", [{"wl0": "1"}, {"k": 2.5}, {"max_iterations": 3.0}, {"hold_curves": "no"},
+                                       {"drop_jumps": 1}, {"sample": "x"}, {"voxel_size": "a"}, {"seed": "1"},
+                                       {"seed": -1}, {"max_points": 10.5}, {"sample_radius": "0.02"},
+                                       {"cleaning": skelcore.CleaningParams(denoise="no")}, {"progress": 3}])
+def test_wrongly_typed_arguments_name_the_parameter(arguments):
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    name = next(iter(arguments))
+    name = "denoise" if name == "cleaning" else name
+    with pytest.raises(ParameterError, match=f"parameter {name}="):
+        skelcore.skeletonize(points, **arguments)
+
+
+def test_wrongly_typed_loading_options_are_refused_before_reading(tmp_path):
+    for arguments in ({"sample": "x"}, {"voxel_size": "a"}, {"max_points": "5"}, {"seed": "s"}):
+        with pytest.raises(ParameterError, match=f"parameter {next(iter(arguments))}="):
+            skelcore.load(tmp_path / "not_read.xyz", **arguments)  # not there: refused before it is looked for
+    with pytest.raises(ParameterError, match="parameter label_weights: weight '2'"):
+        skelcore.skeletonize(np.zeros((30, 3)), label_weights={1: "2"})
+
+
+def test_result_save_keeps_earlier_results_unless_forced(tmp_path):
+    from skelcore.errors import OutputError
+
+    result = skelcore.skeletonize(REPO / "assets" / "capsule.ply", max_iterations=2)
+    result.save(tmp_path)
+    (tmp_path / "notes.txt").write_text("mine")
+    before = (tmp_path / "skeleton.json").read_text()
+    with pytest.raises(OutputError, match="already holds the results of a run.*force=True"):
+        result.save(tmp_path)
+    with pytest.raises(ParameterError, match="parameter force="):
+        result.save(tmp_path, force="yes")
+    assert (tmp_path / "skeleton.json").read_text() == before
+    (tmp_path / "skeleton.json").write_text("{}")
+    assert result.save(tmp_path, force=True) == tmp_path
+    assert (tmp_path / "skeleton.json").read_text() == before and (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_labels_beyond_int64_are_refused_not_wrapped(tmp_path):
+    points = np.random.default_rng(4).normal(size=(40, 3))
+    write_points_ply(tmp_path / "p.ply", points)
+    huge = np.full(40, 2**63, dtype=np.uint64)
+    with pytest.raises(InputError, match="label 9223372036854775808 is too large"):
+        skelcore.load(tmp_path / "p.ply", labels=huge)
+    (tmp_path / "l.txt").write_text("9223372036854775807\n" * 39 + "1\n")  # int64's largest: read exactly
+    assert skelcore.load(tmp_path / "p.ply", labels=tmp_path / "l.txt").labels[0] == 2**63 - 1
+    (tmp_path / "l.txt").write_text("9223372036854775808\n" * 40)
+    with pytest.raises(InputError, match="too large"):
+        skelcore.load(tmp_path / "p.ply", labels=tmp_path / "l.txt")
+    with pytest.raises(ParameterError, match="too large"):
+        skelcore.skeletonize(points, labels=np.ones(40, dtype=int), label_weights={2**64: 2.0})
+
+
 def test_import_is_light_and_every_public_name_is_documented():
     code = ("import sys, skelcore; heavy = [m for m in ('numpy', 'scipy', 'viser', 'open3d', 'app') if m in sys.modules];"
             "print(','.join(heavy))")

@@ -37,6 +37,17 @@ def test_bench_prints_runs_baseline_and_ratios():
     assert lines[-1].split()[0] == "600" and " lbc " in lines[-1] and lines[-1].endswith("x)")
 
 
+@pytest.mark.parametrize("flags, words", [(["--baseline-max", "-1"], "baseline_max=-1"), (["--noise", "-0.1"], "noise")])
+def test_bench_refuses_bad_settings_before_any_work(flags, words, capsys, monkeypatch):
+    from skelcore import bench
+    from skelcore.cli import main
+
+    monkeypatch.setattr(bench, "compile_package", lambda: pytest.fail("the bench started"))
+    assert main(["bench", "--points", "600", *flags]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and words in error
+
+
 def test_pc_skeletor_interpreter_is_checked():
     with pytest.raises(ParameterError, match="cannot be started"):
         _pc_skeletor_interpreter("/nonexistent/python")

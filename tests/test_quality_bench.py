@@ -271,7 +271,7 @@ def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypa
 
     monkeypatch.setattr(pipeline, "run_pipeline", failing_for_glskeleton)
     code = main(["bench-quality", "--shapes", "block_1_hole", "--variants", "clean", "noise_0.5",
-                 "--points", str(N), "--reference", "/nonexistent", "--json", str(tmp_path / "q.json"), "--quiet"])
+                 "--points", str(N), "--json", str(tmp_path / "q.json"), "--quiet"])
     assert code == 0
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.startswith("block_1_hole")]
@@ -291,9 +291,19 @@ def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypa
 def test_bench_quality_refuses_unknown_shapes_in_one_line(capsys):
     from skelcore.cli import main
 
-    assert main(["bench-quality", "--shapes", "teapot", "--reference", "/nonexistent", "--quiet"]) == 2
+    assert main(["bench-quality", "--shapes", "teapot", "--quiet"]) == 2
     error = capsys.readouterr().err.strip()
     assert error.startswith("skelcore bench-quality: error: shape 'teapot': unknown") and "\n" not in error
+
+
+def test_bench_quality_refuses_a_reference_folder_that_is_not_there(tmp_path, capsys, monkeypatch):
+    from skelcore import quality_bench
+    from skelcore.cli import main
+
+    monkeypatch.setattr(quality_bench, "run_case", lambda *args, **kwargs: pytest.fail("a run started"))
+    assert main(["bench-quality", "--reference", str(tmp_path / "nonexistent"), "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "--reference" in error and "nonexistent: no such folder" in error
 
 
 def test_a_twig_thinner_than_the_sampling_is_seen_from_every_side():

@@ -46,6 +46,15 @@ def test_study_rejects_unknown_settings(tmp_path, capsys):
     assert "bogus" in capsys.readouterr().err
 
 
+def test_study_refuses_no_worker_processes_before_any_run(tmp_path, capsys, monkeypatch):
+    from skelcore import study
+
+    monkeypatch.setattr(study, "_job", lambda task: pytest.fail("a run started"))
+    assert main(["study", "--out", str(tmp_path / "out"), "--jobs", "0", "--no-benchmark"]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "jobs=0" in error and not (tmp_path / "out").exists()
+
+
 def test_auc_and_its_interval():
     right = np.array([True] * 20 + [False] * 20)
     perfect = auc(np.r_[np.ones(20), np.zeros(20)], right)
