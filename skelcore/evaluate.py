@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 
 from .errors import InputError
 from .io import EXTREME
+from .normalise import binary_unit, half_extent
 
 SAMPLE_SPACING = 1e-3  # edge sampling step, fraction of the truth's bounding-box diagonal
 MAX_SAMPLES = 2_000_000  # per graph; the step grows for graphs longer than this allows
@@ -126,12 +127,12 @@ def sample_edges(nodes: np.ndarray, edges: np.ndarray, spacing: float) -> tuple[
 
 def evaluate(skeleton: CurveGraph, truth: CurveGraph) -> dict:
     """Distances (fractions of the truth's bounding-box diagonal) and topology of skeleton vs truth."""
-    half = float(np.max(truth.nodes.max(axis=0) / 2 - truth.nodes.min(axis=0) / 2))  # halves: no overflow
+    half = half_extent(truth.nodes)
     if half <= 0:
         raise InputError(f"{truth.name}: the ground truth has no extent (all nodes at one point)")
     # Both graphs at the power of two (exact) that brings the truth's extent to about 1: the distances are
     # fractions of its diagonal, and huge or tiny coordinates then neither overflow nor underflow.
-    unit = float(np.ldexp(1.0, np.frexp(half)[1]))
+    unit = binary_unit(half)
     if max(float(np.abs(graph.nodes).max()) for graph in (skeleton, truth)) / unit >= EXTREME:
         raise InputError(f"{skeleton.name}: its nodes lie more than {EXTREME:.3g} times the truth's extent away from "
                          f"the origin of the truth's coordinates: not in the same coordinates as {truth.name}")

@@ -17,7 +17,7 @@ import numpy as np
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
-from .normalise import object_core, object_diagonal
+from .normalise import binary_unit, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
@@ -76,7 +76,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
         if most * sizing.PARSE_BYTES_PER_POINT[suffix] > budget:
             raise InputError(f"{path}: may hold up to {most:,} points, too many to read within the memory "
                              f"budget of {memory.describe(budget)}; thin it out before loading")
-        points, faces = _READERS[suffix](path)
+        points, faces = readers.READERS[suffix](path)
     except InputError:
         raise
     except MemoryError:
@@ -204,12 +204,12 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
         if sample > cap:  # refused before drawing them: a huge sample would exhaust the memory first
             raise ParameterError(f"parameter sample={sample:,}: more points than the cap of {cap:,}")
-        points = _sample_surface(points, faces, int(sample), seed)
+        points = _sample_surface(points, faces, int(sample), seed, name)
         faces = None
         notes.append(f"sampled {len(points)} points evenly over the mesh surface")
     if voxel_size is not None:
         before = len(points)
-        points = voxel_downsample(points, voxel_size)
+        points = voxel_downsample(points, voxel_size, name)
         faces = None
         notes.append(f"voxel downsampling ({voxel_size:g}) kept {len(points)} of {before} points")
     if len(points) > cap:
@@ -255,10 +255,11 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
     when the shape cannot be computed: its core (the object without far strays, which cleaning removes) is
     too small for float64 at its coordinates, or lies on one line, or a point lies absurdly far from it."""
     magnitude = float(np.abs(points).max())
-    inside = object_core(np.ldexp(points, -np.frexp(magnitude)[1]))  # at magnitude ~1: its margins cannot overflow
+    # near float64's end its margins could overflow: judged at magnitude ~1 then, which changes no comparison
+    inside = object_core(points if magnitude < EXTREME else points / binary_unit(magnitude))
     core = points if inside is None else points[inside]
     low, high = core.min(axis=0), core.max(axis=0)
-    half = float(np.max(high / 2 - low / 2))  # halves: no overflow
+    half = half_extent(core)
     steps = 2 * half / float(np.spacing(np.abs(core).max()))
     if steps < MIN_STEPS:
         raise InputError(f"{name}: the cloud's extent is too small: it spans {2 * half:.3g} at coordinates of "
@@ -273,7 +274,7 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
                          f"times the extent of the rest; remove {'it' if count == 1 else 'them'} from the file")
     scale = 1.0
     if half < 0.5 / EXTREME or magnitude >= EXTREME:
-        scale = float(np.ldexp(1.0, np.frexp(half)[1]))
+        scale = binary_unit(half)
         points, core = points / scale, core / scale  # exact: a power of two
     singular = np.linalg.svd(core[:: max(1, len(core) // 100_000)] - core.mean(axis=0), compute_uv=False)
     if singular[1] <= 1e-9 * singular[0]:
@@ -319,79 +320,31 @@ def _drop_nonfinite(points, faces, labels, name: str):
     return points[keep], faces, labels, int((~keep).sum())
 
 
-def voxel_downsample(points: np.ndarray, voxel_size: float) -> np.ndarray:
-    """One point per occupied voxel: the centroid of the points in it."""
-    keys = np.floor((points - points.min(axis=0)) / voxel_size).astype(np.int64)
+def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud") -> np.ndarray:
+    """One point per occupied voxel: the centroid of the points in it. A voxel finer than float64 resolves the
+    cloud's extent is refused (its index would not fit an integer; no two points could share one)."""
+    half = half_extent(points)
+    if half / voxel_size > 2.0 ** 51:
+        raise ParameterError(f"{name}: voxel size {voxel_size:g} is finer than float64 resolves the cloud's extent "
+                             f"({2 * half:.3g}); give at least {half * 2.0 ** -50:.3g}")
+    keys = np.floor((points / 2 - points.min(axis=0) / 2) / voxel_size * 2).astype(np.int64)  # halves: no overflow
     _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    sums = np.zeros((len(counts), 3))
-    np.add.at(sums, inverse.ravel(), points)
-    return sums / counts[:, None]
+    inverse = inverse.ravel()
+    centroids = np.zeros((len(counts), 3))
+    np.add.at(centroids, inverse, points / counts[inverse, None])  # each point's share: no sum of huge coordinates
+    return centroids
 
 
-def _sample_surface(vertices, faces, count: int, seed: int) -> np.ndarray:
-    import trimesh
-
-    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+def _sample_surface(vertices, faces, count: int, seed: int, name: str) -> np.ndarray:
+    trimesh = readers.quiet_trimesh()
+    unit = binary_unit(half_extent(vertices))  # sampled at an extent of about 1: areas neither overflow nor vanish
+    mesh = trimesh.Trimesh(vertices=vertices / unit, faces=faces, process=False)
+    if not mesh.area > 0:
+        raise InputError(f"{name}: the mesh has no surface to sample (its triangles have no area)")
     points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=seed)
-    return np.asarray(points, dtype=np.float64)
+    return np.asarray(points, dtype=np.float64) * unit
 
 
 def _one_line(error: Exception) -> str:
     text = " ".join(str(error).split())
     return text[:160] or type(error).__name__
-
-
-def _read_ply(path: Path):
-    fast = readers.read_ply(path)
-    if fast is not None:
-        return fast
-    import trimesh
-
-    loaded = trimesh.load(path, process=False)
-    if isinstance(loaded, trimesh.Trimesh):
-        return np.asarray(loaded.vertices), np.asarray(loaded.faces)
-    vertices = getattr(loaded, "vertices", None)
-    if vertices is None:
-        raise InputError(f"{path}: PLY file has no vertex element")
-    return np.asarray(vertices), None
-
-
-def _read_pcd(path: Path):
-    import open3d as o3d
-
-    cloud = o3d.io.read_point_cloud(str(path), format="pcd")
-    points = np.asarray(cloud.points)
-    if len(points) == 0 and path.stat().st_size > 0:
-        raise InputError(f"{path}: cannot parse as PCD or it holds no points")
-    return points, None
-
-
-def _read_obj(path: Path):
-    points = readers.read_obj_points(path)
-    return (points, None) if points is not None else _read_mesh(path)
-
-
-def _read_mesh(path: Path):
-    import trimesh
-
-    loaded = trimesh.load(path, process=False, force="mesh")
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
-        raise InputError(f"{path}: the file holds no mesh geometry")
-    return np.asarray(loaded.vertices), np.asarray(loaded.faces)
-
-
-def _read_text(path: Path):
-    return readers.read_text(path), None
-
-
-_READERS = {
-    ".off": readers.read_off,
-    ".xyz": _read_text,
-    ".pts": _read_text,
-    ".txt": _read_text,
-    ".ply": _read_ply,
-    ".pcd": _read_pcd,
-    ".obj": _read_obj,
-    ".stl": _read_mesh,
-    ".glb": _read_mesh,
-}

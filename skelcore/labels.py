@@ -20,6 +20,7 @@ import numpy as np
 
 from .errors import InputError, ParameterError
 from .params import is_integer, is_real
+from .readers import quiet_trimesh
 
 # PLY vertex properties read as labels when present, in this order (case-insensitive)
 LABEL_PROPERTIES = ("label", "labels", "class", "classification", "scalar_label", "scalar_labels",
@@ -144,10 +145,8 @@ def read_labels(source, cloud_path=None, n: int | None = None) -> np.ndarray:
 
 def read_ply_labels(path, prop: str, n: int | None = None) -> np.ndarray:
     """The vertex property `prop` of a PLY file as integer labels, in vertex order."""
-    import trimesh
-
     try:
-        loaded = trimesh.load(path, process=False)
+        loaded = quiet_trimesh().load(path, process=False)
         data = loaded.metadata["_ply_raw"]["vertex"]["data"][prop]
     except (KeyError, ValueError, TypeError, OSError) as error:
         raise InputError(f"{path}: cannot read vertex property {prop!r} ({error})") from None

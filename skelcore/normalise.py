@@ -36,6 +36,16 @@ class Normalisation:
         return points / self.scale + self.centre
 
 
+def half_extent(points: np.ndarray) -> float:
+    """Half the largest extent of the points' bounding box, computed from halves: it cannot overflow."""
+    return float(np.max(points.max(axis=0) / 2 - points.min(axis=0) / 2))
+
+
+def binary_unit(length: float) -> float:
+    """The power of two in (length, 2 length]: coordinates divided by it (exactly) bring `length` to [0.5, 1)."""
+    return float(np.ldexp(1.0, np.frexp(length)[1]))
+
+
 ROBUST_SHARE = 0.01  # the share of points each side that a robust extent ignores
 # How far past the middle 98% a point may lie, in robust extents, and still belong to the object: a fence in
 # the manner of Tukey's. The object's own extremities (a tail, a branch tip, a noisy or partial scan's rim)

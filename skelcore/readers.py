@@ -1,10 +1,11 @@
-"""Numpy readers for the point files: PLY (binary either endianness, or ASCII vertices), XYZ/TXT/PTS text,
-OFF, and OBJ files of vertices only.
+"""The readers of the point and mesh files, by suffix (READERS): numpy for the common files, trimesh or open3d
+for the rest.
 
 `read_ply` covers the PLY files that need no general parser: a first element `vertex` with scalar x, y, z
 properties (any others are skipped), followed by nothing or by a `face` element of triangles; anything else
-returns None and the caller falls back to trimesh. Reading a million-point binary PLY this way takes
-milliseconds; importing trimesh alone takes longer.
+falls back to trimesh. Reading a million-point binary PLY this way takes milliseconds; importing trimesh alone
+takes longer. OBJ files without faces are point clouds, read here (trimesh finds no mesh in them); OFF files
+here too, a header-less one of bare vertex rows as a text cloud.
 
 Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
 (`#`, `//`), one line of column names (`x y z`) or a .pts point count, values separated by blanks, commas or
@@ -14,6 +15,7 @@ between numbers.
 """
 from __future__ import annotations
 
+import logging
 import re
 from pathlib import Path
 
@@ -141,6 +143,72 @@ def read_obj_points(path: Path) -> np.ndarray | None:
         return np.array(coordinates, dtype=np.float64)
     except ValueError:
         raise InputError(f"{path}: OBJ vertex coordinates are not numbers") from None
+
+
+def quiet_trimesh():
+    """trimesh, its log kept off stderr (a short surface sample, an odd file): our notes and errors say what
+    matters, in one line; an application that configures logging still receives its records."""
+    import trimesh
+
+    logging.getLogger("trimesh").addHandler(_QUIET)  # idempotent: the same handler is added once
+    return trimesh
+
+
+_QUIET = logging.NullHandler()
+
+
+def _read_ply(path: Path):
+    fast = read_ply(path)
+    if fast is not None:
+        return fast
+    trimesh = quiet_trimesh()
+    loaded = trimesh.load(path, process=False)
+    if isinstance(loaded, trimesh.Trimesh):
+        return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+    vertices = getattr(loaded, "vertices", None)
+    if vertices is None:
+        raise InputError(f"{path}: PLY file has no vertex element")
+    return np.asarray(vertices), None
+
+
+def _read_pcd(path: Path):
+    import open3d as o3d
+
+    cloud = o3d.io.read_point_cloud(str(path), format="pcd")
+    points = np.asarray(cloud.points)
+    if len(points) == 0 and path.stat().st_size > 0:
+        raise InputError(f"{path}: cannot parse as PCD or it holds no points")
+    return points, None
+
+
+def _read_obj(path: Path):
+    points = read_obj_points(path)
+    return (points, None) if points is not None else _read_mesh(path)
+
+
+def _read_mesh(path: Path):
+    trimesh = quiet_trimesh()
+    loaded = trimesh.load(path, process=False, force="mesh")
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
+        raise InputError(f"{path}: the file holds no mesh geometry")
+    return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+
+
+def _read_text(path: Path):
+    return read_text(path), None
+
+
+READERS = {  # suffix -> reader of (points, faces or None)
+    ".off": read_off,
+    ".xyz": _read_text,
+    ".pts": _read_text,
+    ".txt": _read_text,
+    ".ply": _read_ply,
+    ".pcd": _read_pcd,
+    ".obj": _read_obj,
+    ".stl": _read_mesh,
+    ".glb": _read_mesh,
+}
 
 
 def _header(data: bytes) -> tuple[int, int]:

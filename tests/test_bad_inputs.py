@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 
+from skelcore import io
 from skelcore.cli import main
 from skelcore.shapes import make_shape
 
@@ -147,6 +148,41 @@ def test_extreme_coordinates_run_and_come_back_in_file_units(magnitude, tmp_path
     assert np.isfinite(nodes).all()
     span = np.ptp(points, axis=0).max()
     assert 0.2 * span < np.ptp(nodes, axis=0).max() < 1.5 * span  # in the file's coordinates
+
+
+@pytest.mark.parametrize("magnitude", [1e300, 1e-300])
+def test_extreme_meshes_are_sampled_at_their_own_scale(magnitude, tmp_path, capsys):
+    import trimesh
+
+    mesh = trimesh.creation.torus(1.0, 0.3)
+    path = tmp_path / "extreme.obj"
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in (mesh.vertices * magnitude).tolist())
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in mesh.faces.tolist()))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code = main(["run", str(path), "--sample", "1500", "--out", str(tmp_path / "out"), "--quiet",
+                     "--max-iterations", "2"])
+    assert code == 0, capsys.readouterr().err
+    nodes = np.asarray(json.loads((tmp_path / "out" / "skeleton.json").read_text())["nodes"])
+    assert np.isfinite(nodes).all() and 0.5 * magnitude < np.ptp(nodes, axis=0).max() < 3 * magnitude
+    flat = tmp_path / "flat.obj"  # every vertex at the origin: nothing to sample, and trimesh's own log stays quiet
+    flat.write_text("v 0 0 0\n" * 30 + "".join(f"f 1 {i} {i + 1}\n" for i in range(2, 30)))
+    assert main(["run", str(flat), "--sample", "1500", "--out", str(tmp_path / "out2")]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and "no surface to sample" in captured.err and not captured.out
+
+
+def test_a_voxel_finer_than_the_coordinates_resolve_is_refused_and_huge_voxels_average(tmp_path, capsys):
+    points = make_shape("torus", 800).points * 1e300
+    path = tmp_path / "huge.xyz"
+    path.write_text(_rows(points))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["run", str(path), "--voxel-size", "1e-10", "--out", str(tmp_path / "out"), "--quiet"]) == 2
+        assert "finer than float64 resolves" in capsys.readouterr().err
+        near_the_end = points / np.abs(points).max() * 1.5e308
+        centroids = io.voxel_downsample(np.vstack([near_the_end] * 3), 1e307)  # their sums would overflow
+    assert np.isfinite(centroids).all() and len(centroids) < len(points)
 
 
 @pytest.mark.parametrize("cleaning", [[], ["--no-outlier-removal", "--no-stray-removal"]])
