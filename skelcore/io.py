@@ -29,8 +29,8 @@ MAX_POINTS = 2_000_000
 # A cloud whose core (normalise.object_core) spans less than 1/EXTREME, or whose coordinates reach EXTREME, is
 # computed at an exact power-of-two scale that brings the core's extent to about 1: the engine's floors
 # (1e-300, 1e-12 of a norm) and its squares and cubes of distances then stay far from underflow and overflow.
+# A point more than EXTREME core extents from the core is refused: no scale keeps it and the core in that range.
 EXTREME = 2.0 ** 64
-# No scale keeps a point farther than EXTREME core extents from the core and the core both in that range.
 MIN_STEPS = 4096  # float64 steps the core's extent must span at its coordinates (fewer: a coarse grid of values)
 
 
@@ -165,7 +165,7 @@ def check_sampling(*, sample=None, voxel_size=None, max_points=MAX_POINTS, seed=
     """The loading options (see `load`), or a ParameterError naming the first of the wrong type or range."""
     if sample is not None and (not is_integer(sample) or sample < MIN_POINTS):
         raise ParameterError(f"parameter sample={sample!r}: must be a whole number of points, at least {MIN_POINTS}")
-    if voxel_size is not None and (not is_real(voxel_size) or not 0 < voxel_size < float("inf")):
+    if voxel_size is not None and (not is_real(voxel_size) or not 0 < voxel_size < np.inf):
         raise ParameterError(f"parameter voxel_size={voxel_size!r}: must be a positive finite number")
     if not is_integer(max_points) or max_points < MIN_POINTS:
         raise ParameterError(f"parameter max_points={max_points!r}: must be a whole number, at least {MIN_POINTS}")
@@ -259,11 +259,11 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
     inside = object_core(points if magnitude < EXTREME else points / binary_unit(magnitude))
     core = points if inside is None else points[inside]
     low, high = core.min(axis=0), core.max(axis=0)
-    half = half_extent(core)
-    steps = 2 * half / float(np.spacing(np.abs(core).max()))
+    half, place = half_extent(core), float(np.abs(core).max())
+    steps = 2 * half / float(np.spacing(place))
     if steps < MIN_STEPS:
         raise InputError(f"{name}: the cloud's extent is too small: it spans {2 * half:.3g} at coordinates of "
-                         f"magnitude {np.abs(core).max():.3g}, which float64 resolves in only {steps:,.0f} steps "
+                         f"magnitude {place:.3g}, which float64 resolves in only {steps:,.0f} steps "
                          f"(at least {MIN_STEPS:,} are needed)")
     reach = np.abs(points / 2 - (low / 2 + high / 2) / 2).max(axis=1)  # half of each point's distance to the core
     if reach.max() > EXTREME * half:
@@ -324,7 +324,7 @@ def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud")
     """One point per occupied voxel: the centroid of the points in it. A voxel finer than float64 resolves the
     cloud's extent is refused (its index would not fit an integer; no two points could share one)."""
     half = half_extent(points)
-    if half / voxel_size > 2.0 ** 51:
+    if half > 2.0 ** 51 * voxel_size:
         raise ParameterError(f"{name}: voxel size {voxel_size:g} is finer than float64 resolves the cloud's extent "
                              f"({2 * half:.3g}); give at least {half * 2.0 ** -50:.3g}")
     keys = np.floor((points / 2 - points.min(axis=0) / 2) / voxel_size * 2).astype(np.int64)  # halves: no overflow

@@ -94,7 +94,7 @@ def is_integer(value) -> bool:
 
 def check_flag(name: str, value) -> None:
     """`value` a bool, numpy's included, or a ParameterError naming the parameter (the string "no" reads as true)."""
-    if not (isinstance(value, bool) or getattr(value, "dtype", None) == bool):
+    if not (isinstance(value, bool) or getattr(value, "dtype", None) == bool and getattr(value, "shape", None) == ()):
         raise ParameterError(f"parameter {name}={value!r}: must be True or False")
 
 
