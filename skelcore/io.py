@@ -17,7 +17,7 @@ import numpy as np
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
-from .normalise import binary_unit, half_extent, object_core, object_diagonal
+from .normalise import binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
@@ -258,20 +258,23 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
     # near float64's end its margins could overflow: judged at magnitude ~1 then, which changes no comparison
     inside = object_core(points if magnitude < EXTREME else points / binary_unit(magnitude))
     core = points if inside is None else points[inside]
-    low, high = core.min(axis=0), core.max(axis=0)
-    half, place = half_extent(core), float(np.abs(core).max())
+    low, high = bounds(core)
+    half, place = float(np.max(high / 2 - low / 2)), float(np.abs(core).max())  # halves: no overflow
     steps = 2 * half / float(np.spacing(place))
     if steps < MIN_STEPS:
         raise InputError(f"{name}: the cloud's extent is too small: it spans {2 * half:.3g} at coordinates of "
                          f"magnitude {place:.3g}, which float64 resolves in only {steps:,.0f} steps "
                          f"(at least {MIN_STEPS:,} are needed)")
-    reach = np.abs(points / 2 - (low / 2 + high / 2) / 2).max(axis=1)  # half of each point's distance to the core
-    if reach.max() > EXTREME * half:
-        far, count = int(np.argmax(reach)), int((reach > EXTREME * half).sum())
-        which = "a point lies" if count == 1 else f"{count} points lie, the farthest"
-        raise InputError(f"{name}: {which} absurdly far from the rest of the cloud: at "
-                         f"({', '.join(f'{value:.3g}' for value in points[far])}), {float(reach[far]) / half:.3g} "
-                         f"times the extent of the rest; remove {'it' if count == 1 else 'them'} from the file")
+    if inside is not None:  # strays: how far from the core (in halves, as the extent)
+        strays = points[~inside]
+        reach = np.abs(strays / 2 - (low / 2 + high / 2) / 2).max(axis=1)
+        if reach.max() > EXTREME * half:
+            far, count = int(np.argmax(reach)), int((reach > EXTREME * half).sum())
+            which = "a point lies" if count == 1 else f"{count} points lie, the farthest"
+            raise InputError(f"{name}: {which} absurdly far from the rest of the cloud: at "
+                             f"({', '.join(f'{value:.3g}' for value in strays[far])}), "
+                             f"{float(reach[far]) / half:.3g} times the extent of the rest; remove "
+                             f"{'it' if count == 1 else 'them'} from the file")
     scale = 1.0
     if half < 0.5 / EXTREME or magnitude >= EXTREME:
         scale = binary_unit(half)
@@ -327,7 +330,7 @@ def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud")
     if half > 2.0 ** 51 * voxel_size:
         raise ParameterError(f"{name}: voxel size {voxel_size:g} is finer than float64 resolves the cloud's extent "
                              f"({2 * half:.3g}); give at least {half * 2.0 ** -50:.3g}")
-    keys = np.floor((points / 2 - points.min(axis=0) / 2) / voxel_size * 2).astype(np.int64)  # halves: no overflow
+    keys = np.floor((points / 2 - bounds(points)[0] / 2) / voxel_size * 2).astype(np.int64)  # halves: no overflow
     _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
     inverse = inverse.ravel()
     centroids = np.zeros((len(counts), 3))

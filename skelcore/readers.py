@@ -220,7 +220,8 @@ def _header(data: bytes) -> tuple[int, int]:
         end = data.find(b"\n", start) + 1 or len(data)
         line = data[start:end].strip()
         if line and not line.startswith(COMMENTS):
-            if named or not (line.isdigit() or not any(map(is_number, WORDS.split(line)))):
+            names_or_count = line.isdigit() or not any(map(is_number, WORDS.split(line)))
+            if named or not names_or_count:
                 break
             named = True
         start, lines = end, lines + 1

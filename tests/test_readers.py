@@ -116,6 +116,8 @@ def test_obj_and_off_of_vertices_only_are_point_clouds(tmp_path, cloud):
     off = tmp_path / "points.off"
     off.write_text(f"OFF\n{len(points)} 0 0\n" + "".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in points.tolist()))
     np.testing.assert_array_equal(io.load(off).points, points)
+    off.write_bytes(b"\xef\xbb\xbf" + off.read_bytes())  # a byte order mark before the OFF keyword
+    np.testing.assert_array_equal(io.load(off).points, points)
     mesh = tmp_path / "mesh.obj"  # with faces it is a mesh, read by trimesh
     mesh.write_text(obj.read_text() + "".join(f"f 1 {i} {i + 1}\n" for i in range(2, len(points))))
     assert len(io.load(mesh).faces) == len(points) - 2
