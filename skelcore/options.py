@@ -10,7 +10,7 @@ from .clean import CleaningParams
 from .errors import InputError, ParameterError
 from .labels import check_label_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION
-from .params import ContractionParams, is_integer
+from .params import LIMITS, ContractionParams, is_integer
 from .skeleton import SkeletonParams
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
@@ -41,8 +41,9 @@ class RunOptions:
         self.cleaning.validated()
         self.skeleton_params()
         io.check_sampling(sample=self.sample, voxel_size=self.voxel_size, max_points=self.max_points, seed=self.seed)
-        if not is_integer(self.metrics_k) or self.metrics_k < 3:
-            raise ParameterError(f"parameter metrics_k={self.metrics_k!r}: must be a whole number, at least 3")
+        low, high, _ = LIMITS["k"]  # a neighbourhood, as the contraction's
+        if not is_integer(self.metrics_k) or not low <= self.metrics_k <= high:
+            raise ParameterError(f"parameter metrics_k={self.metrics_k!r}: must be an integer between {low} and {high}")
         if self.point_budget is not None and (not is_integer(self.point_budget) or self.point_budget < 0):
             raise ParameterError(f"parameter point_budget={self.point_budget!r}: must be a whole number >= 0 or None")
         if self.labels is not None and not isinstance(self.labels, str):
