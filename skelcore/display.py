@@ -3,7 +3,8 @@
 Metrics are measured on a fixed sample of the points of large clouds (see skelcore.metrics); to colour
 every point, `values_for_all_points` gives each point the value of the nearest measured point of the
 same iteration (a measured point keeps its own). `framing_camera` places a perspective camera along a
-given viewing direction so that the object's bounding box fills a chosen share of the shorter image side.
+given viewing direction so that the object's bounding box fills a chosen share of the shorter image side;
+`sphere_framing_camera` so that its bounding sphere does, which leaves room around the object from any side.
 """
 from __future__ import annotations
 
@@ -59,16 +60,15 @@ class Camera:
 FRAMING_SAMPLE = 20_000  # points enough to find a cloud's projected extent
 
 
-def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
-                   up=(0.0, 0.0, 1.0)) -> Camera:
-    """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
-    point fit in `fill` of the image: the projected bounding box of the points spans `fill` of the image
-    height or width, whichever binds. fov: vertical field of view in radians; aspect: width / height."""
+def _checked(points: np.ndarray, fov: float, aspect: float, fill: float) -> np.ndarray:
     points = as_points(points, "points")
     if not (0 < fov < np.pi and aspect > 0 and 0 < fill <= 1):
         raise ParameterError(f"framing: need 0 < fov < pi, aspect > 0, 0 < fill <= 1 (got {fov}, {aspect}, {fill})")
-    low, high = points.min(axis=0), points.max(axis=0)
-    centre = (low + high) / 2
+    return points
+
+
+def _axes(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(right, down, forward) of a camera looking along `direction` with `up` up in the picture."""
     forward = np.asarray(direction, float)
     if not np.isfinite(forward).all() or np.linalg.norm(forward) == 0:
         forward = np.array([-0.7, 0.7, -0.5])
@@ -78,7 +78,18 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
     if np.linalg.norm(right) < 1e-6 * np.linalg.norm(up):  # looking along `up`: any sideways axis will do
         right = np.cross(forward, np.eye(3)[np.argmin(np.abs(forward))])
     right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
+    return right, np.cross(forward, right), forward
+
+
+def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
+                   up=(0.0, 0.0, 1.0)) -> Camera:
+    """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
+    point fit in `fill` of the image: the projected bounding box of the points spans `fill` of the image
+    height or width, whichever binds. fov: vertical field of view in radians; aspect: width / height."""
+    points = _checked(points, fov, aspect, fill)
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = (low + high) / 2
+    right, down, forward = _axes(direction, up)
     sample = points[::max(1, len(points) // FRAMING_SAMPLE)]
     half = np.tan(fov / 2)
     for _ in range(4):  # aim, then re-aim at the middle of the projected extent (near points look larger)
@@ -92,6 +103,23 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
         centre = centre + distance * ((u.max() + u.min()) / 2 * right + (v.max() + v.min()) / 2 * down)
     rotation = np.column_stack([right, down, forward])
     return Camera(centre - forward * distance, centre, rotation)
+
+
+def sphere_framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
+                          up=(0.0, 0.0, 1.0)) -> Camera:
+    """A camera looking along `direction` at the centre of the points' bounding sphere (about their bounding box's
+    centre), as far as lets the sphere's outline span `fill` of the image height or width, whichever binds. The
+    cloud then fits whatever the direction, with room around it, at one scale for every view of it. fov: vertical
+    field of view in radians; aspect: width / height."""
+    points = _checked(points, fov, aspect, fill)
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    radius = max(float(np.sqrt(np.max(np.sum((points - centre) ** 2, axis=1)))), 1e-9)
+    # The outline of a sphere of radius r seen from distance d is a circle of angular radius asin(r / d), which
+    # spans `fill` of the binding half-side when its tangent is fill * tan(half its field of view).
+    tangent = fill * np.tan(fov / 2) * min(1.0, aspect)
+    distance = radius * np.sqrt(1 + 1 / tangent**2)
+    right, down, forward = _axes(direction, up)
+    return Camera(centre - forward * distance, centre, np.column_stack([right, down, forward]))
 
 
 def projected_box_share(points: np.ndarray, camera: Camera, fov: float, width: int, height: int) -> float:

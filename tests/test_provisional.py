@@ -35,3 +35,19 @@ def test_the_target_is_the_contraction_s_own():
     assert pipeline.skeleton_is_provisional(state, 0.7) and not pipeline.skeleton_is_provisional(state, 0.85)
     off = SimpleNamespace(iteration=3, termination=None, params=ContractionParams(curve_share=0.0))
     assert pipeline.provisional_target(off) == ContractionParams.curve_share  # the owner's default
+
+
+def test_a_run_that_stops_after_one_step_or_short_of_curves_is_barely_contracted():
+    """Only a run's last state is judged (an earlier one's skeleton is provisional, which says as much), by the
+    verdict's least number of steps and the contraction's own curve-like aim."""
+    from types import SimpleNamespace
+
+    def state(iteration, termination="max_iterations"):
+        return SimpleNamespace(iteration=iteration, termination=termination, params=ContractionParams())
+
+    aim = "of points curve-like (50% aimed at)"
+    assert pipeline.barely_contracted(state(1), 0.9) == f"stopped after 1 step with 90% {aim}"
+    assert pipeline.barely_contracted(state(6), 0.2) == f"stopped after 6 steps with 20% {aim}"
+    assert pipeline.barely_contracted(state(6), 0.6) == ""
+    assert pipeline.barely_contracted(state(1, termination=None), 0.0) == ""  # not the end: provisional instead
+    assert pipeline.barely_contracted(state(0, termination="solver"), 0.0) == ""  # nothing contracted: provisional
