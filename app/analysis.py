@@ -41,6 +41,7 @@ class Readiness:
     """Whether a state's skeleton means something yet, and why not."""
     share: float  # of the points, curve-like (skelcore.pipeline.state_curve_share)
     provisional: bool
+    barely_contracted: str  # why a run's last state is, in words; "" when it is not (skelcore.pipeline)
 
     def reason(self, state) -> str:
         """The legend's words for a provisional skeleton ("" when it is not)."""
@@ -81,7 +82,8 @@ class Analyses:
 
         def compute() -> Readiness:
             share = pipeline.state_curve_share(state, run.cloud)
-            return Readiness(share, pipeline.skeleton_is_provisional(state, share))
+            return Readiness(share, pipeline.skeleton_is_provisional(state, share),
+                             pipeline.barely_contracted(state, share))
         # a run's last state is never provisional: a step rejected at the end replaces its state with the ended one
         return self._cached(run, ("readiness", index, state.termination), compute if compute else lambda: None)
 

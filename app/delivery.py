@@ -26,11 +26,13 @@ SAVE_NAME_LENGTH = 80  # characters of a cloud's name kept in the names of expor
 
 class Delivery:
     def __init__(self, session: Session, files: FileWidgets, activity: Activity, save_dir: Path | None,
-                 redraw: Callable[[Viewer, int], None], draw_frame: Callable[[Viewer, object, int], None]):
+                 redraw: Callable[[Viewer, int], None], draw_frame: Callable[[Viewer, object, int], None],
+                 skeleton_note: Callable[[Viewer, object, int], str]):
         """redraw(viewer, index): show history[index] in a viewer again (after the animation); draw_frame(viewer,
-        run, index): draw run.history[index] in it at once, as its view settings draw it (a frame)."""
+        run, index): draw run.history[index] in it at once, as its view settings draw it (a frame);
+        skeleton_note(viewer, run, index): what a picture of it says of the skeleton drawn."""
         self.session, self.files, self.activity, self.save_dir = session, files, activity, save_dir
-        self.redraw, self.draw_frame = redraw, draw_frame
+        self.redraw, self.draw_frame, self.skeleton_note = redraw, draw_frame, skeleton_note
 
     def _size(self) -> tuple[int, int]:
         width, height = (int(v) for v in self.files.resolution.value.split("x"))
@@ -38,11 +40,16 @@ class Delivery:
 
     def _render(self, viewer: Viewer, index: int) -> bytes:
         width, height = self._size()
-        client = viewer.client
-        rgba = client.get_render(height, width, transport_format="png", timeout=120,
-                                 **export.framed_camera(self.session.cloud.points, client.camera, width, height))
-        labels = (export.caption(self.session.cloud.name, self.session.history[index],
-                                 self.session.verdict(index)["label"]) if self.files.labels.value else [])
+        client, run = viewer.client, self.session.run
+        with viewer.view.picture():
+            rgba = client.get_render(height, width, transport_format="png", timeout=120,
+                                     **export.framed_camera(run.cloud.points, client.camera, width, height))
+        labels = []
+        if self.files.labels.value:  # the verdict the panel shows: with the skeleton's checks once they are made
+            judged = (index, self.session.skeleton_params) in run.evidence
+            labels = export.caption(run.cloud.name, run.history[index],
+                                    self.session.verdict(index, run, with_skeleton=judged)["label"],
+                                    self.skeleton_note(viewer, run, index))
         return export.png_bytes(rgba, labels, bool(self.files.transparent.value))
 
     def stem(self, index: int | None = None) -> str:
@@ -77,8 +84,10 @@ class Delivery:
             try:
                 for index, state in enumerate(run.history):
                     self.draw_frame(viewer, run, index)
-                    rgba = client.get_render(height, width, transport_format="png", timeout=120, **camera)
-                    frames.append(export.compose(rgba, export.caption(run.cloud.name, state) if labels else []))
+                    with viewer.view.picture():
+                        rgba = client.get_render(height, width, transport_format="png", timeout=120, **camera)
+                    caption = export.caption(run.cloud.name, state, skeleton=self.skeleton_note(viewer, run, index))
+                    frames.append(export.compose(rgba, caption if labels else []))
             finally:
                 self.redraw(viewer, shown)
             files = export.animation_files(frames)

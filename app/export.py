@@ -18,24 +18,27 @@ from .words import METHOD_LABELS
 
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
 ANIMATION_FPS = 2  # frames (iterations) per second: slow enough to follow one contraction step
-
-
-FRAME_FILL = 0.8  # the object's projected bounding box spans this share of the image's binding side
+# Pictures are taken from afar with a narrow lens, whatever the browser's (viser's is 75 degrees: near points
+# loom): the cloud's bounding sphere spans this share of the image's shorter side, so it fits from any side
+PICTURE_FOV = np.radians(30.0)
+PICTURE_FILL = 0.85
+LABEL_SIZE = 1 / 26  # burned-in text height, of the image's shorter side: 23 px at 800x600, 38 px at 1600x1000
 
 
 def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
     """get_render's camera arguments framing `points` along a client camera's viewing direction."""
     import viser.transforms as tf
 
-    framing = display.framing_camera(points, camera.look_at - camera.position, camera.fov, width / height,
-                                     FRAME_FILL, up=camera.up_direction)
-    return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": camera.fov}
+    framing = display.sphere_framing_camera(points, camera.look_at - camera.position, PICTURE_FOV, width / height,
+                                            PICTURE_FILL, up=camera.up_direction)
+    return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": PICTURE_FOV}
 
 
-def caption(cloud_name: str, state, verdict: str | None = None) -> list[str]:
-    """The lines burned into a picture: file, method, iteration (and the verdict)."""
+def caption(cloud_name: str, state, verdict: str | None = None, skeleton: str = "") -> list[str]:
+    """The lines burned into a picture: file, method, iteration (and the verdict, and `skeleton`: a note on the
+    skeleton drawn, e.g. why it is provisional)."""
     lines = [f"{Path(cloud_name).name} · {METHOD_LABELS[state.params.method]} · iteration {state.iteration}"]
-    return lines + ([f"verdict: {verdict}"] if verdict else [])
+    return lines + ([f"verdict: {verdict}"] if verdict else []) + ([skeleton] if skeleton else [])
 
 
 def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False) -> np.ndarray:
@@ -51,7 +54,7 @@ def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False)
     if labels:
         picture = Image.fromarray(image)
         draw = ImageDraw.Draw(picture)
-        size = max(14, picture.height // 32)
+        size = round(LABEL_SIZE * min(picture.size))
         font = ImageFont.load_default(size=size)
         y = size // 2
         for line in labels:

@@ -60,13 +60,13 @@ class Inspector:
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
         self.panel_accepted = session.params  # the panel's values last accepted (a refused one is put back to them)
-        self.playback = Playback(self.worker, self.ui.run)
+        self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self._labels_changed,
                                                          order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
-                                 self.presenter.draw_frame)
+                                 self.presenter.draw_frame, self.presenter.picture_note)
         self.loader = Loader(session, self.ui.files, self.worker, self.playback, self.activity, self.messages,
                              self.assets, max_upload_bytes, lambda: self._draw_new_run(frame=True))
         self._notify = self.messages.notify
@@ -104,7 +104,7 @@ class Inspector:
 
     # ------------------------------------------------------------------ viewers
     def _connect(self, client: viser.ClientHandle) -> None:
-        viewer = Viewer(client, self.ui.run.viewer_order, self.presenter.view_settings())
+        viewer = Viewer(client, self.ui.run.viewer_order, self.ui.notes_order, self.presenter.view_settings())
         self._wire_viewer(viewer)
         self.presenter.viewers[client.client_id] = viewer
         self.worker.submit(lambda: self._enter(viewer))
@@ -185,7 +185,7 @@ class Inspector:
         self.worker.submit(lambda: self._step(viewer, event.client), event.client)
 
     def _on_play(self, event) -> None:
-        self.playback.toggle(lambda: self._tick(True), event.client, self.presenter.update_statuses)
+        self.playback.toggle(lambda: self._tick(True), event.client)
 
     def _on_restart(self, client) -> None:
         params = self._accepted_panel(client)
@@ -277,7 +277,7 @@ class Inspector:
             state = self.session.step(paused=lambda: not self.worker.playing)  # a pause lands between two stages
         going = state is not None and not self.session.finished
         if not going:
-            self.playback.ended()
+            self.playback.pause()
         if state is not None:
             self._advance(full=full or not going)
         return going

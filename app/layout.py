@@ -1,8 +1,12 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
-- the control panel (docked right): the run controls and status on top (notes on the cloud folded under it), then tabs
-  Parameters | View | Files | Log (Parameters: the weights and Restart, the rest folded under More parameters),
-  and below them the Labels folder of clouds with labels (app.labels);
+- the control panel (docked right): the run controls and status on top, then tabs Parameters | More | View | Files |
+  Log (Parameters: the weights and Restart; More: the less-used parameters), below them the parameter changes
+  waiting for a step or a restart, the notes on the cloud (folded) and the Labels folder of clouds with labels
+  (app.labels). viser's panel is one scroll area: a box below the window's edge is reached by scrolling the run
+  controls off its top, and a box being typed into is scrolled back into view when the text above it grows. So
+  each tab of parameters fits a 1280x720 window under the run controls and status, and what changes as a person
+  types (the pending changes) or is seldom read (the notes) sits below the tabs;
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
   Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
   `with panel.add_tab(...)` in `build_plots`;
@@ -38,10 +42,11 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # included), so a white one would paint over the card's right border.
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
+PLAY, PAUSE = "Play", "Pause"  # the Play button's label: what a click does
 COMPARE_TITLES = ("convergence, pinned and current", "final D_theta", "final delta_kappa")  # the Compare tab's plots
 PROVISIONAL = "Show provisional"  # the View tab's checkbox that draws a skeleton before the cloud is curve-like
 COMPARE_HINT = "Pin a run, change parameters or method, Restart: both runs show here."
-RESOLUTIONS = ("1280x720", "1920x1080", "800x600", "2560x1440")
+RESOLUTIONS = ("1280x720", "800x600", "1600x1000", "1920x1080", "2560x1440")
 LAYERS = ("original", "contracted", "skeleton", "removed")
 # "removed": the input points a GLSkeleton reduction absorbed, drawn at their input places. After a few steps
 # they are most of the input, and shown they would hide the contraction: on request only
@@ -68,7 +73,7 @@ class ViewerControls:
     follow: viser.GuiCheckboxHandle
     status: viser.GuiMarkdownHandle
     notes_folder: viser.GuiFolderHandle
-    notes: viser.GuiMarkdownHandle  # app.status.cloud_notes, folded under the status
+    notes: viser.GuiMarkdownHandle  # app.status.cloud_notes, folded below the tabs
     plots: "PlotWidgets"
     legend: viser.GuiHtmlHandle
     plots_panel: object
@@ -141,7 +146,9 @@ class Layout:
     view: ViewWidgets
     files: FileWidgets
     log: viser.GuiMarkdownHandle
-    labels_order: float  # where app.labels puts its "Labels" folder: below the tabs
+    pending: viser.GuiMarkdownHandle  # the parameter changes waiting for a step or a restart, below the tabs
+    notes_order: float  # where each browser's notes on the cloud go: below the pending changes
+    labels_order: float  # where app.labels puts its "Labels" folder: below the notes
 
 
 def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *, play_interval: float,
@@ -151,8 +158,8 @@ def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *,
     gui.main_panel.set_width(CONTROLS_WIDTH)
     run = build_run_controls(gui, play_interval)
     tabs = gui.add_tab_group()
-    with tabs.add_tab("Parameters"):
-        parameters = build_parameters(gui, params, sample_radius)
+    parameters = build_parameters(gui, tabs, params, sample_radius)
+    pending = gui.add_markdown("", order=tabs.order + 0.2)
     with tabs.add_tab("View"):
         view = build_view(gui)
     with tabs.add_tab("Files"):
@@ -160,13 +167,14 @@ def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *,
     with tabs.add_tab("Log"):
         gui.add_markdown("Shortcuts: " + ", ".join(f"**{key}** {what}" for key, what in SHORTCUTS.items()))
         log = gui.add_markdown("")
-    return Layout(run, parameters, view, files, log, tabs.order + 0.5)
+    return Layout(run, parameters, view, files, log, pending, notes_order=tabs.order + 0.4,
+                  labels_order=tabs.order + 0.6)
 
 
 def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     title = gui.add_markdown("")
     step = gui.add_button("Step", hint="one iteration (key N)")
-    play = gui.add_button("Play", hint="iterate until the run ends or Pause (key P)")
+    play = gui.add_button(PLAY, hint="iterate until the run ends or Pause (key P)")
     # right under the Play it paces, not under Reset and the per-browser widgets that follow it
     interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
                               hint="least time between two iterations during Play, to watch them")
@@ -175,15 +183,16 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     return RunControls(title, step, play, end, reset, interval, viewer_order=reset.order)
 
 
-def build_viewer(gui: viser.GuiApi, order: float) -> ViewerControls:
-    """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`."""
+def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerControls:
+    """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`, the notes on the cloud
+    at `notes_order`."""
     timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True,
                               hint="the iteration this browser shows (keys J and K; the end follows the newest)",
                               order=order + 0.2)
     follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
                               order=order + 0.4)
     status = gui.add_markdown("", order=order + 0.6)
-    with gui.add_folder("About this cloud", order=order + 0.8, expand_by_default=False, visible=False) as notes_folder:
+    with gui.add_folder("About this cloud", order=notes_order, expand_by_default=False, visible=False) as notes_folder:
         notes = gui.add_markdown("")
     plots_panel = gui.add_panel()
     plots = build_plots(gui, plots_panel)
@@ -202,14 +211,18 @@ def _number(gui: viser.GuiApi, name: str, value, step: float, hint: str | None =
                           hint=hint)
 
 
-def build_parameters(gui: viser.GuiApi, params: ContractionParams, sample_radius: float) -> ParameterWidgets:
-    method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()), initial_value=METHOD_LABELS[params.method],
-                              hint="applies on Restart")
-    wl0 = gui.add_number(f"{label('wl0')} (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
-    wh0 = _number(gui, "wh0", params.wh0, 0.1)
-    sl = _number(gui, "sl", params.sl, 0.1)
-    restart = gui.add_button("Restart with these parameters")
-    with gui.add_folder("More parameters", expand_by_default=False):  # so Restart fits a 1280x720 window
+def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: ContractionParams,
+                     sample_radius: float) -> ParameterWidgets:
+    """Tabs Parameters (the contraction schedule and Restart) and More (the rest): a tab, not a folder, so that
+    with either one open every box fits a 1280x720 window under the run controls."""
+    with tabs.add_tab("Parameters"):
+        method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()),
+                                  initial_value=METHOD_LABELS[params.method], hint="applies on Restart")
+        wl0 = gui.add_number(f"{label('wl0')} (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
+        wh0 = _number(gui, "wh0", params.wh0, 0.1)
+        sl = _number(gui, "sl", params.sl, 0.1)
+        restart = gui.add_button("Restart with these parameters")
+    with tabs.add_tab("More"):
         wl_max = _number(gui, "wl_max", params.wl_max, 1.0)
         k = gui.add_number(f"{label('k')} (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
                            hint="applies on Restart")

@@ -1,4 +1,6 @@
-"""Play, Run to end and Pause of the shared run, and the Play button that always says what a click does."""
+"""Play, Run to end and Pause of the shared run. Whether the run plays is the worker's alone: every start and stop
+calls `changed`, which redraws the Play button and every status from it at once (Presenter.update_statuses), so
+the button and the status never disagree."""
 from __future__ import annotations
 
 from typing import Callable
@@ -8,15 +10,15 @@ from .worker import Worker
 
 
 class Playback:
-    def __init__(self, worker: Worker, controls: RunControls):
+    def __init__(self, worker: Worker, controls: RunControls, changed: Callable[[], None]):
         self.worker = worker
         self.controls = controls
+        self.changed = changed
 
-    def toggle(self, tick: Callable[[], bool], client, after_pause: Callable[[], None]) -> None:
-        """Play (tick once per iteration until it returns False), or Pause then `after_pause` on the worker."""
+    def toggle(self, tick: Callable[[], bool], client) -> None:
+        """Play (tick once per iteration until it returns False), or Pause."""
         if self.worker.playing:
             self.pause()
-            self.worker.submit(after_pause)
         else:
             self.start(tick, client, full=True)
 
@@ -24,14 +26,10 @@ class Playback:
         """full: Play, paced by the interval slider; otherwise Run to end, as fast as it goes."""
         if self.worker.playing:
             return
-        self.controls.play.label = "Pause"
         self.worker.play(tick, client, float(self.controls.interval.value) if full else 0.0)
+        self.changed()
 
     def pause(self) -> None:
-        """Every stop of Play goes through here, so the button always tells what a click will do."""
+        """Every stop of Play goes through here, the run's own end too."""
         self.worker.pause()
-        self.controls.play.label = "Play"
-
-    def ended(self) -> None:
-        """The run stopped by itself."""
-        self.controls.play.label = "Play"
+        self.changed()

@@ -11,15 +11,14 @@ from __future__ import annotations
 import threading
 import time
 
-
 from skelcore import display
 
-from . import compare, export, layout, status
+from . import compare, layout, status
 from .analysis import Analyses
 from .labels import LabelPanel
 from .layout import Layout
 from .progress import Activity
-from .scene import COLOUR_RANGES
+from .scene import COLOUR_RANGES, FRAME_FILL
 from .session import Session
 from .viewer import Viewer
 from .worker import ErrorHandler, Latest, Worker
@@ -119,6 +118,14 @@ class Presenter:
                                           readiness.provisional)
         viewer.client.flush()
 
+    def picture_note(self, viewer: Viewer, run, index: int) -> str:
+        """What a picture of run.history[index] in a viewer says of its skeleton: why it is provisional, when it
+        draws a provisional one ("" otherwise)."""
+        readiness = self.analyses.readiness(run, index)
+        if not (readiness.provisional and self._skeleton_wanted(viewer, readiness)):
+            return ""
+        return f"skeleton provisional: {readiness.reason(run.history[index])}"
+
     def prepare_ahead(self) -> None:
         """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""
         run = self.session.run
@@ -190,27 +197,35 @@ class Presenter:
     # ------------------------------------------------------------------ status and legend
     def update_statuses(self) -> None:
         with self._status_lock:
+            playing = self._play_button()
             for viewer in self.all():
-                self.update_status(viewer)
+                self._update_status(viewer, playing)
             self.ui.log.content = "\n".join(f"- {line}" for line in self.session.log[-LOG_LINES:])
 
     def update_status(self, viewer: Viewer) -> None:
         with self._status_lock:
-            self._update_status(viewer)
+            self._update_status(viewer, self._play_button())
 
-    def _update_status(self, viewer: Viewer) -> None:
+    def _play_button(self) -> bool:
+        """Whether the run plays, read once for the Play button and the statuses pushed with it (app.playback)."""
+        playing = self.worker.playing
+        self.ui.run.play.label = layout.PAUSE if playing else layout.PLAY
+        return playing
+
+    def _update_status(self, viewer: Viewer, playing: bool) -> None:
         session = self.session
         history = session.history  # a restart may replace the run meanwhile: read it once
         index = min(viewer.shown, len(history) - 1)
         viewer.set_timeline(len(history), index)
         readiness = self.analyses.readiness(session.run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
-            session, index, run=status.run_state(history, self.activity.text(), self.worker.playing,
+            session, index, run=status.run_state(history, self.activity.text(), playing,
                                                       session.run.ahead if session.ready_ahead else None),
             readiness=readiness,
             skeleton=status.skeleton_note(readiness, history[index], viewer.view.visible["skeleton"],
                                           self.ui.view.provisional.value),
             following=viewer.following)
+        self.ui.pending.content = status.pending_markdown(session)
         notes = status.cloud_notes(session, viewer.view.notice(history[index].n_points))
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)
@@ -249,6 +264,6 @@ class Presenter:
             return
         camera = client.camera
         framing = display.framing_camera(self.session.cloud.points, camera.look_at - camera.position, camera.fov,
-                                         camera.aspect or 1.0, export.FRAME_FILL, up=camera.up_direction)
+                                         camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction)
         camera.position = framing.position
         camera.look_at = framing.look_at

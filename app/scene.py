@@ -9,6 +9,7 @@ the skeleton inside show through. Clouds above `display_cap` points are drawn fr
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
@@ -40,6 +41,7 @@ DISPLAY_CAP = 250_000
 DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
 POINT_LAYERS = ("original", "contracted", "removed")
 INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside
+FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
 
 # Per-point colouring over each quantity's full range, so colours stay comparable across iterations:
 # a diverging map whose centre, the quantity's target, is dark, so the best points stand out on the
@@ -296,6 +298,20 @@ class SceneView:
     def clear_skeleton(self) -> None:
         self._clear_skeleton()
 
+    @contextlib.contextmanager
+    def picture(self):
+        """The scene as a picture shows it: without the provisional skeleton's 3-D label, drawn at a fixed size on
+        screen (small in a large picture); the picture says it in its own words, at its own scale."""
+        with self._lock:
+            if self._label is not None:
+                self._label.visible = False
+        try:
+            yield
+        finally:
+            with self._lock:
+                if self._label is not None:
+                    self._label.visible = self.visible["skeleton"]
+
     def _clear_skeleton(self) -> None:
         for handle in (self._edges, self._nodes, self._label):
             if handle is not None:
@@ -351,6 +367,6 @@ class SceneView:
 def frame_camera(camera, points: np.ndarray, aspect: float = 0.75) -> None:
     """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
     between two panels, so taller than wide) at the whole cloud, from above and aside."""
-    framing = framing_camera(points, INITIAL_DIRECTION, camera.fov, aspect, fill=0.8)
+    framing = framing_camera(points, INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL)
     camera.position = framing.position
     camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

@@ -10,12 +10,12 @@ from .scene import COLOUR_RANGES, POINT_LAYERS, legend_html
 def run_state(history, doing: str, playing: bool, ahead=None) -> str:
     """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead)."""
     latest = history[-1]
+    if playing:  # the Play button says Pause meanwhile (app.playback)
+        return f"playing: {doing}…" if doing else "playing"
     if doing:
         return f"busy: {doing}…"
     if latest.termination:
         return f"ended at iteration {latest.iteration}: {latest.message}"
-    if playing:
-        return "running"
     state = "paused" if len(history) > 1 else "ready"
     if ahead is None:
         return state
@@ -37,7 +37,8 @@ def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, prov
 def status_markdown(session, index: int, *, run: str, readiness: Readiness | None, skeleton: str,
                     following: bool) -> str:
     """The status of history[index] as one browser sees it; `readiness`: None while not measured yet. Facts
-    about the whole cloud are in `cloud_notes`, folded away: a long status pushes Restart below the fold."""
+    about the whole cloud (`cloud_notes`, folded) and parameter changes (`pending_markdown`) are said below the
+    tabs: a long status pushes the parameters below the fold."""
     history = session.history
     state, latest = history[index], history[-1]
     removed = len(state.owner) - state.n_points
@@ -50,10 +51,17 @@ def status_markdown(session, index: int, *, run: str, readiness: Readiness | Non
         f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
         f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
         state.anchored and f"{state.anchored:,} points on thin handles held in place (drawn on their axis)",
+        readiness is not None and readiness.barely_contracted
+        and f"⚠ **Barely contracted:** {readiness.barely_contracted}; the skeleton may not follow the shape",
         skeleton and f"_{skeleton}_",
-        session.pending and f"**Pending:** {session.pending}",
         f"Run {run}",
     ]))
+
+
+def pending_markdown(session) -> str:
+    """The parameter changes waiting for the next step or a restart (below the tabs: it grows as a person types
+    into a box, so it must not push that box down)."""
+    return session.pending and f"**Pending:** {session.pending}"
 
 
 def cloud_notes(session, notice: str) -> str:

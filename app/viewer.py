@@ -21,11 +21,13 @@ VERDICT_STYLE = "<style>.verdict th, .verdict td { padding: 0 4px; }</style>"
 
 
 class Viewer:
-    def __init__(self, client: viser.ClientHandle, order: float, settings: dict[str, dict] | None = None):
-        """order: where the viewer's run widgets go (layout.RunControls.viewer_order); settings: the View
-        tab's {"visible"|"sizes"|"opacity": {layer: value}} this viewer starts with."""
+    def __init__(self, client: viser.ClientHandle, order: float, notes_order: float,
+                 settings: dict[str, dict] | None = None):
+        """order: where the viewer's run widgets go (layout.RunControls.viewer_order), notes_order: its notes on the
+        cloud (layout.Layout.notes_order); settings: the View tab's {"visible"|"sizes"|"opacity": {layer: value}}
+        this viewer starts with."""
         self.client = client
-        self.ui = layout.build_viewer(client.gui, order)
+        self.ui = layout.build_viewer(client.gui, order, notes_order)
         self.view = SceneView(client.scene)
         if settings is not None:
             for name in ("visible", "sizes", "opacity"):

@@ -100,8 +100,17 @@ def overflows(locator) -> bool:
 
 
 def scroll_to_top(locator) -> None:
-    """Scroll the panel holding `locator` back to its top, as it opens (typing into a box scrolls the box into view)."""
+    """Scroll the panel holding `locator` back to its top, as it opens (an earlier check may have scrolled it)."""
     locator.evaluate("element => { element.closest('.mantine-ScrollArea-viewport').scrollTop = 0; }")
+
+
+def shown_in_panel(page, locator) -> bool:
+    """Whether the element lies inside the window and inside the visible part of the panel holding it (scrolled off
+    the panel's top, it can still be inside the window, under the panel's header)."""
+    return inside_viewport(page, locator) and locator.evaluate(
+        "element => { const panel = element.closest('.mantine-ScrollArea-viewport').getBoundingClientRect();"
+        " const box = element.getBoundingClientRect();"
+        " return box.top >= panel.top - 0.5 && box.bottom <= panel.bottom + 0.5; }")
 
 
 def close_browser_notices(page) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import re
+import threading
 import zipfile
 
 import numpy as np
@@ -17,7 +18,8 @@ import pytest
 
 from browser_support import (ARTIFACTS, VIEWPORTS, browser_missing, button, canvas_image, click,
                              close_browser_notices, inside_viewport, launch, number_input, open_folder, open_tab,
-                             open_viewer, overflows, save_page, scroll_to_top, set_value, wait_until, write_ply)
+                             open_viewer, overflows, save_page, scroll_to_top, set_value, shown_in_panel, wait_until,
+                             write_ply)
 
 pytestmark = [pytest.mark.browser, pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))]
 
@@ -215,10 +217,11 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     for i in range(2):  # the plot inside a card leaves its border whole: the right edge drawn like the left
         left, right = _card_edges(page, plots.nth(i).locator("xpath=.."))
         assert np.array_equal(right, left), (left, right)
-    set_value(page, "W_H0", 2)  # a weight tuned live: the status grows a line, and Restart is still in reach
-    page.locator("strong", has_text="Pending").wait_for()
     scroll_to_top(button(page, "Step"))
-    assert inside_viewport(page, button(page, "Restart with these parameters"))
+    set_value(page, "W_H0", 2)  # a weight tuned live: said below the tabs, nothing moves
+    page.locator("strong", has_text="Pending").wait_for()
+    for name in ("Step", "Restart with these parameters"):
+        assert shown_in_panel(page, button(page, name))
     set_value(page, "W_H0", inspector.session.start_params.wh0)
     wait_until(lambda: not inspector.session.pending, "the weight back")
     # the histogram spans the values and the target (tests/test_report.py checks the fit itself)
@@ -260,8 +263,8 @@ def test_the_view_tab_fits_under_the_run_controls(fresh_sized):
 def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_status(fresh_sized, inspector,
                                                                                    monkeypatch):
     """The status at its longest: a cloud contracted at reduced resolution, thinned in the view, no skeleton
-    yet, a weight and the method pending. The notes on the cloud fold away under the status, so nothing primary
-    leaves the window."""
+    yet, a weight and the method pending. The notes on the cloud fold away below the tabs, with the pending
+    changes, so nothing primary leaves the window."""
     page = fresh_sized
     monkeypatch.setattr(inspector.session, "point_budget", 500)  # a large cloud's multi-resolution, cheaply
     click(page, "Reset")
@@ -270,6 +273,8 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     page.get_by_label("Show skeleton").check()
     open_folder(page, "Opacity and size")
     set_value(page, "Contracted opacity", 0.5)
+    open_folder(page, "Opacity and size")  # folded again: open, it reaches below a 720 px window
+    scroll_to_top(button(page, "Step"))
     open_tab(page, "Parameters")
     step(inspector, page)
     page.get_by_label("Method").click()
@@ -277,10 +282,9 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     set_value(page, "W_H0", 2)
     page.get_by_text("Pending: W_H0 2 from iteration 2; Method GLSkeleton on restart").first.wait_for()
     page.get_by_text("(View: Show provisional)").first.wait_for()
-    scroll_to_top(button(page, "Step"))
     for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
-        assert inside_viewport(page, button(page, name)), name
-    assert inside_viewport(page, number_input(page, "Iteration"))
+        assert shown_in_panel(page, button(page, name)), name
+    assert shown_in_panel(page, number_input(page, "Iteration"))
     # the play interval sits right under the Play it paces, above Run to end and this browser's iteration slider
     interval = page.locator("label", has_text="Play interval (s)").first
     assert inside_viewport(page, interval) and inside_viewport(page, number_input(page, "Play interval (s)"))
@@ -296,6 +300,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     page.get_by_role("option", name="LBC").click()
     set_value(page, "W_H0", inspector.session.start_params.wh0)
     open_tab(page, "View")
+    open_folder(page, "Opacity and size")
     set_value(page, "Contracted opacity", 1)
     open_folder(page, "Opacity and size")  # folded again
     page.get_by_label("Show skeleton").uncheck()
@@ -304,29 +309,115 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     open_tab(page, "Parameters")
 
 
+def test_typing_into_any_parameter_box_leaves_the_run_controls_in_view(fresh_sized, inspector):
+    """Every number box of the Parameters and More tabs takes a value with Step, Play and this browser's iteration
+    slider in view, the status at its longer (no skeleton yet, and why). viser's panel scrolls to a box below the
+    window's edge, and after the caret when the text above the box grows: the parameters fit under the status, and
+    the pending changes are said below the tabs."""
+    page = fresh_sized
+    step(inspector, page)
+    open_tab(page, "View")
+    page.get_by_label("Show skeleton").check()
+    page.get_by_text("(View: Show provisional)").first.wait_for()
+    scroll_to_top(button(page, "Step"))
+    start, radius = inspector.session.start_params, inspector.session.sample_radius
+    boxes = {"Parameters": {"W_L0 (0 = auto)": (2, start.wl0 or 0), "W_H0": (2, start.wh0), "s_L": (2, start.sl)},
+             "More": {"W_L cap": (1000, start.wl_max), "k (0 = auto)": (12, start.k or 0),
+                      "Max iterations": (30, start.max_iterations), "Termination": (0.02, start.termination),
+                      "Sample radius": (0.03, radius)}}
+    controls = (button(page, "Step"), button(page, "Play"), number_input(page, "Iteration"))
+    try:
+        for tab, values in boxes.items():
+            open_tab(page, tab)
+            for label, (value, _) in values.items():
+                before = (inspector.panel_accepted, inspector.session.sample_radius)
+                set_value(page, label, value)
+                wait_until(lambda: (inspector.panel_accepted, inspector.session.sample_radius) != before,
+                           f"{label} taken")
+                assert all(shown_in_panel(page, each) for each in controls), label
+        page.locator("strong", has_text="Pending").wait_for()
+        close_browser_notices(page)
+        save_page(page, f"browser-typing-{page.size_name}.png")
+    finally:
+        for tab, values in boxes.items():
+            open_tab(page, tab)
+            for label, (_, value) in values.items():
+                set_value(page, label, value)
+        wait_until(lambda: inspector.panel_accepted == start and not inspector.session.pending
+                   and inspector.session.sample_radius == radius, "the module's parameters")
+        open_tab(page, "View")
+        page.get_by_label("Show skeleton").uncheck()
+        wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
+        open_tab(page, "Parameters")
+
+
+def _run_line(page) -> str:
+    """The status's last line: what the run does."""
+    return page.locator("p", has_text=re.compile(r"^Run ")).first.inner_text()
+
+
+def test_the_play_button_and_the_status_agree_as_play_starts_and_stops(fresh, page, monkeypatch):
+    """The button and the status read whether the run plays from one place and change together: Play says Pause
+    exactly while the status says playing, even while a step holds the engine (it used to wait for that step)."""
+    inspector = fresh
+    gate = threading.Event()
+    engine_step = inspector.session.step
+    monkeypatch.setattr(inspector.session, "step", lambda *args, **kwargs: gate.wait() and engine_step(*args, **kwargs))
+    try:
+        click(page, "Play")
+        button(page, "Pause").wait_for()
+        wait_until(lambda: _run_line(page).startswith("Run playing"), "the status to say the run plays")
+        click(page, "Pause")
+        button(page, "Play").wait_for()
+        wait_until(lambda: not _run_line(page).startswith("Run playing"), "the status to say the run stopped")
+    finally:
+        gate.set()
+    wait_until(lambda: not inspector.worker.playing, "the worker to stop")
+    inspector.wait_idle()
+    wait_until(lambda: _run_line(page).startswith("Run paused"), "the run paused")
+    assert button(page, "Play").count() == 1 and button(page, "Pause").count() == 0
+
+
+def _text_rows(image: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) row of each line of dark text in the left half of a picture's top quarter."""
+    corner = image[:image.shape[0] // 4, :image.shape[1] // 2, :3]
+    rows = np.flatnonzero((corner < 100).all(axis=-1).any(axis=1))
+    breaks = np.flatnonzero(np.diff(rows) > 1)
+    return list(zip(rows[np.r_[0, breaks + 1]], rows[np.r_[breaks, len(rows) - 1]]))
+
+
 def test_screenshot_frames_the_object(fresh_sized, inspector):
+    """The whole cloud in the picture with room around it, the labels burned in above it, at least 1/32 of the
+    picture's shorter side high: 19 px at 800x600 (they were 17)."""
     import imageio.v3 as iio
 
     page = fresh_sized
     step(inspector, page, 2)
     open_tab(page, "Files")
-    with page.expect_download() as download:
-        click(page, "Screenshot")
-    data = open(download.value.path(), "rb").read()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    ARTIFACTS.mkdir(exist_ok=True)
-    (ARTIFACTS / f"browser-screenshot-{page.size_name}.png").write_bytes(data)
-    image = iio.imread(io.BytesIO(data), extension=".png")
-    assert image.shape[:2] == (720, 1280)
-    rows, cols = np.nonzero((image[..., :3] < 235).any(axis=-1))  # not the white background
-    top = int(image.shape[0] * 0.12)  # below the burned-in labels
-    below = rows > top
-    height = rows[below].max() - rows[below].min()
-    width = cols[below].max() - cols[below].min()
-    assert height * width / (image.shape[0] * image.shape[1]) >= 0.2
-    assert max(height, width) >= 0.5 * min(image.shape[:2])
-    assert (image[:top, :400, :3] < 100).any()  # the labels are burned in at the top left
     open_folder(page, "Export settings")
+    for resolution in ("1280x720", "800x600"):
+        page.get_by_label("Resolution").click()
+        page.get_by_role("option", name=resolution).click()
+        wait_until(lambda: inspector.ui.files.resolution.value == resolution, f"the resolution {resolution}")
+        with page.expect_download() as download:
+            click(page, "Screenshot")
+        data = open(download.value.path(), "rb").read()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n"
+        ARTIFACTS.mkdir(exist_ok=True)
+        (ARTIFACTS / f"browser-screenshot-{resolution}-{page.size_name}.png").write_bytes(data)
+        image = iio.imread(io.BytesIO(data), extension=".png")
+        width, height = (int(v) for v in resolution.split("x"))
+        assert image.shape[:2] == (height, width)
+        lines = _text_rows(image)
+        assert len(lines) == 2  # file, method and iteration; the verdict
+        assert all(last - first + 1 >= min(width, height) / 32 for first, last in lines), lines
+        rows, cols = np.nonzero((image[..., :3] < 235).any(axis=-1))  # not the white background
+        below = rows > lines[-1][1] + 2  # the object, below the labels
+        margin = 0.03 * min(width, height)
+        assert rows[below].max() < height - margin and margin < cols[below].min() and cols[below].max() < width - margin
+        assert max(np.ptp(rows[below]), np.ptp(cols[below])) >= 0.5 * min(width, height)
+    page.get_by_label("Resolution").click()
+    page.get_by_role("option", name="1280x720").click()
     page.get_by_label("Transparent background").check()
     page.get_by_label("Burn in labels").uncheck()
     wait_until(lambda: inspector.ui.files.transparent.value and not inspector.ui.files.labels.value, "the options")

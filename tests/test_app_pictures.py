@@ -1,0 +1,121 @@
+"""The pictures the Files tab exports, without a browser: framed on the whole cloud through a narrow lens, their
+burned-in words sized to the picture, and no 3-D label of fixed on-screen size in them."""
+from __future__ import annotations
+
+import contextlib
+import types
+
+import numpy as np
+import pytest
+
+from app import export
+from skelcore.shapes import make_shape
+
+
+def _project(points: np.ndarray, position, rotation: np.ndarray, fov: float, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates (u right, v down, from the image's top left) of points seen by a pinhole camera."""
+    local = (points - position) @ rotation
+    assert (local[:, 2] > 0).all()  # everything in front of the camera
+    focal = height / 2 / np.tan(fov / 2)
+    return np.column_stack([width / 2 + local[:, 0] / local[:, 2] * focal,
+                            height / 2 + local[:, 1] / local[:, 2] * focal])
+
+
+@pytest.mark.parametrize("direction", [(-0.7, 0.7, -0.5), (0, 0, -1), (1, 0, 0.1)])
+@pytest.mark.parametrize("width, height", [(800, 600), (1600, 1000), (720, 1280)])
+def test_the_bounding_sphere_spans_the_chosen_share_of_the_shorter_side(direction, width, height):
+    from skelcore.display import sphere_framing_camera
+
+    rng = np.random.default_rng(0)
+    ball = rng.normal(size=(4000, 3))
+    ball = 2.0 * ball / np.linalg.norm(ball, axis=1, keepdims=True) + 7.0  # a sphere's surface: its own bounding sphere
+    fov = np.radians(30)
+    camera = sphere_framing_camera(ball, direction, fov, width / height, fill=0.8)
+    pixels = _project(ball, camera.position, camera.rotation, fov, width, height)
+    span = np.ptp(pixels, axis=0)
+    assert max(span) / min(width, height) == pytest.approx(0.8, abs=0.01)
+    assert np.allclose(pixels.min(axis=0) + span / 2, (width / 2, height / 2), atol=0.01 * min(width, height))
+
+
+@pytest.mark.parametrize("width, height", [(800, 600), (1600, 1000)])
+def test_pictures_take_the_whole_cloud_through_a_narrow_lens_whatever_the_browsers(width, height):
+    """The browser's camera gives the direction only: viser's 75 degree lens, close enough to fill the picture with
+    the object's box, made near points loom and cut nothing off only by luck."""
+    import viser.transforms as tf
+
+    points = make_shape("y_branch", 3000).points * 4.0 + 20.0
+    for position in ((30.0, 10.0, 25.0), (20.0, 20.0, 40.0), (5.0, 21.0, 20.5)):
+        browser = types.SimpleNamespace(position=np.array(position), look_at=np.array([20.0, 20.0, 20.0]),
+                                        fov=np.radians(75), up_direction=np.array([0.0, 0.0, 1.0]))
+        camera = export.framed_camera(points, browser, width, height)
+        assert camera["fov"] <= np.radians(35)
+        rotation = tf.SO3(np.asarray(camera["wxyz"])).as_matrix()
+        pixels = _project(points, camera["position"], rotation, camera["fov"], width, height)
+        margin = 0.04 * min(width, height)
+        assert (pixels.min(axis=0) >= margin).all() and (pixels.max(axis=0) <= (width - margin, height - margin)).all()
+        assert np.ptp(pixels, axis=0).max() >= 0.5 * min(width, height)  # not lost in the middle either
+
+
+@pytest.mark.parametrize("width, height", [(800, 600), (1280, 720), (1600, 1000), (2560, 1440)])
+def test_burned_in_words_are_sized_to_the_picture(width, height):
+    """At least 1/32 of the shorter side high (19 px at 800x600: the 18 px font of before drew 17 px glyphs), and
+    no larger in a large picture than in a small one, relative to it."""
+    image = export.compose(np.zeros((height, width, 4), np.uint8), ["torus.ply · LBC · iteration 3"])
+    rows = np.flatnonzero((image < 100).any(axis=(1, 2)))
+    share = (rows.max() - rows.min() + 1) / min(width, height)
+    assert 1 / 32 <= share <= 1 / 20
+
+
+def test_a_picture_says_why_its_skeleton_is_provisional_instead_of_drawing_the_3d_label(cloud_points):
+    """The 3-D label is drawn 12 px high whatever the picture's size; a picture leaves it out and burns the words in
+    at its own scale. The view shows the label again afterwards."""
+    import viser
+
+    from app.scene import SceneView
+
+    state = types.SimpleNamespace(params=types.SimpleNamespace(method="lbc"), iteration=2)
+    lines = export.caption("torus.ply", state, "not yet converged", "skeleton provisional: 3% of points curve-like")
+    assert lines[-1] == "skeleton provisional: 3% of points curve-like"
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view = SceneView(server.scene)
+        view.load(cloud_points)
+        view.show_skeleton(cloud_points[:3], np.array([[0, 1], [1, 2]]), np.array([1, 2, 1]), provisional=True)
+        assert view._label.visible
+        with view.picture():
+            assert not view._label.visible
+        assert view._label.visible
+    finally:
+        server.stop()
+
+
+@pytest.fixture(scope="module")
+def cloud_points():
+    return make_shape("torus", 800).points
+
+
+def test_a_picture_names_the_verdict_the_panel_shows(monkeypatch):
+    """Once the skeleton's checks are made the panel's verdict includes them, and so does the picture's: one step
+    of a torus is "not yet converged" by the contraction's figures, "unstable" by its skeleton's (it said the
+    former while the panel said the latter)."""
+    from app.delivery import Delivery
+    from app.session import Session
+    from skelcore.io import validate
+    from skelcore.params import ContractionParams
+
+    session = Session(validate(make_shape("torus", 1500).points, name="torus.xyz"), ContractionParams(max_iterations=1),
+                      look_ahead=False)
+    session.step()
+    panel = session.verdict(1, with_skeleton=True)["label"]  # what the skeleton thread shows once it has drawn
+    assert panel != session.verdict(1)["label"]
+    captions = []
+    caption = export.caption
+    monkeypatch.setattr(export, "caption", lambda *args: captions.append(args) or caption(*args))
+    setting = types.SimpleNamespace
+    files = setting(resolution=setting(value="800x600"), labels=setting(value=True), transparent=setting(value=False))
+    camera = setting(position=np.array([3.0, 3.0, 2.0]), look_at=np.zeros(3), fov=np.radians(75),
+                     up_direction=np.array([0.0, 0.0, 1.0]))
+    client = setting(camera=camera, get_render=lambda height, width, **_: np.zeros((height, width, 4), np.uint8))
+    viewer = setting(client=client, view=setting(picture=contextlib.nullcontext))
+    Delivery(session, files, None, None, None, None, lambda *_: "")._render(viewer, 1)
+    assert captions[-1][2] == panel

@@ -1,0 +1,63 @@
+"""What the status and the panel say about the run, without a browser: a warning on a skeleton of a barely
+contracted cloud, the run playing exactly while the Play button says Pause, and the parameter changes waiting
+for a step said below the tabs, not above the box being typed into."""
+from __future__ import annotations
+
+import types
+
+import pytest
+
+from app.analysis import Analyses
+from app.session import Session
+from app.status import run_state, status_markdown
+from skelcore.io import validate
+from skelcore.params import ContractionParams
+from skelcore.shapes import make_shape
+
+
+@pytest.fixture(scope="module")
+def torus():
+    return validate(make_shape("torus", 1500).points, name="torus.xyz")
+
+
+def _status_at_the_end(cloud, params: ContractionParams) -> str:
+    session = Session(cloud, params, look_ahead=False)
+    while session.step() is not None:
+        pass
+    last = len(session.history) - 1
+    readiness = Analyses(session).readiness(session.run, last)
+    return status_markdown(session, last, run=run_state(session.history, "", False), readiness=readiness,
+                           skeleton="", following=True)
+
+
+def test_a_run_that_ends_barely_contracted_warns_that_its_skeleton_may_not_follow_the_shape(torus):
+    """Stopped after one step (max iterations 1), the torus is still a surface: its skeleton is drawn as the run's
+    result, and the status says how little the cloud was contracted, with the engine's figures."""
+    status = _status_at_the_end(torus, ContractionParams(max_iterations=1))
+    assert "**Barely contracted:** stopped after 1 step with 0% of points curve-like (50% aimed at)" in status
+    assert "the skeleton may not follow the shape" in status
+    assert "Barely contracted" not in _status_at_the_end(torus, ContractionParams())  # a full run: no warning
+
+
+def test_the_status_says_the_run_plays_exactly_while_the_button_says_pause():
+    """The status reads whether the run plays from the same place as the Play button (app.playback), so Play says
+    Pause only while the status says playing, whatever is being computed."""
+    history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
+    assert run_state(history, "", True) == "playing"
+    assert run_state(history, "computing iteration 2", True) == "playing: computing iteration 2…"
+    assert run_state(history, "computing iteration 2", False) == "busy: computing iteration 2…"
+    assert run_state(history, "", False).startswith("paused")
+
+
+def test_parameter_changes_are_said_below_the_tabs_not_in_the_status(torus):
+    """The status sits above the boxes: a line it gained as a person typed pushed the box down, and the browser
+    scrolled the panel after the caret, taking the run controls off its top."""
+    from app.status import pending_markdown
+
+    session = Session(torus, look_ahead=False)
+    session.tune(session.params.replace(wh0=2.0))
+    status = status_markdown(session, 0, run="ready", readiness=None, skeleton="", following=True)
+    assert "Pending" not in status and "W_H0 2" not in status
+    assert pending_markdown(session) == "**Pending:** W_H0 2 from iteration 1"
+    session.step()
+    assert pending_markdown(session) == ""
