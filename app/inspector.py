@@ -8,8 +8,8 @@ Step click is used by that step. The points of a new state are drawn at once; fo
 and colours follow from an analysis thread and the skeleton from a skeleton thread, both working on what
 that viewer shows last (app.analysis keeps the results, so viewers on one iteration share them). Anything
 slower than about a second says so (app.progress). While nothing else runs, the worker computes the next
-iteration ahead (Session.look_ahead), so that a Step shows it at once. Widgets live in app.layout, exports
-in app.delivery, status and legend words in app.status.
+iteration ahead (Session.look_ahead), so that a Step shows it at once. Widgets live in app.layout, what the
+parameter boxes say is taken in app.panel, exports in app.delivery, status and legend words in app.status.
 """
 from __future__ import annotations
 
@@ -19,13 +19,12 @@ from pathlib import Path
 
 import viser
 
-from skelcore.errors import ParameterError
-
 from . import compare, layout
 from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
 from .messages import Messages, without_paths
+from .panel import ParameterPanel
 from .playback import Playback
 from .presenter import Presenter
 from .progress import Activity
@@ -34,7 +33,6 @@ from .session import Session
 from .upload_guard import UploadGuard
 from .uploads import UploadNotices
 from .viewer import Viewer
-from .words import METHOD_LABELS, METHODS_BY_LABEL, refused
 from .worker import Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
@@ -59,7 +57,7 @@ class Inspector:
         self.uploads = UploadNotices(server)  # viser's "uploaded successfully" never shows: we say what happened
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
-        self.panel_accepted = session.params  # the panel's values last accepted (a refused one is put back to them)
+        self.panel = ParameterPanel(self.ui.params, session, self.messages.notify)
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
@@ -144,8 +142,7 @@ class Inspector:
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
         for handle in ui.params.contraction_handles():
             on(handle, self._on_parameter, person_only=True, method="on_update")
-        on(ui.params.radius, lambda e: submit(lambda: self._set_radius(float(ui.params.radius.value)), e.client),
-           person_only=True, method="on_update")
+        on(ui.params.radius, self._on_radius, person_only=True, method="on_update")
         for handle in (*ui.view.show.values(), *ui.view.size.values(), *ui.view.opacity.values(), ui.view.provisional):
             on(handle, lambda e: submit(self._apply_view, e.client), person_only=True, method="on_update")
         for handle in (ui.view.colouring, ui.view.colour_original):
@@ -188,45 +185,19 @@ class Inspector:
         self.playback.toggle(lambda: self._tick(True), event.client)
 
     def _on_restart(self, client) -> None:
-        params = self._accepted_panel(client)
+        params = self.panel.parameters(client, typed=False)
         if params is not None:
             self.worker.submit(lambda: self._restart(params), client)
 
     def _on_parameter(self, event) -> None:
-        params = self._accepted_panel(event.client)
+        params = self.panel.parameters(event.client, typed=True)
         if params is not None:
             self.worker.submit(lambda: self._tune(params), event.client)
 
-    def _accepted_panel(self, client):
-        """The panel's parameters; None when one is out of range, which is then said and put back to the value
-        last accepted (so the panel never shows what no run uses)."""
-        try:
-            self.panel_accepted = self._panel_params()
-        except ParameterError as error:
-            self._notify(client, "Parameter refused", f"{refused(str(error))}; put back to the value in force")
-            self._show_params(self.panel_accepted)
-            return None
-        return self.panel_accepted
-
-    def _panel_params(self):
-        """The parameters the panel shows, on top of the run's (fields the panel lacks stay)."""
-        p = self.ui.params
-        return self.session.params.replace(
-            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
-            wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
-            max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
-            hold_curves=bool(p.hold_curves.value))
-
-    def _show_params(self, params) -> None:
-        """Put a run's parameters into the panel (no client: the callbacks ignore it)."""
-        self.panel_accepted = params
-        p = self.ui.params
-        p.method.value = METHOD_LABELS[params.method]
-        p.wl0.value = params.wl0 or 0.0
-        p.wh0.value, p.sl.value, p.wl_max.value = params.wh0, params.sl, params.wl_max
-        p.k.value = params.k or 0
-        p.max_iterations.value, p.termination.value = params.max_iterations, params.termination
-        p.hold_curves.value = params.hold_curves
+    def _on_radius(self, event) -> None:
+        radius = self.panel.radius(event.client, typed=True)
+        if radius is not None:
+            self.worker.submit(lambda: self._set_radius(radius), event.client)
 
     # ------------------------------------------------------------------ jobs (worker thread only)
     def _step(self, viewer: Viewer | None, client) -> None:
@@ -298,7 +269,7 @@ class Inspector:
     def _restart(self, params) -> None:
         with self.activity.busy(None, "Restarting", "computing the one-rings of iteration 0"):
             self.session.restart(params)
-        self._show_params(self.session.params)
+        self.panel.show(self.session.params)
         self._draw_new_run(frame=False)
 
     def _set_radius(self, radius: float) -> None:

@@ -233,7 +233,7 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
                                        hint="points the first step brought to a thin part's axis keep that W_L, and "
                                             "handles thinner than a skeleton ball stay in place: small handles and "
                                             "limb ends survive")
-        radius = gui.add_slider("Sample radius", min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
+        radius = gui.add_slider(label("sample_radius"), min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
                                 hint="skeleton ball radius, fraction of the bounding-box diagonal")
     return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, radius,
                             restart)

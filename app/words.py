@@ -6,14 +6,15 @@ import re
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves"}
+SKELETON_LABELS = {"sample_radius": "Sample radius"}  # the skeleton's parameter in the More tab
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
 _ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
 
 
 def label(name: str) -> str:
-    """The panel's label of a ContractionParams field (its own name when the panel lacks it)."""
-    return PARAMETER_LABELS.get(name, name)
+    """The panel's label of a ContractionParams or SkeletonParams field (its own name when the panel lacks it)."""
+    return PARAMETER_LABELS.get(name) or SKELETON_LABELS.get(name, name)
 
 
 def value_text(name: str, value) -> str:

@@ -330,9 +330,9 @@ def test_typing_into_any_parameter_box_leaves_the_run_controls_in_view(fresh_siz
         for tab, values in boxes.items():
             open_tab(page, tab)
             for label, (value, _) in values.items():
-                before = (inspector.panel_accepted, inspector.session.sample_radius)
+                before = (inspector.panel.accepted, inspector.session.sample_radius)
                 set_value(page, label, value)
-                wait_until(lambda: (inspector.panel_accepted, inspector.session.sample_radius) != before,
+                wait_until(lambda: (inspector.panel.accepted, inspector.session.sample_radius) != before,
                            f"{label} taken")
                 assert all(shown_in_panel(page, each) for each in controls), label
         page.locator("strong", has_text="Pending").wait_for()
@@ -343,11 +343,35 @@ def test_typing_into_any_parameter_box_leaves_the_run_controls_in_view(fresh_siz
             open_tab(page, tab)
             for label, (_, value) in values.items():
                 set_value(page, label, value)
-        wait_until(lambda: inspector.panel_accepted == start and not inspector.session.pending
+        wait_until(lambda: inspector.panel.accepted == start and not inspector.session.pending
                    and inspector.session.sample_radius == radius, "the module's parameters")
         open_tab(page, "View")
         page.get_by_label("Show skeleton").uncheck()
         wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
+        open_tab(page, "Parameters")
+
+
+def test_a_value_typed_key_by_key_is_taken_with_no_refusal_on_the_way(fresh, page):
+    """viser sends a number box's value at every key: typing 0.02 sends 0 first, which no run takes. It used to be
+    refused at once and put back while the person typed on (0.02 became 1.0002); a refusal now waits for the
+    person to stop, and the value typed is taken."""
+    inspector = fresh
+    close_browser_notices(page)
+    open_tab(page, "More")
+    radius = inspector.session.sample_radius
+    for label, text in (("Termination", "0.02"), ("Sample radius", "0.03")):
+        number_input(page, label).click()
+        page.keyboard.press("Control+A")
+        page.keyboard.type(text, delay=50)
+    try:
+        wait_until(lambda: inspector.panel.accepted.termination == 0.02 and inspector.session.sample_radius == 0.03
+                   and not inspector.panel.refusing, "the values typed")
+        assert number_input(page, "Termination").input_value() == "0.02"
+        assert page.locator(".mantine-Notification-root").count() == 0  # neither refused nor an error
+    finally:
+        set_value(page, "Termination", RUN["termination"])
+        set_value(page, "Sample radius", radius)
+        wait_until(lambda: not inspector.session.pending and inspector.session.sample_radius == radius, "restored")
         open_tab(page, "Parameters")
 
 

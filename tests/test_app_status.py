@@ -61,3 +61,43 @@ def test_parameter_changes_are_said_below_the_tabs_not_in_the_status(torus):
     assert pending_markdown(session) == "**Pending:** W_H0 2 from iteration 1"
     session.step()
     assert pending_markdown(session) == ""
+
+
+def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_taken_meanwhile_drops_it(monkeypatch):
+    """viser sends a box's value at every key (0.02 arrives as 0, 0.0, 0.02): a refusal of a typed value is said and
+    put back only if no value of its part (the contraction's parameters, or the sample radius) is taken meanwhile;
+    a Restart's refusal is said at once."""
+    from app import panel as panel_module
+    from app.panel import ParameterPanel
+
+    pauses = []
+
+    class Pause:  # the refusal's wait for the person, ended by hand
+        def __init__(self, seconds, then):
+            pauses.append(then)
+
+        def start(self):
+            pass
+
+    monkeypatch.setattr(panel_module.threading, "Timer", Pause)
+    box = types.SimpleNamespace
+    widgets = box(method=box(value="LBC"), k=box(value=0), wl0=box(value=0.0), wh0=box(value=1.0), sl=box(value=3.0),
+                  wl_max=box(value=2048.0), max_iterations=box(value=20), termination=box(value=0.01),
+                  hold_curves=box(value=True), radius=box(value=0.02))
+    notices = []
+    panel = ParameterPanel(widgets, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
+                           lambda client, title, body: notices.append(body))
+    widgets.termination.value = 0.0
+    assert panel.parameters(None, typed=True) is None and panel.refusing == {"parameters"}
+    widgets.radius.value = 0.0
+    assert panel.radius(None, typed=True) is None and panel.refusing == {"parameters", "radius"}
+    widgets.termination.value = 0.02
+    assert panel.parameters(None, typed=True).termination == 0.02 and panel.refusing == {"radius"}
+    pauses[0]()  # the person typed on: the refusal of 0 is dropped
+    assert notices == [] and widgets.termination.value == 0.02
+    pauses[1]()  # the radius was left at 0
+    assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the value in force"]
+    assert widgets.radius.value == 0.02 and not panel.refusing
+    widgets.wh0.value = 0.0
+    assert panel.parameters(None, typed=False) is None  # Restart: said at once
+    assert notices[-1].startswith("W_H0 = 0.0: must be") and widgets.wh0.value == 1.0 and len(pauses) == 2
