@@ -70,15 +70,20 @@ def skeleton_is_provisional(state: IterationState, share: float) -> bool:
 def barely_contracted(state: IterationState, share: float) -> str:
     """Why a run's last state is barely contracted, in a few words ("" when it is not, or `state` is not a run's
     last): the run stopped after fewer steps than a verdict needs to see a trend (StabilityThresholds.min_steps),
-    or with fewer than provisional_target of its points curve-like (`share`, from state_curve_share). Its
-    skeleton is still the run's result (skeleton_is_provisional), so whoever shows it should say this."""
+    or at the iteration limit with fewer than provisional_target of its points curve-like (`share`, from
+    state_curve_share). A run that ends by its own rules is not: bulky shapes (blocks, a bunny, a mug) end their
+    good runs well below the curve-like aim, on the ring-ratio rule or a rejected last step. Its skeleton is still
+    the run's result (skeleton_is_provisional), so whoever shows it should say this."""
     if state.termination is None or state.iteration == 0:
         return ""
     target = provisional_target(state)
-    if state.iteration >= StabilityThresholds.min_steps and share >= target:
-        return ""
     steps = f"{state.iteration} step{'' if state.iteration == 1 else 's'}"
-    return f"stopped after {steps} with {share:.0%} of points curve-like ({target:.0%} aimed at)"
+    if state.iteration < StabilityThresholds.min_steps:
+        return f"stopped after {steps} with {share:.0%} of points curve-like ({target:.0%} aimed at)"
+    if state.termination == "max_iterations" and share < target:
+        return (f"stopped at the iteration limit after {steps} with {share:.0%} of points curve-like "
+                f"({target:.0%} aimed at)")
+    return ""
 
 
 def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams,

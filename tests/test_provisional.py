@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from skelcore import pipeline
+from skelcore import io, pipeline
 from skelcore.contraction import contract
 from skelcore.io import load
 from skelcore.params import ContractionParams
@@ -37,9 +37,10 @@ def test_the_target_is_the_contraction_s_own():
     assert pipeline.provisional_target(off) == ContractionParams.curve_share  # the owner's default
 
 
-def test_a_run_that_stops_after_one_step_or_short_of_curves_is_barely_contracted():
+def test_a_run_that_stops_after_one_step_or_at_the_limit_short_of_curves_is_barely_contracted():
     """Only a run's last state is judged (an earlier one's skeleton is provisional, which says as much), by the
-    verdict's least number of steps and the contraction's own curve-like aim."""
+    verdict's least number of steps and, at the iteration limit, the contraction's own curve-like aim; a run
+    that ends by its own rules is not, however bulky the shape stays."""
     from types import SimpleNamespace
 
     def state(iteration, termination="max_iterations"):
@@ -47,7 +48,23 @@ def test_a_run_that_stops_after_one_step_or_short_of_curves_is_barely_contracted
 
     aim = "of points curve-like (50% aimed at)"
     assert pipeline.barely_contracted(state(1), 0.9) == f"stopped after 1 step with 90% {aim}"
-    assert pipeline.barely_contracted(state(6), 0.2) == f"stopped after 6 steps with 20% {aim}"
+    assert pipeline.barely_contracted(state(6), 0.2) == f"stopped at the iteration limit after 6 steps with 20% {aim}"
     assert pipeline.barely_contracted(state(6), 0.6) == ""
+    for own_end in ("ring_ratio", "covariance", "torn", "flung"):  # a bunny's good run ends 24% curve-like
+        assert pipeline.barely_contracted(state(5, termination=own_end), 0.2) == ""
     assert pipeline.barely_contracted(state(1, termination=None), 0.0) == ""  # not the end: provisional instead
     assert pipeline.barely_contracted(state(0, termination="solver"), 0.0) == ""  # nothing contracted: provisional
+
+
+def test_a_good_run_on_a_bulky_solid_is_not_called_barely_contracted():
+    """A drilled block's LBC run ends on the ring-ratio rule with under half its points curve-like (the block
+    thins to a plate around its hole), its loop right: no warning (the rule used to give one here)."""
+    from skelcore.options import RunOptions
+    from skelcore.solids import solid_shape
+
+    computed = pipeline.compute(io.validate(solid_shape("block_1_hole", 4000).points, name="block"), RunOptions())
+    final = computed.states[-1]
+    share = pipeline.state_curve_share(final, computed.cloud)
+    assert final.termination == "ring_ratio" and share < pipeline.provisional_target(final)
+    assert computed.skeleton.topology()["cycles"] == 1
+    assert pipeline.barely_contracted(final, share) == ""
