@@ -1,12 +1,13 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
 - the control panel (docked right): the run controls and status on top, then tabs Parameters | More | View | Files |
-  Log (Parameters: the weights and Restart; More: the less-used parameters), below them the parameter changes
-  waiting for a step or a restart, the notes on the cloud (folded) and the Labels folder of clouds with labels
-  (app.labels). viser's panel is one scroll area: a box below the window's edge is reached by scrolling the run
-  controls off its top, and a box being typed into is scrolled back into view when the text above it grows. So
-  each tab of parameters fits a 1280x720 window under the run controls and status, and what changes as a person
-  types (the pending changes) or is seldom read (the notes) sits below the tabs;
+  Log (Parameters: the weights and Restart; More: the less-used parameters; View and Files: tabs of their own),
+  below them the parameter changes waiting for a step or a restart, the notes on the cloud (folded) and the Labels
+  folder of clouds with labels (app.labels). viser's panel is one scroll area: a box below the window's edge is
+  reached by scrolling the run controls off its top, and a box being typed into is scrolled back into view when the
+  text above it grows. So each tab, and each tab within one, fits a 1280x720 window under the run controls and
+  status (tabs, not folders: an open folder adds its height), and what changes as a person types (the pending
+  changes) or is seldom read (the notes) sits below the tabs;
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
   Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
   `with panel.add_tab(...)` in `build_plots`;
@@ -240,38 +241,46 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
 
 
 def build_view(gui: viser.GuiApi) -> ViewWidgets:
+    """Fit view over tabs Layers | Colour | Opacity | Size: tabs, not folders, so that with any one open the View
+    tab fits a 1280x720 window under the run controls (its eight sliders unfolded did not)."""
     fit = gui.add_button("Fit view", hint="point the camera at the whole cloud (key F)")
-    colouring = gui.add_dropdown("Colour by", ("plain", "D_theta", "delta_kappa", "label"), initial_value="plain",
-                                 hint="per-point metric of the shown iteration, or the cloud's labels")
-    colour_original = gui.add_checkbox("Colour original", False,
-                                       hint="colour each original point by its metric value")
-    show = {layer: gui.add_checkbox(f"Show {layer}", layer not in HIDDEN_AT_START) for layer in LAYERS}
-    provisional = gui.add_checkbox(PROVISIONAL, False, order=show["skeleton"].order + 0.5,
-                                   hint="draw the skeleton before the cloud is curve-like (it means little then)")
+    tabs = gui.add_tab_group()
+    with tabs.add_tab("Layers"):
+        show = {layer: gui.add_checkbox(f"Show {layer}", layer not in HIDDEN_AT_START) for layer in LAYERS}
+        provisional = gui.add_checkbox(PROVISIONAL, False, order=show["skeleton"].order + 0.5,
+                                       hint="draw the skeleton before the cloud is curve-like (it means little then)")
+    with tabs.add_tab("Colour"):
+        colouring = gui.add_dropdown("Colour by", ("plain", "D_theta", "delta_kappa", "label"), initial_value="plain",
+                                     hint="per-point metric of the shown iteration, or the cloud's labels")
+        colour_original = gui.add_checkbox("Colour original", False,
+                                           hint="colour each original point by its metric value")
     opacity, size = {}, {}
-    # folded: open, its eight sliders would push the View tab past a 720 px window (and typing in one scrolls the
-    # run controls off the top)
-    with gui.add_folder("Opacity and size", expand_by_default=False):
+    with tabs.add_tab("Opacity"):
         for layer in LAYERS:
-            opacity[layer] = gui.add_slider(f"{layer.capitalize()} opacity", min=0.05, max=1.0, step=0.05,
-                                            initial_value=1.0, hint="share of the points drawn, faded to match")
-            size[layer] = gui.add_slider(f"{layer.capitalize()} size", min=0.2, max=5.0, step=0.1, initial_value=1.0)
+            opacity[layer] = gui.add_slider(layer.capitalize(), min=0.05, max=1.0, step=0.05, initial_value=1.0,
+                                            hint="share of the points drawn, faded to match")
+    with tabs.add_tab("Size"):
+        for layer in LAYERS:
+            size[layer] = gui.add_slider(layer.capitalize(), min=0.2, max=5.0, step=0.1, initial_value=1.0)
     return ViewWidgets(show, opacity, size, provisional, colouring, colour_original, fit)
 
 
 def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int, save_dir) -> FileWidgets:
-    names = assets or ("(no bundled assets)",)
-    asset = gui.add_dropdown("Bundled asset", names, disabled=not assets)
-    load = gui.add_button("Load asset", disabled=not assets)
-    upload = gui.add_upload_button("Upload cloud", hint=f"{' '.join(INPUT_FORMATS)}, at most {max_upload_mib} MiB")
-    downsample = gui.add_button("Load downsampled", visible=False,
-                                hint="the last cloud too large for this server, voxel-downsampled")
-    gui.add_divider()
-    # the exports first and their settings folded, so that all three fit a 1280x720 window under the status
-    screenshot = gui.add_button("Screenshot", hint="a PNG framed on the object")
-    animation = gui.add_button("Export animation", hint="a GIF and an MP4 of the run, one frame per iteration")
-    bundle = gui.add_button("Export bundle", hint="zip: screenshot, skeleton, contracted points, metrics, plots")
-    with gui.add_folder("Export settings", expand_by_default=False):
+    """Tabs Open | Export | Export settings, so that with any one open the Files tab fits a 1280x720 window under the
+    run controls (the exports and their settings unfolded did not)."""
+    tabs = gui.add_tab_group()
+    with tabs.add_tab("Open"):
+        names = assets or ("(no bundled assets)",)
+        asset = gui.add_dropdown("Bundled asset", names, disabled=not assets)
+        load = gui.add_button("Load asset", disabled=not assets)
+        upload = gui.add_upload_button("Upload cloud", hint=f"{' '.join(INPUT_FORMATS)}, at most {max_upload_mib} MiB")
+        downsample = gui.add_button("Load downsampled", visible=False,
+                                    hint="the last cloud too large for this server, voxel-downsampled")
+    with tabs.add_tab("Export"):
+        screenshot = gui.add_button("Screenshot", hint="a PNG framed on the object")
+        animation = gui.add_button("Export animation", hint="a GIF and an MP4 of the run, one frame per iteration")
+        bundle = gui.add_button("Export bundle", hint="zip: screenshot, skeleton, contracted points, metrics, plots")
+    with tabs.add_tab("Export settings"):
         resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
         labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
         transparent = gui.add_checkbox("Transparent background", False)

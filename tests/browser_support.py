@@ -64,8 +64,9 @@ def click(page, name: str) -> None:
 
 
 def number_input(page, label: str):
-    """The text box of a viser number input or slider, found from its label."""
-    row = page.locator("label", has_text=label).first.locator("xpath=ancestor::*[.//input[@inputmode='decimal']][1]")
+    """The text box of a viser number input or slider, found from its label among those shown (a tab within a tab
+    keeps its hidden tabs' widgets: Opacity's "Original" and Size's)."""
+    row = page.locator("label:visible", has_text=label).first.locator("xpath=ancestor::*[.//input[@inputmode='decimal']][1]")
     return row.locator("input[inputmode='decimal']").first
 
 
@@ -80,9 +81,11 @@ def open_folder(page, title: str) -> None:
     page.get_by_text(title, exact=True).first.click()
 
 
-def open_tab(page, name: str) -> None:
-    """Bring a tab of the control panel or the plots panel to the front."""
-    page.get_by_role("tab", name=name, exact=True).first.click()
+def open_tab(page, *names: str) -> None:
+    """Bring a tab of the control panel or the plots panel to the front, then each tab named after it within the one
+    before (open_tab(page, "View", "Opacity"))."""
+    for name in names:
+        page.get_by_role("tab", name=name, exact=True).first.click()
 
 
 def inside_viewport(page, locator) -> bool:

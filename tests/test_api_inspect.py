@@ -58,7 +58,7 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             button(page, "Restart with these parameters").click()
             wait_until(lambda: handle.session.run.weights is not None and handle.session.run.weights.max() == 6.0,
                        "the restart with the new weight")
-            open_tab(page, "View")
+            open_tab(page, "View", "Colour")
             page.get_by_label("Colour by").click()
             page.get_by_role("option", name="label").click()
             wait_until(lambda: page.viewer.view.coloured, "colours by label")

@@ -56,7 +56,7 @@ def browser():
 
 def _hide_skeleton(page, inspector) -> None:
     # The skeleton of a barely contracted surface is slow to extract: hidden, except where tested.
-    open_tab(page, "View")
+    open_tab(page, "View", "Layers")
     page.get_by_label("Show skeleton").uncheck()
     wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
     open_tab(page, "Parameters")
@@ -140,7 +140,7 @@ def upload(page, path) -> None:
     """Upload `path` through the Files tab; notices left by earlier checks (an export's download) are closed
     first, so what the page shows next is this upload's."""
     close_browser_notices(page)
-    open_tab(page, "Files")
+    open_tab(page, "Files", "Open")
     with page.expect_file_chooser() as chooser:
         click(page, "Upload cloud")
     chooser.value.set_files(str(path))
@@ -247,16 +247,22 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     save_page(page, f"browser-layout-{page.size_name}.png")
 
 
-def test_the_view_tab_fits_under_the_run_controls(fresh_sized):
-    """Every View control is in the window with Step and Play: nothing to scroll, so typing in one of them cannot
-    scroll the run controls away. The per-layer sliders are folded under Opacity and size."""
+# The tabs within View and Files, and in each the widget lowest in it
+INNER_TABS = {("View", "Layers"): "Show removed", ("View", "Colour"): "Colour original", ("View", "Opacity"): "Removed",
+              ("View", "Size"): "Removed", ("Files", "Open"): "Upload cloud", ("Files", "Export"): "Export bundle",
+              ("Files", "Export settings"): "Also save on server"}
+
+
+def test_the_view_and_files_tabs_fit_under_the_run_controls(fresh_sized):
+    """Every control of View and of Files, whichever tab within them is open, is in the window with Step and Play:
+    nothing to scroll, so using one of them cannot scroll the run controls away."""
     page = fresh_sized
-    open_tab(page, "View")
-    folder = page.get_by_text("Opacity and size", exact=True).first
-    for each in (button(page, "Step"), button(page, "Play"), button(page, "Fit view"), page.get_by_label("Show removed"),
-                 page.get_by_label("Show provisional"), folder):
-        assert inside_viewport(page, each), each
-    assert not page.get_by_label("Original opacity").is_visible()
+    for tabs, lowest in INNER_TABS.items():
+        open_tab(page, *tabs)
+        widget = page.get_by_role("button", name=lowest, exact=True).or_(page.locator("label:visible", has_text=lowest))
+        for each in (button(page, "Step"), button(page, "Play"), widget.first):
+            assert inside_viewport(page, each), (tabs, each)
+        assert not overflows(button(page, "Step")), tabs
     open_tab(page, "Parameters")
 
 
@@ -269,12 +275,10 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     monkeypatch.setattr(inspector.session, "point_budget", 500)  # a large cloud's multi-resolution, cheaply
     click(page, "Reset")
     wait_until(lambda: inspector.session.run.reduction is not None and drawn(page, "plots") == 0, "the reduced run")
-    open_tab(page, "View")
+    open_tab(page, "View", "Layers")
     page.get_by_label("Show skeleton").check()
-    open_folder(page, "Opacity and size")
-    set_value(page, "Contracted opacity", 0.5)
-    open_folder(page, "Opacity and size")  # folded again: open, it reaches below a 720 px window
-    scroll_to_top(button(page, "Step"))
+    open_tab(page, "Opacity")
+    set_value(page, "Contracted", 0.5)
     open_tab(page, "Parameters")
     step(inspector, page)
     page.get_by_label("Method").click()
@@ -299,53 +303,81 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     page.get_by_label("Method").click()
     page.get_by_role("option", name="LBC").click()
     set_value(page, "W_H0", inspector.session.start_params.wh0)
-    open_tab(page, "View")
-    open_folder(page, "Opacity and size")
-    set_value(page, "Contracted opacity", 1)
-    open_folder(page, "Opacity and size")  # folded again
+    open_tab(page, "View", "Opacity")
+    set_value(page, "Contracted", 1)
+    open_tab(page, "Layers")
     page.get_by_label("Show skeleton").uncheck()
     wait_until(lambda: not inspector.session.pending and not page.viewer.view.visible["skeleton"]
                and page.viewer.view.opacity["contracted"] == 1, "the module's settings")
     open_tab(page, "Parameters")
 
 
-def test_typing_into_any_parameter_box_leaves_the_run_controls_in_view(fresh_sized, inspector):
-    """Every number box of the Parameters and More tabs takes a value with Step, Play and this browser's iteration
-    slider in view, the status at its longer (no skeleton yet, and why). viser's panel scrolls to a box below the
-    window's edge, and after the caret when the text above the box grows: the parameters fit under the status, and
-    the pending changes are said below the tabs."""
+def test_typing_into_any_box_leaves_the_run_controls_in_view(fresh_sized, inspector):
+    """Every number box of the Parameters, More and View tabs takes a value, and every export setting a click, with
+    Step, Play and this browser's iteration slider in view, the status at its longer (no skeleton yet, and why).
+    viser's panel scrolls to a box below the window's edge, and after the caret when the text above the box grows:
+    each tab (and tab within one) fits under the status, and the pending changes are said below the tabs."""
+    from app.layout import LAYERS, RESOLUTIONS
+
     page = fresh_sized
     step(inspector, page)
-    open_tab(page, "View")
+    open_tab(page, "View", "Layers")
     page.get_by_label("Show skeleton").check()
     page.get_by_text("(View: Show provisional)").first.wait_for()
     scroll_to_top(button(page, "Step"))
-    start, radius = inspector.session.start_params, inspector.session.sample_radius
-    boxes = {"Parameters": {"W_L0 (0 = auto)": (2, start.wl0 or 0), "W_H0": (2, start.wh0), "s_L": (2, start.sl)},
-             "More": {"W_L cap": (1000, start.wl_max), "k (0 = auto)": (12, start.k or 0),
-                      "Max iterations": (30, start.max_iterations), "Termination": (0.02, start.termination),
-                      "Sample radius": (0.03, radius)}}
+    start, radius, ui = inspector.session.start_params, inspector.session.sample_radius, inspector.ui
+    boxes = {("Parameters",): {"W_L0 (0 = auto)": (2, start.wl0 or 0), "W_H0": (2, start.wh0), "s_L": (2, start.sl)},
+             ("More",): {"W_L cap": (1000, start.wl_max), "k (0 = auto)": (12, start.k or 0),
+                         "Max iterations": (30, start.max_iterations), "Termination": (0.02, start.termination),
+                         "Sample radius": (0.03, radius)},
+             ("View", "Opacity"): {layer.capitalize(): (0.5, 1) for layer in LAYERS},
+             ("View", "Size"): {layer.capitalize(): (2, 1) for layer in LAYERS}}
+    settings = {"Resolution": "800x600", "Burn in labels": False, "Transparent background": True}
+
+    def taken():
+        return (inspector.panel.accepted, inspector.session.sample_radius,
+                [handle.value for handle in (*ui.view.opacity.values(), *ui.view.size.values())])
+
+    def choose(resolution):
+        page.get_by_label("Resolution").click()
+        page.get_by_role("option", name=resolution).click()
+        wait_until(lambda: ui.files.resolution.value == resolution, f"the resolution {resolution}")
+
+    def tick(label, on):
+        page.get_by_label(label).set_checked(on)
+        handle = ui.files.labels if label == "Burn in labels" else ui.files.transparent
+        wait_until(lambda: handle.value == on, f"{label} {on}")
+
     controls = (button(page, "Step"), button(page, "Play"), number_input(page, "Iteration"))
     try:
-        for tab, values in boxes.items():
-            open_tab(page, tab)
+        for tabs, values in boxes.items():
+            open_tab(page, *tabs)
             for label, (value, _) in values.items():
-                before = (inspector.panel.accepted, inspector.session.sample_radius)
+                before = taken()
                 set_value(page, label, value)
-                wait_until(lambda: (inspector.panel.accepted, inspector.session.sample_radius) != before,
-                           f"{label} taken")
+                wait_until(lambda: taken() != before, f"{label} taken")
                 assert all(shown_in_panel(page, each) for each in controls), label
         page.locator("strong", has_text="Pending").wait_for()
         close_browser_notices(page)
         save_page(page, f"browser-typing-{page.size_name}.png")
+        open_tab(page, "Files", "Export settings")
+        choose(settings["Resolution"])
+        for label in ("Burn in labels", "Transparent background"):
+            tick(label, settings[label])
+        assert all(shown_in_panel(page, each) for each in controls), "Export settings"
     finally:
-        for tab, values in boxes.items():
-            open_tab(page, tab)
+        open_tab(page, "Files", "Export settings")
+        choose(RESOLUTIONS[0])
+        for label in ("Burn in labels", "Transparent background"):
+            tick(label, not settings[label])
+        for tabs, values in boxes.items():
+            open_tab(page, *tabs)
             for label, (_, value) in values.items():
                 set_value(page, label, value)
         wait_until(lambda: inspector.panel.accepted == start and not inspector.session.pending
-                   and inspector.session.sample_radius == radius, "the module's parameters")
-        open_tab(page, "View")
+                   and inspector.session.sample_radius == radius
+                   and set(taken()[2]) == {1}, "the module's settings")
+        open_tab(page, "View", "Layers")
         page.get_by_label("Show skeleton").uncheck()
         wait_until(lambda: not page.viewer.view.visible["skeleton"], "the skeleton hidden")
         open_tab(page, "Parameters")
@@ -417,12 +449,12 @@ def test_screenshot_frames_the_object(fresh_sized, inspector):
 
     page = fresh_sized
     step(inspector, page, 2)
-    open_tab(page, "Files")
-    open_folder(page, "Export settings")
     for resolution in ("1280x720", "800x600"):
+        open_tab(page, "Files", "Export settings")
         page.get_by_label("Resolution").click()
         page.get_by_role("option", name=resolution).click()
         wait_until(lambda: inspector.ui.files.resolution.value == resolution, f"the resolution {resolution}")
+        open_tab(page, "Export")
         with page.expect_download() as download:
             click(page, "Screenshot")
         data = open(download.value.path(), "rb").read()
@@ -440,19 +472,21 @@ def test_screenshot_frames_the_object(fresh_sized, inspector):
         margin = 0.03 * min(width, height)
         assert rows[below].max() < height - margin and margin < cols[below].min() and cols[below].max() < width - margin
         assert max(np.ptp(rows[below]), np.ptp(cols[below])) >= 0.5 * min(width, height)
+    open_tab(page, "Export settings")
     page.get_by_label("Resolution").click()
     page.get_by_role("option", name="1280x720").click()
     page.get_by_label("Transparent background").check()
     page.get_by_label("Burn in labels").uncheck()
     wait_until(lambda: inspector.ui.files.transparent.value and not inspector.ui.files.labels.value, "the options")
+    open_tab(page, "Export")
     with page.expect_download() as download:
         click(page, "Screenshot")
     clear = iio.imread(download.value.path(), extension=".png")
     assert clear.shape[-1] == 4 and clear[0, 0, 3] == 0 and clear[..., 3].max() == 255
+    open_tab(page, "Export settings")
     page.get_by_label("Transparent background").uncheck()
     page.get_by_label("Burn in labels").check()
     wait_until(lambda: not inspector.ui.files.transparent.value and inspector.ui.files.labels.value, "restored")
-    open_folder(page, "Export settings")  # folded again
 
 
 def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp_path):
@@ -461,7 +495,7 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
 
     page = fresh_sized
     step(inspector, page, 3)
-    open_tab(page, "View")
+    open_tab(page, "View", "Colour")
     page.get_by_label("Colour by").click()
     page.get_by_role("option", name="D_theta").click()
     wait_until(lambda: inspector.presenter.colour_by == "D_theta", "colours by D_theta")
@@ -470,7 +504,7 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
     coloured = []  # each frame is coloured by its own iteration's D_theta, as the view colours it
     set_colours = view.set_colours
     view.set_colours = lambda key, *rest: coloured.append(key[1]) or set_colours(key, *rest)
-    open_tab(page, "Files")
+    open_tab(page, "Files", "Export")
     downloads = []
     page.on("download", lambda download: downloads.append(download))
     try:
@@ -478,7 +512,7 @@ def test_export_animation_downloads_a_gif_and_an_mp4(fresh_sized, inspector, tmp
         wait_until(lambda: page.wait_for_timeout(100) or len(downloads) == 2, "two downloads")  # events need the loop
     finally:
         del view.set_colours
-        open_tab(page, "View")
+        open_tab(page, "View", "Colour")
         page.get_by_label("Colour by").click()
         page.get_by_role("option", name="plain").click()
         wait_until(lambda: inspector.presenter.colour_by == "plain", "plain colours")
@@ -607,7 +641,7 @@ def test_colouring_a_50k_cloud_leaves_no_grey_points(fresh_sized, inspector):
         inspector.wait_idle()
         assert page.viewer.view.opacity["original"] < 1  # a dense original starts thinned
         step(inspector, page)
-        open_tab(page, "View")
+        open_tab(page, "View", "Colour")
         page.get_by_label("Colour by").click()
         page.get_by_role("option", name="D_theta").click()
         wait_until(lambda: page.viewer.view.coloured, "colours by D_theta")
@@ -744,7 +778,7 @@ def test_timeline_goes_back(fresh, page):
 
 def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     inspector = fresh
-    open_tab(page, "View")
+    open_tab(page, "View", "Layers")
     page.get_by_label("Show skeleton").check()
     inspector.wait_idle()
     assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
@@ -778,14 +812,14 @@ def test_run_to_end_shows_skeleton(fresh, page):
     button(page, "Play").wait_for()
     last = len(inspector.session.history) - 1
     wait_shown(page, inspector.session.latest.iteration)
-    open_tab(page, "View")
+    open_tab(page, "View", "Layers")
     page.get_by_label("Show skeleton").check()
     wait_until(lambda: drawn(page, "skeleton") == last, "the skeleton drawn")
     skeleton = inspector.session.skeleton(last)
     assert skeleton.topology()["cycles"] == 1  # the torus keeps its loop
     assert len(page.viewer.view._nodes.batched_positions) == skeleton.graph.number_of_nodes()
-    open_folder(page, "Opacity and size")
-    set_value(page, "Original opacity", 0.3)
+    open_tab(page, "Opacity")
+    set_value(page, "Original", 0.3)
     wait_until(lambda: len(page.viewer.view.drawn_points("original")) == int(np.ceil(0.3 * 1500)),
                "the original thinned")  # the opacity is set before the layer is drawn again
     close_browser_notices(page)
@@ -796,9 +830,9 @@ def test_run_to_end_shows_skeleton(fresh, page):
     set_value(page, "s_L", 2)
     page.get_by_text("s_L 2 on restart (the run has ended)").first.wait_for()
     # back to the module's settings
-    open_tab(page, "View")
-    set_value(page, "Original opacity", 1)
-    open_folder(page, "Opacity and size")  # folded again
+    open_tab(page, "View", "Opacity")
+    set_value(page, "Original", 1)
+    open_tab(page, "Layers")
     page.get_by_label("Show skeleton").uncheck()
     open_tab(page, "Parameters")
     set_value(page, "W_L0 (0 = auto)", RUN["wl0"])
@@ -812,7 +846,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
 
 def test_export_bundle_downloads_a_zip(fresh, page):
     step(fresh, page)
-    open_tab(page, "Files")
+    open_tab(page, "Files", "Export")
     with page.expect_download() as download:
         click(page, "Export bundle")
     with zipfile.ZipFile(download.value.path()) as archive:
