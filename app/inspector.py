@@ -1,15 +1,16 @@
 """The viser inspector: one Session (one run) shared by every connected browser, each browser its own Viewer.
 
-The run, its parameters and the view settings are shared; each browser looks at its own iteration of the
-run (app.viewer), following the newest by default. GUI callbacks are `async`, so they run on viser's event
-loop in the order the browser sent them; they only read widget values and queue jobs. Engine calls (step,
-play, restart, load, export) run on one worker thread, in that order, so a weight changed just before a
-Step click is used by that step. The points of a new state are drawn at once; for each viewer, the plots
-and colours follow from an analysis thread and the skeleton from a skeleton thread, both working on what
-that viewer shows last (app.analysis keeps the results, so viewers on one iteration share them). Anything
-slower than about a second says so (app.progress). While nothing else runs, the worker computes the next
-iteration ahead (Session.look_ahead), so that a Step shows it at once. Widgets live in app.layout, what the
-parameter boxes say is taken in app.panel, exports in app.delivery, status and legend words in app.status.
+The run, its parameters and the view settings are shared; each browser looks at its own iteration of the run
+(app.viewer), following the newest by default. GUI callbacks are `async`, so they run on viser's event loop in
+the order the browser sent them; they only read widget values and queue jobs. Engine calls (step, play,
+restart, load, export) run on one worker thread, in that order; a weight being typed waits for the person to
+stop typing (app.panel), and a Step click takes it first, so that step uses it. The points of a new state are
+drawn at once; for each viewer, the plots and colours follow from an analysis thread and the skeleton from a
+skeleton thread, both working on what that viewer shows last (app.analysis keeps the results, so viewers on
+one iteration share them). Anything slower than about a second says so (app.progress). While nothing else
+runs, the worker computes the next iteration ahead (Session.look_ahead), so that a Step shows it at once.
+Widgets live in app.layout, what the parameter boxes say is taken in app.panel, exports in app.delivery,
+status and legend words in app.status.
 """
 from __future__ import annotations
 
@@ -57,7 +58,9 @@ class Inspector:
         self.uploads = UploadNotices(server)  # viser's "uploaded successfully" never shows: we say what happened
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
-        self.panel = ParameterPanel(self.ui.params, session, self.messages.notify)
+        self.panel = ParameterPanel(self.ui.params, session, self.messages.notify, {
+            "parameters": lambda params, client: self.worker.submit(lambda: self._tune(params), client),
+            "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)})
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
@@ -124,25 +127,33 @@ class Inspector:
     def _wire(self) -> None:
         ui, submit = self.ui, self.worker.submit
 
-        def on(handle, job, *, pause: bool = False, person_only: bool = False, method="on_click"):
-            """Queue job(event) for a widget event; person_only: skip the updates we make ourselves."""
+        def on(handle, job, *, pause: bool = False, person_only: bool = False, typed: bool = False, method="on_click"):
+            """Queue job(event) for a widget event; person_only: skip the updates we make ourselves; typed: the job
+            acts on the parameters, so what is being typed into them is taken first."""
             async def callback(event) -> None:
                 if person_only and event.client is None:
                     return
+                if typed:
+                    self.panel.flush()
                 if pause:
                     self.playback.pause()
                 job(event)
             getattr(handle, method)(callback)
 
         self._on = on
-        on(ui.run.step, self._on_step)
-        on(ui.run.play, self._on_play)
-        on(ui.run.end, lambda event: self.playback.start(lambda: self._tick(False), event.client, full=False))
-        on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True)
+        on(ui.run.step, self._on_step, typed=True)
+        on(ui.run.play, self._on_play, typed=True)
+        on(ui.run.end, lambda event: self.playback.start(lambda: self._tick(False), event.client, full=False),
+           typed=True)
+        on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True,
+           typed=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
-        for handle in ui.params.contraction_handles():
-            on(handle, self._on_parameter, person_only=True, method="on_update")
-        on(ui.params.radius, self._on_radius, person_only=True, method="on_update")
+        for handle in ui.params.contraction_handles():  # a number box is typed key by key; a list or switch is not
+            typing = isinstance(handle, viser.GuiNumberHandle)
+            on(handle, lambda e, typing=typing: self.panel.changed("parameters", e.client, typing), person_only=True,
+               method="on_update")
+        on(ui.params.radius, lambda e: self.panel.changed("radius", e.client, typing=True), person_only=True,
+           method="on_update")
         for handle in (*ui.view.show.values(), *ui.view.size.values(), *ui.view.opacity.values(), ui.view.provisional):
             on(handle, lambda e: submit(self._apply_view, e.client), person_only=True, method="on_update")
         for handle in (ui.view.colouring, ui.view.colour_original):
@@ -160,7 +171,7 @@ class Inspector:
                      "L": lambda e: self._follow(e.client), "F": lambda e: self.presenter.fit(e.client)}
         for key, job in shortcuts.items():
             command = self.server.gui.add_command(layout.SHORTCUTS[key].capitalize(), hotkey=key)
-            on(command, job, method="on_trigger")
+            on(command, job, typed=key in ("N", "P"), method="on_trigger")
 
     def _wire_viewer(self, viewer: Viewer) -> None:
         on = self._on
@@ -185,19 +196,10 @@ class Inspector:
         self.playback.toggle(lambda: self._tick(True), event.client)
 
     def _on_restart(self, client) -> None:
-        params = self.panel.parameters(client, typed=False)
+        params = self.panel.parameters(client)
+        self.panel.flush()  # the sample radius being typed
         if params is not None:
             self.worker.submit(lambda: self._restart(params), client)
-
-    def _on_parameter(self, event) -> None:
-        params = self.panel.parameters(event.client, typed=True)
-        if params is not None:
-            self.worker.submit(lambda: self._tune(params), event.client)
-
-    def _on_radius(self, event) -> None:
-        radius = self.panel.radius(event.client, typed=True)
-        if radius is not None:
-            self.worker.submit(lambda: self._set_radius(radius), event.client)
 
     # ------------------------------------------------------------------ jobs (worker thread only)
     def _step(self, viewer: Viewer | None, client) -> None:

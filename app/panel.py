@@ -1,10 +1,12 @@
 """The Parameters and More tabs against the run: the values their boxes show, taken when the engine accepts them,
 and a refused value said and put back to the one in force (so the panel never shows what no run uses).
 
-viser sends a number box's value at every key a person types: typing 0.02 sends 0 first, which no run takes.
-So the refusal of a value being typed waits until the person has stopped typing (REFUSAL_PAUSE): a value of the
-same part (the contraction's parameters, or the skeleton's sample radius) accepted meanwhile drops it, and only a
-value left standing is said refused and put back.
+viser sends a number box's value at every key a person types: typing 30 sends 3 first, typing 0.02 sends 0. So a
+value being typed is taken only once the person has stopped typing into its part (TYPING_PAUSE; the parts: the
+contraction's parameters, and the skeleton's sample radius): a step meanwhile, Play's too, runs with the values in
+force, and a refused value is said and put back only then. A click on Step, Play, Run to end or Reset takes what
+is being typed first (`flush`), so a step uses the value typed last and nothing typed is taken after a Reset;
+Restart reads the panel as it stands (`parameters`).
 """
 from __future__ import annotations
 
@@ -18,40 +20,48 @@ from skelcore.params import ContractionParams
 from .layout import ParameterWidgets
 from .words import METHOD_LABELS, METHODS_BY_LABEL, refused
 
-REFUSAL_PAUSE = 1.0  # seconds without another key before a refused value is said and put back
+TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
 PARTS = ("parameters", "radius")
 
 
 class ParameterPanel:
-    def __init__(self, widgets: ParameterWidgets, session, notify: Callable[[object, str, str], None]):
-        """notify(client, title, body): a notice to one browser."""
-        self.widgets, self.session, self._notify = widgets, session, notify
+    def __init__(self, widgets: ParameterWidgets, session, notify: Callable[[object, str, str], None],
+                 take: dict[str, Callable[[object, object], None]]):
+        """notify(client, title, body): a notice to one browser; take[part](value, client): use a value of `part`
+        the engine accepted."""
+        self.widgets, self.session, self._notify, self._take = widgets, session, notify, take
         self.accepted = session.params  # the contraction parameters last accepted
-        self.refusing: set[str] = set()  # parts whose refusal waits for the person to stop typing
-        self._changes = dict.fromkeys(PARTS, 0)  # a waiting refusal stands while its part has not changed since
+        self.typing: dict[str, object] = {}  # part -> the client typing into it, until its value is taken
+        self._changes = dict.fromkeys(PARTS, 0)  # a wait for the person stands while its part has not changed since
         self._lock = threading.Lock()
+        self._shown = {"parameters": self._parameters_shown, "radius": self._radius_shown}
 
-    def parameters(self, client, typed: bool) -> ContractionParams | None:
-        """The contraction parameters the panel shows, on top of the run's (fields the panel lacks stay); None
-        when the engine refuses them (see `_take`)."""
-        p = self.widgets
+    def changed(self, part: str, client, typing: bool) -> None:
+        """A box of `part` changed: its value is taken once the person has stopped typing, or at once when it was
+        not typed (a choice from a list, a switch)."""
+        with self._lock:
+            self._changes[part] += 1
+            self.typing[part] = client
+            if not typing:
+                self._settle(part)
+                return
+            changes = self._changes[part]
+        timer = threading.Timer(TYPING_PAUSE, lambda: self._stopped(part, changes))
+        timer.daemon = True
+        timer.start()
 
-        def shown() -> ContractionParams:
-            self.accepted = self.session.params.replace(
-                method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
-                wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
-                max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
-                hold_curves=bool(p.hold_curves.value))
-            return self.accepted
-        return self._take("parameters", client, typed, shown)
+    def flush(self) -> None:
+        """Take what is being typed at once: a click that acts on the values uses the values typed last."""
+        with self._lock:
+            for part in list(self.typing):
+                self._settle(part)
 
-    def radius(self, client, typed: bool) -> float | None:
-        """The skeleton's sample radius the panel shows; None when the engine refuses it (see `_take`)."""
-        def shown() -> float:
-            radius = float(self.widgets.radius.value)
-            RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius
-            return radius
-        return self._take("radius", client, typed, shown)
+    def parameters(self, client) -> ContractionParams | None:
+        """The contraction parameters the panel shows, now (Restart: what is being typed into them no longer waits);
+        None when the engine refuses them, said and put back at once."""
+        with self._lock:
+            self.typing.pop("parameters", None)
+            return self._value("parameters", client)
 
     def show(self, params: ContractionParams) -> None:
         """Put a run's parameters into the panel (no client: the callbacks ignore it)."""
@@ -64,33 +74,43 @@ class ParameterPanel:
         p.max_iterations.value, p.termination.value = params.max_iterations, params.termination
         p.hold_curves.value = params.hold_curves
 
-    def _take(self, part: str, client, typed: bool, shown: Callable[[], object]):
-        """shown() when the engine accepts it; else None, the refusal said and the part put back at once, or, for a
-        value being typed (`typed`), once the person has stopped typing into that part."""
-        with self._lock:
-            self._changes[part] += 1
-            changes = self._changes[part]
-            self.refusing.discard(part)
-            try:
-                return shown()
-            except ParameterError as error:
-                message = refused(str(error))
-            if typed:
-                self.refusing.add(part)
-                timer = threading.Timer(REFUSAL_PAUSE, lambda: self._refuse(part, client, message, changes))
-                timer.daemon = True
-                timer.start()
-                return None
-        self._refuse(part, client, message, changes)
-        return None
+    def _parameters_shown(self) -> ContractionParams:
+        """The panel's values on top of the run's parameters (fields the panel lacks stay); refused: ParameterError."""
+        p = self.widgets
+        self.accepted = self.session.params.replace(
+            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
+            wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
+            max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
+            hold_curves=bool(p.hold_curves.value))
+        return self.accepted
 
-    def _refuse(self, part: str, client, message: str, changes: int) -> None:
+    def _radius_shown(self) -> float:
+        radius = float(self.widgets.radius.value)
+        RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius
+        return radius
+
+    def _stopped(self, part: str, changes: int) -> None:
+        """The pause after a key: the person stopped typing, unless the part changed since (or was taken)."""
         with self._lock:
-            if changes != self._changes[part]:  # the person typed on
-                return
-            self.refusing.discard(part)
-            self._notify(client, "Parameter refused", f"{message}; put back to the value in force")
-            if part == "parameters":
-                self.show(self.accepted)
-            else:
-                self.widgets.radius.value = self.session.sample_radius
+            if changes == self._changes[part] and part in self.typing:
+                self._settle(part)
+
+    def _settle(self, part: str) -> None:
+        """Take the part's value, or say it is refused and put it back (under the lock)."""
+        client = self.typing.pop(part)
+        value = self._value(part, client)
+        if value is not None:
+            self._take[part](value, client)
+
+    def _value(self, part: str, client):
+        """The part's value as shown; None when the engine refuses it, said and put back to the value in force."""
+        try:
+            return self._shown[part]()
+        except ParameterError as error:
+            message = refused(str(error))
+        self._notify(client, "Parameter refused", f"{message}; put back to the value in force")
+        if part == "parameters":
+            self.show(self.accepted)
+        else:
+            self.widgets.radius.value = self.session.sample_radius
+        return None

@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 import re
 import threading
+import types
 import zipfile
 
 import numpy as np
@@ -397,13 +398,68 @@ def test_a_value_typed_key_by_key_is_taken_with_no_refusal_on_the_way(fresh, pag
         page.keyboard.type(text, delay=50)
     try:
         wait_until(lambda: inspector.panel.accepted.termination == 0.02 and inspector.session.sample_radius == 0.03
-                   and not inspector.panel.refusing, "the values typed")
+                   and not inspector.panel.typing, "the values typed")
         assert number_input(page, "Termination").input_value() == "0.02"
         assert page.locator(".mantine-Notification-root").count() == 0  # neither refused nor an error
     finally:
         set_value(page, "Termination", RUN["termination"])
         set_value(page, "Sample radius", radius)
         wait_until(lambda: not inspector.session.pending and inspector.session.sample_radius == radius, "restored")
+        open_tab(page, "Parameters")
+
+
+def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, page, monkeypatch):
+    """viser sends a number box's value at every key: typing 30 into max iterations sends 3 first, and a step of
+    Play used to take the 3 (the run then ended at 3 iterations). A value is taken once the person has stopped
+    typing (here when the test says so), and Step clicked right after typing takes the value typed last."""
+    from app import panel as panel_module
+    from app.inspector import PLAY_INTERVAL
+
+    inspector = fresh
+    pauses = []
+
+    class Pause:  # the wait for the person to stop typing, ended by the test
+        def __init__(self, seconds, then):
+            pauses.append(then)
+
+        def start(self):
+            pass
+
+    monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
+    session, box = inspector.session, inspector.ui.params.max_iterations
+    set_value(page, "Play interval (s)", 0.5)
+    wait_until(lambda: inspector.ui.run.interval.value == 0.5, "the play interval")
+    try:
+        click(page, "Play")
+        button(page, "Pause").wait_for()
+        open_tab(page, "More")
+        number_input(page, "Max iterations").click()
+        page.keyboard.press("Control+A")
+        page.keyboard.type("3")
+        wait_until(lambda: box.value == 3, "the 3 typed")
+        going = len(session.history)
+        wait_until(lambda: len(session.history) >= going + 2 or session.finished, "two steps of Play after the 3")
+        assert not session.finished and session.params.max_iterations == RUN["max_iterations"]
+        page.keyboard.type("0")
+        wait_until(lambda: box.value == 30, "the 30 typed")
+        assert session.params.max_iterations == RUN["max_iterations"]
+        click(page, "Step")  # pauses Play and steps, with the value typed last
+        wait_until(lambda: not inspector.worker.playing and session.latest.params.max_iterations == 30, "a step with 30")
+        inspector.wait_idle()
+        assert not session.finished and not inspector.panel.typing
+        number_input(page, "Max iterations").click()
+        page.keyboard.press("Control+A")
+        page.keyboard.type("25")
+        wait_until(lambda: box.value == 25, "the 25 typed")
+        assert session.params.max_iterations == 30
+        pauses[-1]()  # the person stopped typing
+        wait_until(lambda: session.params.max_iterations == 25, "the 25 taken")
+    finally:
+        set_value(page, "Max iterations", RUN["max_iterations"])
+        wait_until(lambda: box.value == RUN["max_iterations"], "the module's max iterations typed")
+        inspector.panel.flush()
+        wait_until(lambda: session.params.max_iterations == RUN["max_iterations"], "the module's max iterations")
+        set_value(page, "Play interval (s)", PLAY_INTERVAL)
         open_tab(page, "Parameters")
 
 

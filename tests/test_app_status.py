@@ -3,6 +3,7 @@ contracted cloud, the run playing exactly while the Play button says Pause, and 
 for a step said below the tabs, not above the box being typed into."""
 from __future__ import annotations
 
+import threading
 import types
 
 import pytest
@@ -63,41 +64,75 @@ def test_parameter_changes_are_said_below_the_tabs_not_in_the_status(torus):
     assert pending_markdown(session) == ""
 
 
-def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_taken_meanwhile_drops_it(monkeypatch):
-    """viser sends a box's value at every key (0.02 arrives as 0, 0.0, 0.02): a refusal of a typed value is said and
-    put back only if no value of its part (the contraction's parameters, or the sample radius) is taken meanwhile;
-    a Restart's refusal is said at once."""
+def _panel(monkeypatch):
+    """A ParameterPanel on plain boxes, its pauses ended by hand; (panel, boxes, pauses, notices, taken)."""
     from app import panel as panel_module
     from app.panel import ParameterPanel
 
     pauses = []
 
-    class Pause:  # the refusal's wait for the person, ended by hand
+    class Pause:  # the wait for the person to stop typing
         def __init__(self, seconds, then):
             pauses.append(then)
 
         def start(self):
             pass
 
-    monkeypatch.setattr(panel_module.threading, "Timer", Pause)
+    monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     box = types.SimpleNamespace
-    widgets = box(method=box(value="LBC"), k=box(value=0), wl0=box(value=0.0), wh0=box(value=1.0), sl=box(value=3.0),
-                  wl_max=box(value=2048.0), max_iterations=box(value=20), termination=box(value=0.01),
-                  hold_curves=box(value=True), radius=box(value=0.02))
-    notices = []
-    panel = ParameterPanel(widgets, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
-                           lambda client, title, body: notices.append(body))
-    widgets.termination.value = 0.0
-    assert panel.parameters(None, typed=True) is None and panel.refusing == {"parameters"}
-    widgets.radius.value = 0.0
-    assert panel.radius(None, typed=True) is None and panel.refusing == {"parameters", "radius"}
-    widgets.termination.value = 0.02
-    assert panel.parameters(None, typed=True).termination == 0.02 and panel.refusing == {"radius"}
-    pauses[0]()  # the person typed on: the refusal of 0 is dropped
-    assert notices == [] and widgets.termination.value == 0.02
+    boxes = box(method=box(value="LBC"), k=box(value=0), wl0=box(value=0.0), wh0=box(value=1.0), sl=box(value=3.0),
+                wl_max=box(value=2048.0), max_iterations=box(value=20), termination=box(value=0.01),
+                hold_curves=box(value=True), radius=box(value=0.02))
+    notices, taken = [], []
+    panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
+                           lambda client, title, body: notices.append(body),
+                           {part: lambda value, client, part=part: taken.append((part, value))
+                            for part in ("parameters", "radius")})
+    return panel, boxes, pauses, notices, taken
+
+
+def test_a_value_being_typed_is_taken_once_the_person_stops_or_clicks(monkeypatch):
+    """viser sends a box's value at every key: typing 30 into max iterations sends 3 first. Taken at once, a step
+    meanwhile (Play's) would end the run at 3 iterations; a value is taken once the person stops typing, and a
+    click on Step or Play takes at once the value typed last."""
+    panel, boxes, pauses, notices, taken = _panel(monkeypatch)
+    for typed in (3, 30):
+        boxes.max_iterations.value = typed
+        panel.changed("parameters", None, typing=True)
+    assert taken == [] and panel.typing == {"parameters": None}
+    panel.flush()  # a click
+    assert [(part, value.max_iterations) for part, value in taken] == [("parameters", 30)] and not panel.typing
+    pauses[0]()
+    pauses[1]()  # the pauses after the keys end: the value was taken already
+    assert len(taken) == 1
+    boxes.radius.value = 0.03
+    panel.changed("radius", None, typing=True)
+    pauses[2]()  # the person stopped typing
+    assert taken[1:] == [("radius", 0.03)] and notices == []
+    boxes.method.value = "GLSkeleton"
+    panel.changed("parameters", None, typing=False)  # chosen from a list: at once
+    assert taken[-1][1].method == "glskeleton" and len(pauses) == 3
+
+
+def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_on_drops_it(monkeypatch):
+    """viser sends a box's value at every key (0.02 arrives as 0, 0.0, 0.02): a refusal of a typed value is said and
+    put back only if it still stands once the person stops typing into its part (the contraction's parameters, or
+    the sample radius); a Restart's refusal is said at once."""
+    panel, boxes, pauses, notices, taken = _panel(monkeypatch)
+    boxes.termination.value = 0.0
+    panel.changed("parameters", None, typing=True)
+    boxes.radius.value = 0.0
+    panel.changed("radius", None, typing=True)
+    boxes.termination.value = 0.02
+    panel.changed("parameters", None, typing=True)
+    assert taken == [] and set(panel.typing) == {"parameters", "radius"}
+    pauses[0]()  # the person typed on: 0 is neither refused nor taken
+    assert notices == [] and taken == [] and boxes.termination.value == 0.02
+    pauses[2]()
+    assert [(part, value.termination) for part, value in taken] == [("parameters", 0.02)]
     pauses[1]()  # the radius was left at 0
     assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the value in force"]
-    assert widgets.radius.value == 0.02 and not panel.refusing
-    widgets.wh0.value = 0.0
-    assert panel.parameters(None, typed=False) is None  # Restart: said at once
-    assert notices[-1].startswith("W_H0 = 0.0: must be") and widgets.wh0.value == 1.0 and len(pauses) == 2
+    assert boxes.radius.value == 0.02 and not panel.typing and len(taken) == 1
+    boxes.wh0.value = 0.0
+    assert panel.parameters(None) is None  # Restart: said at once
+    assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == 1.0 and len(pauses) == 3
