@@ -45,10 +45,11 @@ class OneRings:
         lengths = np.linalg.norm(points[self.indices] - points[self.centres()], axis=1)
         return reduce.reduceat(lengths, self.indptr[:-1]) if len(lengths) else np.zeros(self.n_points)
 
-    def mean_edge_length(self, points: np.ndarray) -> float:
-        """Mean over points of the mean distance to the ring (cloudcontr's one_ring_size, type 2)."""
-        counts = np.diff(self.indptr)
-        return float(np.mean(self.sizes(points, np.add) / np.maximum(counts, 1)))
+    def mean_edge_length(self, points: np.ndarray, among: np.ndarray | None = None) -> float:
+        """Mean over points (those of the mask `among`; None: all) of the mean distance to the ring (cloudcontr's
+        one_ring_size, type 2)."""
+        means = self.sizes(points, np.add) / np.maximum(np.diff(self.indptr), 1)
+        return float(np.mean(means if among is None else means[among]))
 
 
 def knn(points: np.ndarray, k: int, tree: cKDTree | None = None) -> tuple[np.ndarray, np.ndarray]:

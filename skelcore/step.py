@@ -33,7 +33,7 @@ from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
 from .curveness import skeleton_scale_share, thin_parts, thin_tubes
-from .normalise import ROBUST_SHARE, Normalisation, object_diagonal, robust_extent
+from .normalise import ROBUST_SHARE, Normalisation, object_core, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
@@ -111,6 +111,9 @@ class RunStart:
     extent0: np.ndarray  # robust extent of the input, for the growth check
     diagonal: float  # the input's object diagonal (normalise.object_box), run's frame: the scale of curve-likeness
     state: IterationState  # iteration 0, the input
+    # (n,) the input points of the object without strays far out (normalise.object_core; None: every point, as
+    # after cleaning): a stray's ring spans empty space, so W_L0's spacing and a_t are measured without it
+    core: np.ndarray | None = None
 
     @functools.cached_property
     def box(self) -> tuple[np.ndarray, np.ndarray]:
@@ -142,7 +145,8 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     rings_end = time.perf_counter()
     builder = LaplacianSystem(rings)
     timings = {"rings": rings_end - started, "pattern": time.perf_counter() - rings_end}
-    spacing = rings.mean_edge_length(unit)
+    core = object_core(unit)
+    spacing = rings.mean_edge_length(unit, core)
     auto_wl0 = 1.0 / (5.0 * spacing)
     ids = np.arange(len(points))
     state = IterationState(iteration=0, points=points, point_ids=ids, owner=ids, rings=rings,
@@ -154,7 +158,7 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     passes = int(np.ceil((SkeletonParams.sample_radius * diagonal / max(spacing, 1e-300)) ** 2))
     areas = density_weights(rings, unit, passes) if params.balance_density else np.ones(len(unit))
     return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, areas, robust_extent(unit),
-                    diagonal, state)
+                    diagonal, state, core)
 
 
 def density_weights(rings: OneRings, points: np.ndarray, passes: int) -> np.ndarray:
@@ -265,8 +269,11 @@ def anchored(wh: np.ndarray, run: RunStart, ids: np.ndarray, params: Contraction
 
 def free_points(run: RunStart, ids: np.ndarray, params: ContractionParams) -> np.ndarray:
     """(m,) which present points (input ids `ids`) the contraction's progress, the rings' shrinking a_t, is
-    measured on: those not anchored (`anchored`), whose rings never shrink; all when none is free."""
+    measured on: those not anchored (`anchored`), whose rings never shrink, nor strays (RunStart.core), whose
+    rings would swamp the sums; all when none is free."""
     free = ~_fixed(run, ids, params)
+    if run.core is not None:
+        free &= run.core[ids]
     return free if free.any() else np.ones(len(ids), dtype=bool)
 
 

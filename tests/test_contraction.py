@@ -462,3 +462,15 @@ def test_a_box_blow_up_that_began_in_the_last_step_ends_on_the_step_before():
     history = [run.state, first, flung(0.05)]
     assert not record(history, ended)
     assert [state.iteration for state in history] == [0, 1] and history[-1] is ended
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_a_far_stray_left_in_the_cloud_does_not_set_the_contraction_s_pace(method):
+    """With cleaning off, one stray 300 extents away used to swamp the mean ring spacing (W_L0 ten times too small)
+    and the rings' total (a_t stalled at 0.84): the torus barely contracted. Both are measured on the object."""
+    torus = make_shape("torus", 3000, seed=0).points
+    alone = [(state.wl, state.ring_ratio) for state in contract(torus, ContractionParams(method=method))]
+    with_stray = [(state.wl, state.ring_ratio) for state in
+                  contract(np.vstack([torus, [[300.0, 0.0, 0.0]]]), ContractionParams(method=method))]
+    assert with_stray[1][0] == pytest.approx(alone[1][0], rel=0.01)  # W_L of the first step
+    assert len(with_stray) == len(alone) and with_stray[-1][1] == pytest.approx(alone[-1][1], rel=0.1)
