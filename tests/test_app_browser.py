@@ -374,7 +374,11 @@ def test_typing_into_any_box_leaves_the_run_controls_in_view(fresh_sized, inspec
         for tabs, values in boxes.items():
             open_tab(page, *tabs)
             for label, (_, value) in values.items():
+                # each taken before the next, as going forward: typed all at once on a loaded machine, one of them
+                # (Max iterations) was once not taken (seen in CI, not reproduced since)
+                before = taken()
                 set_value(page, label, value)
+                wait_until(lambda: taken() != before, f"{label} put back")
         wait_until(lambda: inspector.panel.accepted == start and not inspector.session.pending
                    and inspector.session.sample_radius == radius
                    and set(taken()[2]) == {1}, "the module's settings")
