@@ -350,14 +350,20 @@ def test_typing_into_any_box_leaves_the_run_controls_in_view(fresh_sized, inspec
         wait_until(lambda: handle.value == on, f"{label} {on}")
 
     controls = (button(page, "Step"), button(page, "Play"), number_input(page, "Iteration"))
-    try:
+
+    def type_every_box(which: int) -> None:
+        """Type each box's value `which` (0: the test's, 1: the module's) and wait for it to be taken before the
+        next: typed all at once on a loaded machine, one of them (Max iterations) was once not taken."""
         for tabs, values in boxes.items():
             open_tab(page, *tabs)
-            for label, (value, _) in values.items():
+            for label, pair in values.items():
                 before = taken()
-                set_value(page, label, value)
+                set_value(page, label, pair[which])
                 wait_until(lambda: taken() != before, f"{label} taken")
                 assert all(shown_in_panel(page, each) for each in controls), label
+
+    try:
+        type_every_box(0)
         page.locator("strong", has_text="Pending").wait_for()
         close_browser_notices(page)
         save_page(page, f"browser-typing-{page.size_name}.png")
@@ -371,14 +377,7 @@ def test_typing_into_any_box_leaves_the_run_controls_in_view(fresh_sized, inspec
         choose(RESOLUTIONS[0])
         for label in ("Burn in labels", "Transparent background"):
             tick(label, not settings[label])
-        for tabs, values in boxes.items():
-            open_tab(page, *tabs)
-            for label, (_, value) in values.items():
-                # each taken before the next, as going forward: typed all at once on a loaded machine, one of them
-                # (Max iterations) was once not taken (seen in CI, not reproduced since)
-                before = taken()
-                set_value(page, label, value)
-                wait_until(lambda: taken() != before, f"{label} put back")
+        type_every_box(1)
         wait_until(lambda: inspector.panel.accepted == start and not inspector.session.pending
                    and inspector.session.sample_radius == radius
                    and set(taken()[2]) == {1}, "the module's settings")
