@@ -43,7 +43,7 @@ PROBE = """(iteration) => {
   window.__skelDrawn = new Promise(resolve => {
     const observer = new MutationObserver(() => {
       const text = panel.textContent;
-      if (!text.includes(`Iteration ${iteration} of`) && !text.includes('ended at iteration')) return;
+      if (!text.includes(`Iteration ${iteration} of`) && !text.includes('run ended')) return;
       observer.disconnect();
       requestAnimationFrame(() => requestAnimationFrame(() => resolve(Date.now() / 1000)));
     });

@@ -2,12 +2,13 @@
 
 - the control panel (docked right): the run controls and status on top, then tabs Parameters | More | View | Files |
   Log (Parameters: the weights and Restart; More: the less-used parameters; View and Files: tabs of their own),
-  below them the parameter changes waiting for a step or a restart, the notes on the cloud (folded) and the Labels
+  below them the parameter changes waiting for a step or a restart, the notes on the run (folded) and the Labels
   folder of clouds with labels (app.labels). viser's panel is one scroll area: a box below the window's edge is
   reached by scrolling the run controls off its top, and a box being typed into is scrolled back into view when the
   text above it grows. So each tab, and each tab within one, fits a 1280x720 window under the run controls and
-  status (tabs, not folders: an open folder adds its height), and what changes as a person types (the pending
-  changes) or is seldom read (the notes) sits below the tabs;
+  the status at its longest (tabs, not folders: an open folder adds its height; the status keeps to a few lines,
+  app.status), and what changes as a person types (the pending changes) or is seldom read (the notes) sits below
+  the tabs;
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
   Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
   `with panel.add_tab(...)` in `build_plots`;
@@ -74,7 +75,7 @@ class ViewerControls:
     follow: viser.GuiCheckboxHandle
     status: viser.GuiMarkdownHandle
     notes_folder: viser.GuiFolderHandle
-    notes: viser.GuiMarkdownHandle  # app.status.cloud_notes, folded below the tabs
+    notes: viser.GuiMarkdownHandle  # app.status.run_notes, folded below the tabs
     plots: "PlotWidgets"
     legend: viser.GuiHtmlHandle
     plots_panel: object
@@ -148,7 +149,7 @@ class Layout:
     files: FileWidgets
     log: viser.GuiMarkdownHandle
     pending: viser.GuiMarkdownHandle  # the parameter changes waiting for a step or a restart, below the tabs
-    notes_order: float  # where each browser's notes on the cloud go: below the pending changes
+    notes_order: float  # where each browser's notes on the run go: below the pending changes
     labels_order: float  # where app.labels puts its "Labels" folder: below the notes
 
 
@@ -185,15 +186,15 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
 
 
 def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerControls:
-    """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`, the notes on the cloud
-    at `notes_order`."""
+    """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`, the notes on the run at
+    `notes_order`."""
     timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True,
                               hint="the iteration this browser shows (keys J and K; the end follows the newest)",
                               order=order + 0.2)
     follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
                               order=order + 0.4)
     status = gui.add_markdown("", order=order + 0.6)
-    with gui.add_folder("About this cloud", order=notes_order, expand_by_default=False, visible=False) as notes_folder:
+    with gui.add_folder("About this run", order=notes_order, expand_by_default=False, visible=False) as notes_folder:
         notes = gui.add_markdown("")
     plots_panel = gui.add_panel()
     plots = build_plots(gui, plots_panel)

@@ -214,19 +214,19 @@ class Presenter:
 
     def _update_status(self, viewer: Viewer, playing: bool) -> None:
         session = self.session
-        history = session.history  # a restart may replace the run meanwhile: read it once
+        run = session.run  # a restart may replace the run meanwhile: read it once
+        history = run.history
         index = min(viewer.shown, len(history) - 1)
         viewer.set_timeline(len(history), index)
-        readiness = self.analyses.readiness(session.run, index, compute=False)
+        readiness = self.analyses.readiness(run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
             session, index, run=status.run_state(history, self.activity.text(), playing,
-                                                      session.run.ahead if session.ready_ahead else None),
+                                                      run.ahead if session.ready_ahead else None),
             readiness=readiness,
-            skeleton=status.skeleton_note(readiness, history[index], viewer.view.visible["skeleton"],
-                                          self.ui.view.provisional.value),
+            skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)
         self.ui.pending.content = status.pending_markdown(session)
-        notes = status.cloud_notes(session, viewer.view.notice(history[index].n_points))
+        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points))
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)
 

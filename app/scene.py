@@ -65,12 +65,12 @@ def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
     return colours.astype(np.uint8)
 
 
-def legend_html(quantity: str | None, note: str = "", provisional: str = "", pinned: bool = False,
+def legend_html(quantity: str | None, note: str = "", caveat: str = "", pinned: bool = False,
                 extra: str = "", skeleton: bool = True, layers=POINT_LAYERS, original_coloured: bool = False) -> str:
     """The key of the 3-D view: the point `layers` drawn, skeleton nodes (when the skeleton is shown) and, when
-    colouring, the colour bar with its target (`provisional`: a line on why the skeleton is provisional or not
-    drawn yet, "" when it is final; `extra`: more HTML, e.g. the label colours; `original_coloured`: the original
-    points are coloured too)."""
+    colouring, the colour bar with its target (`caveat`: a line on why the skeleton is provisional, not drawn yet or
+    may not follow the shape, "" when it needs none; `extra`: more HTML, e.g. the label colours; `original_coloured`:
+    the original points are coloured too)."""
     def dot(colour, text):
         return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
 
@@ -79,8 +79,8 @@ def legend_html(quantity: str | None, note: str = "", provisional: str = "", pin
                       if layer in layers and layer not in coloured)]
     if skeleton:
         lines.append(" ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")]))
-    if provisional:
-        lines.append(f"<i>{provisional}</i>")
+    if caveat:
+        lines.append(f"<i>{caveat}</i>")
     if pinned:
         lines.append(dot(GHOST_COLOUR, "pinned run's skeleton"))
     if quantity is not None:

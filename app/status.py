@@ -1,10 +1,25 @@
-"""The words a browser shows about the iteration it looks at: the status under the run controls and the
-legend over the 3-D view. Plain functions of what is shown; nothing here computes."""
+"""The words a browser shows about the iteration it looks at: the status under the run controls, the notes on the
+run folded below the tabs, and the legend over the 3-D view. Plain functions of what is shown; nothing here
+computes.
+
+The status sits above the tabs, so every line it has pushes the tabs' boxes towards the window's edge (app.layout):
+it says each fact once, in few words, in three or four paragraphs (where the browser is and what the run does; the
+shown cloud's figures; a warning or the skeleton's state), and leaves figures of the run's end and the explanations
+to the notes and the legend."""
 from __future__ import annotations
+
+from skelcore.step import TERMINATION_MESSAGES
 
 from .analysis import Readiness
 from .layout import PROVISIONAL
 from .scene import COLOUR_RANGES, POINT_LAYERS, legend_html
+from .words import label
+
+
+def ending_words(state) -> str:
+    """The words a run's last state ended on, without their figures (TERMINATION_MESSAGES; a run opened from
+    files may name a reason this engine lacks: its whole message then)."""
+    return TERMINATION_MESSAGES.get(state.termination, state.message)
 
 
 def run_state(history, doing: str, playing: bool, ahead=None) -> str:
@@ -14,8 +29,8 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
         return f"playing: {doing}…" if doing else "playing"
     if doing:
         return f"busy: {doing}…"
-    if latest.termination:
-        return f"ended at iteration {latest.iteration}: {latest.message}"
+    if latest.termination:  # at the iteration the status's "of N computed" names
+        return f"ended: {ending_words(latest)}"
     state = "paused" if len(history) > 1 else "ready"
     if ahead is None:
         return state
@@ -24,37 +39,37 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
     return f"{state}; iteration {ahead.iteration} computed ahead"
 
 
-def skeleton_note(readiness: Readiness | None, state, skeleton_shown: bool, provisional_wanted: bool) -> str:
-    """Why no skeleton, or only a provisional one, is drawn for `state` ("" when the skeleton is final or
-    hidden), in the legend's words."""
+def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:
+    """Whether the skeleton of a state of this readiness is drawn, when not as a final one ("" when it is final or
+    hidden); why not is the legend's to say."""
     if readiness is None or not readiness.provisional or not skeleton_shown:
         return ""
-    if provisional_wanted:
-        return f"skeleton drawn provisionally: {readiness.reason(state)}"
-    return f"no skeleton yet: {readiness.reason(state)} (View: {PROVISIONAL})"
+    return "skeleton drawn provisionally" if provisional_wanted else f"no skeleton yet (View: {PROVISIONAL})"
 
 
 def status_markdown(session, index: int, *, run: str, readiness: Readiness | None, skeleton: str,
                     following: bool) -> str:
-    """The status of history[index] as one browser sees it; `readiness`: None while not measured yet. Facts
-    about the whole cloud (`cloud_notes`, folded) and parameter changes (`pending_markdown`) are said below the
-    tabs: a long status pushes the parameters below the fold."""
+    """The status of history[index] as one browser sees it; `readiness`: None while not measured yet. Parameter
+    changes (`pending_markdown`) and notes on the run (`run_notes`, folded) are said below the tabs."""
     history = session.history
     state, latest = history[index], history[-1]
     removed = len(state.owner) - state.n_points
     counts = (f"{state.n_points:,} points retained, {removed:,} removed" if removed
               else f"{state.n_points:,} points")
+    held = f", {state.anchored:,} held on thin handles" if state.anchored else ""
     share = "…" if readiness is None else f"{readiness.share:.0%}"
+    # a line breaks between two figures, never inside one ("W_L =" at one line's end, its value on the next)
+    figures = [f"<span style='white-space:nowrap'>{figure}</span>" for figure in (
+        f"W_L = {state.wl:.4g}", f"W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}]",
+        f"ring-size ratio a_t = {state.ring_ratio:.4f}", f"curve-like {share}")]
     behind = "" if following or index == len(history) - 1 else " &middot; _not following the newest (key L)_"
     return "\n\n".join(filter(None, [
-        f"**Iteration {state.iteration}** of {latest.iteration} computed &middot; {counts}{behind}",
-        f"W_L = {state.wl:.4g} &middot; W_H in [{state.wh.min():.3g}, {state.wh.max():.3g}] "
-        f"&middot; ring-size ratio a_t = {state.ring_ratio:.4f} &middot; curve-like {share}",
-        state.anchored and f"{state.anchored:,} points on thin handles held in place (drawn on their axis)",
+        f"**Iteration {state.iteration}** of {latest.iteration} computed{behind} &middot; run {run}",
+        " &middot; ".join([counts + held, *figures]),
+        # what it means for the skeleton, the legend says beside it
         readiness is not None and readiness.barely_contracted
-        and f"⚠ **Barely contracted:** {readiness.barely_contracted}; the skeleton may not follow the shape",
+        and f"⚠ **Barely contracted:** {readiness.barely_contracted}",
         skeleton and f"_{skeleton}_",
-        f"Run {run}",
     ]))
 
 
@@ -64,29 +79,38 @@ def pending_markdown(session) -> str:
     return session.pending and f"**Pending:** {session.pending}"
 
 
-def cloud_notes(session, notice: str) -> str:
-    """What cleaning and multi-resolution did to the run's cloud, and what the view leaves out (`notice`)."""
-    cleaning = session.run.cloud.cleaning or {}
+def run_notes(run, state, notice: str) -> str:
+    """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what cleaning and
+    multi-resolution did to the cloud, the points held on thin handles, what the view leaves out (`notice`) and
+    the figures the run ended on."""
+    cleaning = run.cloud.cleaning or {}
     removed_by_cleaning = (f"Cleaning removed {cleaning['outliers_removed']:,} outliers and "
                            f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}."
                            if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
-    reduction = session.run.reduction
+    reduction = run.reduction
     reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
                f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")
-    return "\n\n".join(filter(None, [removed_by_cleaning, reduced, notice]))
+    held = (f"{state.anchored:,} points on thin handles are held in place and drawn on their axis "
+            f"(More: {label('hold_curves')})." if state.anchored else "")
+    latest = run.history[-1]
+    end_figures = (f"Run ended at iteration {latest.iteration}: {latest.message}."
+                   if latest.termination and latest.message != ending_words(latest) else "")
+    return "\n\n".join(filter(None, [removed_by_cleaning, reduced, held, notice, end_figures]))
 
 
 def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, visible: dict[str, bool],
            original_coloured: bool, provisional_wanted: bool, pinned: bool, labels_html: str) -> str:
     """The legend of one browser's view (`visible`: its layers shown): the layers it draws, and why a skeleton is
-    provisional, or not drawn yet."""
+    provisional, not drawn yet, or may not follow the shape."""
     skeleton_shown = visible["skeleton"]
-    reason = ""
+    caveat = ""
     if readiness is not None and readiness.provisional and skeleton_shown:
-        reason = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
+        caveat = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
+    elif readiness is not None and readiness.barely_contracted and skeleton_shown:
+        caveat = "⚠ barely contracted: the skeleton may not follow the shape"
     quantity = colour_by if colour_by in COLOUR_RANGES else None
     drawn = {"original": True, "contracted": True, "removed": len(state.owner) > state.n_points}  # LBC absorbs none
     layers = tuple(layer for layer in POINT_LAYERS if visible[layer] and drawn[layer])
-    return legend_html(quantity, note, provisional=reason, pinned=pinned,
+    return legend_html(quantity, note, caveat=caveat, pinned=pinned,
                        extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown, layers=layers,
                        original_coloured=original_coloured)

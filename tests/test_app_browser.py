@@ -270,7 +270,7 @@ def test_the_view_and_files_tabs_fit_under_the_run_controls(fresh_sized):
 def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_status(fresh_sized, inspector,
                                                                                    monkeypatch):
     """The status at its longest: a cloud contracted at reduced resolution, thinned in the view, no skeleton
-    yet, a weight and the method pending. The notes on the cloud fold away below the tabs, with the pending
+    yet, a weight and the method pending. The notes on the run fold away below the tabs, with the pending
     changes, so nothing primary leaves the window."""
     page = fresh_sized
     monkeypatch.setattr(inspector.session, "point_budget", 500)  # a large cloud's multi-resolution, cheaply
@@ -295,12 +295,12 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     assert inside_viewport(page, interval) and inside_viewport(page, number_input(page, "Play interval (s)"))
     play, row, end = (each.bounding_box() for each in (button(page, "Play"), interval, button(page, "Run to end")))
     assert play["y"] + play["height"] <= row["y"] < row["y"] + row["height"] <= end["y"]
-    open_folder(page, "About this cloud")  # the notes are still there, a click away
+    open_folder(page, "About this run")  # the notes are still there, a click away
     page.get_by_text(f"{len(inspector.session.run.reduction.points):,} voxel centroids").wait_for()
     page.get_by_text("Showing 750 of 1,500 contracted points in the view").wait_for()
     close_browser_notices(page)
     save_page(page, f"browser-large-cloud-status-{page.size_name}.png")
-    open_folder(page, "About this cloud")
+    open_folder(page, "About this run")
     page.get_by_label("Method").click()
     page.get_by_role("option", name="LBC").click()
     set_value(page, "W_H0", inspector.session.start_params.wh0)
@@ -313,9 +313,103 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     open_tab(page, "Parameters")
 
 
+def _status(page):
+    """This browser's status (the paragraph naming the iteration, and those after it)."""
+    return page.locator("p", has_text="computed").first.locator("xpath=..")
+
+
+def _the_panel_fits_under_the_status(page) -> None:
+    """The run controls, this browser's iteration slider and the whole status in the window, and under them the lowest
+    widget of every tab (and tab within one): nothing to scroll to, so nothing a person uses scrolls them away."""
+    lowest = {("Parameters",): button(page, "Restart with these parameters"),
+              ("More",): number_input(page, "Sample radius")}
+    lowest.update({tabs: button(page, name).or_(page.locator("label:visible", has_text=name))
+                   for tabs, name in INNER_TABS.items()})
+    run_controls = (*(button(page, name) for name in ("Step", "Play", "Run to end", "Reset")),
+                    number_input(page, "Play interval (s)"), number_input(page, "Iteration"))
+    for tabs, widget in lowest.items():
+        open_tab(page, *tabs)
+        for each in (*run_controls, _status(page), widget.first):
+            assert shown_in_panel(page, each), (tabs, each)
+    open_tab(page, "Parameters")
+
+
+def test_the_longest_status_leaves_the_run_controls_and_every_tab_in_the_window(fresh_sized, inspector, monkeypatch):
+    """The status at its longest: a ball whose thin handles are held in place, contracted at reduced resolution, its
+    run ended at the iteration limit barely contracted with a parameter retuned on the last step; then an earlier
+    iteration looked back at, no skeleton yet. Each says its facts in a few short lines, so the run controls, the
+    iteration slider, the status and every tab fit the window. The figures the run ended on and what holding a
+    handle means are a click away below the tabs, why no skeleton is drawn and what a barely contracted cloud means
+    for its skeleton in the legend."""
+    from skelcore.io import validate
+    from skelcore.solids import solid_shape
+
+    page, session = fresh_sized, inspector.session
+    monkeypatch.setattr(session, "point_budget", 5_000)  # a large cloud's multi-resolution, cheaply
+    open_tab(page, "View", "Layers")
+    page.get_by_label("Show skeleton").check()
+    open_tab(page, "Parameters")
+    # the default schedule and a low iteration limit, which the next cloud starts with: it ends barely contracted
+    set_value(page, "W_L0 (0 = auto)", 0)
+    set_value(page, "s_L", 3)
+    open_tab(page, "More")
+    set_value(page, "Max iterations", 3)
+    wait_until(lambda: session.params.wl0 is None and session.params.sl == 3 and session.params.max_iterations == 3,
+               "the default schedule, 3 iterations at most")
+    inspector.open(validate(solid_shape("thin_handled_ball", 10_000).points, name="handles.xyz"))
+    try:
+        wait_until(lambda: session.cloud.name == "handles.xyz" and drawn(page, "plots") == 0, "the ball with handles")
+        assert session.run.reduction is not None
+        step(inspector, page, 2)
+        set_value(page, "Termination", 0.001)  # retuned for the last step: the run's end carries a figure
+        wait_until(lambda: session.pending, "the termination pending")
+        step(inspector, page)
+        latest = session.latest
+        assert latest.termination == "max_iterations" and latest.anchored > 0 and "retuned" in latest.message
+        page.get_by_text("Barely contracted:").first.wait_for()
+        _the_panel_fits_under_the_status(page)
+        page.get_by_text(f"{latest.anchored:,} held on thin handles").first.wait_for()
+        page.get_by_text("barely contracted: the skeleton may not follow the shape").first.wait_for()  # the legend
+        assert "run ended: the maximum number of iterations was reached" in _status(page).inner_text()
+        close_browser_notices(page)
+        save_page(page, f"browser-longest-status-ended-{page.size_name}.png")
+        set_value(page, "Iteration", 2)
+        page.get_by_text("not following the newest (key L)").first.wait_for()
+        page.get_by_text("no skeleton yet (View: Show provisional)").first.wait_for()
+        page.get_by_text(re.compile(r"no skeleton yet: \d+% of points curve-like, 50% needed")).first.wait_for()
+        _the_panel_fits_under_the_status(page)
+        save_page(page, f"browser-longest-status-behind-{page.size_name}.png")
+        open_folder(page, "About this run")
+        page.get_by_text(f"{latest.anchored:,} points on thin handles are held in place").first.wait_for()
+        page.get_by_text(f"Run ended at iteration 3: {latest.message}.").first.wait_for()
+        page.wait_for_timeout(500)  # the folder's opening animation, for the picture
+        save_page(page, f"browser-longest-status-notes-{page.size_name}.png")
+        open_folder(page, "About this run")
+    finally:  # the module's settings, cloud and run; this browser follows the newest again
+        set_value(page, "Iteration", len(session.history) - 1)
+        wait_until(lambda: page.viewer.following, "the newest followed")
+        open_tab(page, "View", "Layers")
+        page.get_by_label("Show skeleton").uncheck()
+        open_tab(page, "Parameters")
+        set_value(page, "W_L0 (0 = auto)", RUN["wl0"])
+        set_value(page, "s_L", RUN["sl"])
+        open_tab(page, "More")
+        set_value(page, "Max iterations", RUN["max_iterations"])
+        set_value(page, "Termination", RUN["termination"])
+        open_tab(page, "Parameters")
+        wait_until(lambda: all(f"{name} {value:g}" in session.pending for name, value in
+                               (("W_L0", RUN["wl0"]), ("s_L", RUN["sl"]), ("Max iterations", RUN["max_iterations"]),
+                                ("Termination", RUN["termination"]))), "the module's parameters, for the next cloud")
+        inspector.open(inspector.module_cloud)
+        wait_until(lambda: session.cloud.name == inspector.module_cloud.name
+                   and session.start_params.replace(**RUN) == session.start_params
+                   and not page.viewer.view.visible["skeleton"], "the module's run")
+        inspector.wait_idle()
+
+
 def test_typing_into_any_box_leaves_the_run_controls_in_view(fresh_sized, inspector):
     """Every number box of the Parameters, More and View tabs takes a value, and every export setting a click, with
-    Step, Play and this browser's iteration slider in view, the status at its longer (no skeleton yet, and why).
+    Step, Play and this browser's iteration slider in view, the status at its longer (no skeleton yet).
     viser's panel scrolls to a box below the window's edge, and after the caret when the text above the box grows:
     each tab (and tab within one) fits under the status, and the pending changes are said below the tabs."""
     from app.layout import LAYERS, RESOLUTIONS
@@ -466,9 +560,9 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
         open_tab(page, "Parameters")
 
 
-def _run_line(page) -> str:
-    """The status's last line: what the run does."""
-    return page.locator("p", has_text=re.compile(r"^Run ")).first.inner_text()
+def _run_state(page) -> str:
+    """What the status says the run does: its first line ends "run playing", "run paused", ..."""
+    return page.locator("p", has_text="computed").first.inner_text().split(" · run ", 1)[-1]
 
 
 def test_the_play_button_and_the_status_agree_as_play_starts_and_stops(fresh, page, monkeypatch):
@@ -481,15 +575,15 @@ def test_the_play_button_and_the_status_agree_as_play_starts_and_stops(fresh, pa
     try:
         click(page, "Play")
         button(page, "Pause").wait_for()
-        wait_until(lambda: _run_line(page).startswith("Run playing"), "the status to say the run plays")
+        wait_until(lambda: _run_state(page).startswith("playing"), "the status to say the run plays")
         click(page, "Pause")
         button(page, "Play").wait_for()
-        wait_until(lambda: not _run_line(page).startswith("Run playing"), "the status to say the run stopped")
+        wait_until(lambda: not _run_state(page).startswith("playing"), "the status to say the run stopped")
     finally:
         gate.set()
     wait_until(lambda: not inspector.worker.playing, "the worker to stop")
     inspector.wait_idle()
-    wait_until(lambda: _run_line(page).startswith("Run paused"), "the run paused")
+    wait_until(lambda: _run_state(page).startswith("paused"), "the run paused")
     assert button(page, "Play").count() == 1 and button(page, "Pause").count() == 0
 
 
@@ -841,7 +935,8 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     page.get_by_label("Show skeleton").check()
     inspector.wait_idle()
     assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
-    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0) (View: Show provisional)").first.wait_for()
+    page.get_by_text("no skeleton yet (View: Show provisional)").first.wait_for()
+    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0)").first.wait_for()  # the legend says why
     page.get_by_label("Show provisional").check()
     wait_until(lambda: drawn(page, "skeleton") == 0, "the provisional skeleton")
     page.get_by_text("skeleton drawn provisionally").first.wait_for()

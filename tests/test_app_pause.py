@@ -59,7 +59,7 @@ def test_pause_lands_within_one_iteration_with_several_browsers():
                 latency.append(received[0][1] - clicked)
                 for page in pages:  # every browser shows the run paused
                     button(page, "Play").wait_for()
-                    page.get_by_text("Run paused").first.wait_for()
+                    page.get_by_text("run paused").first.wait_for()
                 assert not inspector.session.finished
             browser.close()
     finally:

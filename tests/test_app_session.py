@@ -488,7 +488,7 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     skeleton is made from the reduced states with every input point's node, and the export names the reduction."""
     import json
 
-    from app.status import cloud_notes
+    from app.status import run_notes
 
     cloud = validate(make_shape("torus", 3000, seed=0).points, name="torus.xyz")
     session = Session(cloud, point_budget=1500)
@@ -510,7 +510,7 @@ def test_a_cloud_above_the_point_budget_contracts_reduced_and_shows_every_point(
     skeleton = session.skeleton(last)
     assert skeleton.correspondence.shape == (3000,)
     assert skeleton.topology()["cycles"] == 1 and skeleton.topology()["components"] == 1
-    assert f"{len(reduction.points):,} voxel centroids" in cloud_notes(session, notice="")
+    assert f"{len(reduction.points):,} voxel centroids" in run_notes(session.run, history[last], notice="")
     session.write_results(last, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]["input_points"] == 3000
     assert Session(cloud, point_budget=None).run.reduction is None  # --full-resolution
@@ -681,20 +681,23 @@ def test_the_status_says_what_was_computed_ahead():
 
 def test_the_status_counts_the_points_held_on_thin_handles():
     """A ball with handles one or two points across: the points on the handles are held in place and drawn on
-    their axis (skelcore.step.anchored), and the status says how many; a torus has none and says nothing."""
-    from app.status import status_markdown
+    their axis (skelcore.step.anchored); the status says how many, the notes on the run what that means. A torus
+    has none, and neither says anything."""
+    from app.status import run_notes, status_markdown
     from skelcore.solids import solid_shape
 
     def status_after_a_step(points, name):
         session = Session(validate(points, name=name))
         session.step()
-        return session, status_markdown(session, 1, run="paused", readiness=None, skeleton="", following=True)
+        return (session, status_markdown(session, 1, run="paused", readiness=None, skeleton="", following=True),
+                run_notes(session.run, session.history[1], notice=""))
 
-    session, status = status_after_a_step(solid_shape("thin_handled_ball", 10000).points, "handles.xyz")
-    assert session.history[1].anchored > 0
-    assert f"{session.history[1].anchored:,} points on thin handles held in place" in status
-    _, status = status_after_a_step(make_shape("torus", 3000, seed=0).points, "torus.xyz")
-    assert "thin handles" not in status
+    session, status, notes = status_after_a_step(solid_shape("thin_handled_ball", 10000).points, "handles.xyz")
+    held = session.history[1].anchored
+    assert held > 0 and f"10,000 points, {held:,} held on thin handles" in status
+    assert f"{held:,} points on thin handles are held in place and drawn on their axis (More: Hold curves)." in notes
+    _, status, notes = status_after_a_step(make_shape("torus", 3000, seed=0).points, "torus.xyz")
+    assert "thin handles" not in status + notes
 
 
 def test_a_run_that_ends_a_step_back_drops_that_step_and_what_came_of_it(monkeypatch):
@@ -733,7 +736,7 @@ def test_a_run_that_ends_a_step_back_drops_that_step_and_what_came_of_it(monkeyp
     run = session.run
     assert all(index < len(session.history) for index, _ in [*run.skeletons, *run.evidence])
     assert len(session.metrics_upto(2, run)) == 3
-    assert run_state(session.history, "", False).startswith("ended at iteration 2")
+    assert run_state(session.history, "", False) == "ended: the bounding box grew past its limit; the last good state is kept"
 
 
 def test_the_panels_words_name_every_method_and_a_refused_value():

@@ -1,6 +1,7 @@
 """What the status and the panel say about the run, without a browser: a warning on a skeleton of a barely
-contracted cloud, the run playing exactly while the Play button says Pause, and the parameter changes waiting
-for a step said below the tabs, not above the box being typed into."""
+contracted cloud, the run playing exactly while the Play button says Pause, each fact of the status said once in
+few words with the figures of the run's end and the explanations in the notes below the tabs, and the parameter
+changes waiting for a step said below the tabs, not above the box being typed into."""
 from __future__ import annotations
 
 import threading
@@ -10,7 +11,7 @@ import pytest
 
 from app.analysis import Analyses
 from app.session import Session
-from app.status import run_state, status_markdown
+from app.status import legend, run_notes, run_state, skeleton_note, status_markdown
 from skelcore.io import validate
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
@@ -21,23 +22,85 @@ def torus():
     return validate(make_shape("torus", 1500).points, name="torus.xyz")
 
 
-def _status_at_the_end(cloud, params: ContractionParams) -> str:
+def _status_and_legend_at_the_end(cloud, params: ContractionParams) -> tuple[str, str]:
     session = Session(cloud, params, look_ahead=False)
     while session.step() is not None:
         pass
     last = len(session.history) - 1
     readiness = Analyses(session).readiness(session.run, last)
-    return status_markdown(session, last, run=run_state(session.history, "", False), readiness=readiness,
-                           skeleton="", following=True)
+    status = status_markdown(session, last, run=run_state(session.history, "", False), readiness=readiness,
+                             skeleton="", following=True)
+    return status, _legend(session.history[last], readiness)
+
+
+def _legend(state, readiness) -> str:
+    """The legend of a browser that shows the skeleton, provisional ones not asked for."""
+    visible = {"original": True, "contracted": True, "skeleton": True, "removed": False}
+    return legend("plain", state, readiness, note="", visible=visible, original_coloured=False,
+                  provisional_wanted=False, pinned=False, labels_html="")
 
 
 def test_a_run_that_ends_barely_contracted_warns_that_its_skeleton_may_not_follow_the_shape(torus):
     """Stopped after one step (max iterations 1), the torus is still a surface: its skeleton is drawn as the run's
-    result, and the status says how little the cloud was contracted, with the engine's figures."""
-    status = _status_at_the_end(torus, ContractionParams(max_iterations=1))
-    assert "**Barely contracted:** stopped after 1 step with 0% of points curve-like (50% aimed at)" in status
-    assert "the skeleton may not follow the shape" in status
-    assert "Barely contracted" not in _status_at_the_end(torus, ContractionParams())  # a full run: no warning
+    result; the status says how little the cloud was contracted, with the engine's figures, and the legend, beside
+    the skeleton, what that means for it."""
+    status, key = _status_and_legend_at_the_end(torus, ContractionParams(max_iterations=1))
+    assert "⚠ **Barely contracted:** stopped after 1 step with 0% of points curve-like (50% aimed at)" in status
+    assert "barely contracted: the skeleton may not follow the shape" in key
+    status, key = _status_and_legend_at_the_end(torus, ContractionParams())  # a full run: no warning
+    assert "Barely contracted" not in status and "barely contracted" not in key
+
+
+@pytest.fixture(scope="module")
+def held_and_barely():
+    """The longest status: a cloud with thin handles held in place, contracted at reduced resolution, its run ended
+    at a low iteration limit barely contracted, with a parameter retuned on the last step (a figure in its end)."""
+    from skelcore.solids import solid_shape
+
+    cloud = validate(solid_shape("thin_handled_ball", 10_000).points, name="handles.xyz")
+    session = Session(cloud, ContractionParams(max_iterations=3), point_budget=5_000, look_ahead=False)
+    session.step()
+    session.step()
+    session.tune(session.params.replace(termination=0.001))
+    session.step()
+    return session, Analyses(session)
+
+
+def test_the_longest_status_says_each_fact_once_and_leaves_figures_and_explanations_to_the_notes(held_and_barely):
+    """The status sits above the tabs: each line pushes the boxes towards the window's edge. Its facts come in at
+    most four short paragraphs, the run's end in its words only; the figures the run ended on and what holding
+    handles means are in the notes below the tabs, why no skeleton is drawn in the legend."""
+    session, analyses = held_and_barely
+    run, last = session.run, len(session.history) - 1
+    latest = session.latest
+    assert run.reduction is not None and latest.anchored > 0 and latest.termination == "max_iterations"
+    assert latest.message == "the maximum number of iterations was reached; retuned termination=0.001"
+    ended = run_state(session.history, "", False)
+    assert ended == "ended: the maximum number of iterations was reached"
+    readiness = analyses.readiness(run, last)
+    status = status_markdown(session, last, run=ended, readiness=readiness, skeleton="", following=True)
+    paragraphs = status.split("\n\n")
+    assert paragraphs[0] == ("**Iteration 3** of 3 computed &middot; run ended: the maximum number of iterations was "
+                             "reached")
+    assert paragraphs[1].startswith(f"10,000 points, {latest.anchored:,} held on thin handles &middot; "
+                                    "<span style='white-space:nowrap'>W_L = ")
+    assert paragraphs[2].startswith("⚠ **Barely contracted:** stopped at the iteration limit after 3 steps")
+    assert len(paragraphs) == 3 and "retuned" not in status and "drawn on their axis" not in status
+    notes = run_notes(run, latest, notice="")
+    assert f"{latest.anchored:,} points on thin handles are held in place and drawn on their axis" in notes
+    assert f"Run ended at iteration 3: {latest.message}." in notes
+    # an earlier iteration, looked back at: where the browser is, and that no skeleton is drawn yet, in few words
+    earlier = analyses.readiness(run, 2)
+    assert earlier.provisional and not earlier.barely_contracted
+    note = skeleton_note(earlier, skeleton_shown=True, provisional_wanted=False)
+    assert note == "no skeleton yet (View: Show provisional)"
+    status = status_markdown(session, 2, run=ended, readiness=earlier, skeleton=note, following=False)
+    assert status.split("\n\n")[0] == ("**Iteration 2** of 3 computed &middot; _not following the newest (key L)_ "
+                                       "&middot; run ended: the maximum number of iterations was reached")
+    assert status.endswith("\n\n_no skeleton yet (View: Show provisional)_") and status.count("\n\n") == 2
+    assert f"{earlier.share:.0%} of points curve-like, 50% needed" in _legend(session.history[2], earlier)
+    assert skeleton_note(earlier, skeleton_shown=True, provisional_wanted=True) == "skeleton drawn provisionally"
+    assert skeleton_note(earlier, skeleton_shown=False, provisional_wanted=False) == ""
 
 
 def test_the_status_says_the_run_plays_exactly_while_the_button_says_pause():
