@@ -114,7 +114,12 @@ class Result:
         already is refused (an OutputError), as by `skelcore run`; force=True replaces them (other files stay),
         as `skelcore run --force` does."""
         check_flag("force", force)
-        out_dir = prepare_output(out_dir, force, what="folder", replace="save with force=True")
+        return self._save(out_dir, force, what="folder", replace="save with force=True")
+
+    def _save(self, out_dir, force: bool, **terms) -> Path:
+        """`save`, whose refusal of earlier results names the folder and the way to replace them in `terms`
+        (results.check_output's: `skelcore run` says --out and --force)."""
+        out_dir = prepare_output(out_dir, force, **terms)
         write_results(out_dir, self.cloud, self.states, self.skeleton, self.metrics, self.options,
                       input_path=self.input_path, elapsed=self.elapsed, weights=self.weights,
                       reduction=self.reduction, evidence=self._evidence)

@@ -272,7 +272,7 @@ def _run(args: argparse.Namespace) -> int:
     check_output(args.out, force=args.force)  # before the work; the earlier results go only once it succeeded
     progress = None if args.quiet else print
     result = run(args.input, run_options(args), progress=progress)
-    out = result.save(args.out, force=args.force)
+    out = result._save(args.out, args.force)  # results that appeared meanwhile are refused in the CLI's terms
     if not args.quiet:
         print(f"{result.summary()} -> {out}")
     return 0

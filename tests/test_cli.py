@@ -110,6 +110,27 @@ def test_label_weights_on_a_resampled_cloud_say_the_labels_were_dropped(tmp_path
     assert err.count("\n") == 1 and "dropped the labels" in err
 
 
+def test_results_that_appear_during_a_run_are_refused_in_the_command_lines_words(tmp_path, assets_dir, capsys,
+                                                                                   monkeypatch):
+    """`--out` is checked before the work and again as the results are written: another run's results written
+    there meanwhile are kept, and the refusal says --force (not the Python API's force=True)."""
+    import skelcore.api
+
+    out, real_run = tmp_path / "out", skelcore.api.run
+
+    def run_beside_another(*args, **kwargs):
+        result = real_run(*args, **kwargs)
+        out.mkdir()
+        (out / "metrics.json").write_text("another run's")
+        return result
+
+    monkeypatch.setattr(skelcore.api, "run", run_beside_another)
+    assert main(["run", str(assets_dir / "torus.ply"), "--out", str(out), "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert "--force" in error and "force=True" not in error and error.count("\n") == 1
+    assert (out / "metrics.json").read_text() == "another run's"
+
+
 def test_outputs_under_a_file_or_over_earlier_shapes_are_refused_before_the_work(tmp_path, capsys):
     taken = tmp_path / "taken"
     taken.write_text("mine")
