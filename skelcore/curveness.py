@@ -175,7 +175,8 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     scale = np.clip(reach, radius, MIN_CURVE_RADII * radius)
     _, ratio, along = curve_likeness(points, radius, among_all=True, tree=tree, radii=scale)
     judged = np.flatnonzero(np.isfinite(ratio))
-    centroids, closed = _cross_sections(tree, points[probes[judged]], along[judged], scale[judged])
+    surface = coo_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(len(points),) * 2)
+    centroids, closed = _cross_sections(tree, surface.tocsr(), points[probes[judged]], along[judged], scale[judged])
     if not closed.any():
         return anchors
     thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
@@ -250,18 +251,23 @@ def _far_ends(graph) -> tuple[int, int]:
     return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
 
 
-def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, scale: np.ndarray
+def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarray, scale: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """For each probe (m, 3) with its unit direction along and its scale (m,): the centroid of the input's
     cross-section there (the input: the points of `tree`), and whether that cross-section is a hollow one within
-    the scale of it (thin_tubes)."""
+    the scale of it (thin_tubes). The cross-section is the piece of the slab that the input's surface edges
+    (`surface`, a symmetric CSR adjacency) join to the probe: where a handle stands close to the body, the slab
+    also cuts the body's surface beside it, which is no part of the handle's wall (on a sparse cloud the scale,
+    and with it the slab, reaches the body along most of a small handle)."""
     points = tree.data
     pair_rows, pair_cols = _within(cKDTree(probes), tree, 2 * scale)
     offset = points[pair_cols] - probes[pair_rows]
     axial = np.einsum("ij,ij->i", offset, along[pair_rows])
     in_slab = np.abs(axial) <= 0.5 * scale[pair_rows]
-    rows = pair_rows[in_slab]
-    across = offset[in_slab] - axial[in_slab, None] * along[rows]
+    rows, cols = pair_rows[in_slab], pair_cols[in_slab]
+    through = _piece_through_probe(surface, rows, cols, np.linalg.norm(offset[in_slab], axis=1))
+    rows = rows[through]
+    across = (offset[in_slab] - axial[in_slab, None] * along[pair_rows[in_slab]])[through]
     count = np.bincount(rows, minlength=len(probes))
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
@@ -276,3 +282,29 @@ def _cross_sections(tree: cKDTree, probes: np.ndarray, along: np.ndarray, scale:
         mean = np.bincount(rows, distance, len(probes)) / count
         inner = np.bincount(rows, distance < HOLLOW * mean[rows], len(probes)) / count
     return probes + centroid, closed & (inner <= STRAY)
+
+
+def _piece_through_probe(surface, rows: np.ndarray, cols: np.ndarray, to_probe: np.ndarray) -> np.ndarray:
+    """Which of the slab entries (probe `rows`, point `cols`; `to_probe` each point's distance to its probe) lie in
+    the piece of their probe's slab that the input's surface edges (`surface`: a symmetric (n, n) CSR adjacency)
+    join to the point nearest the probe."""
+    if not len(rows):
+        return np.zeros(0, dtype=bool)
+    # every entry (probe, a) against every (probe, b) with an edge a-b, found by the key probe * n + point
+    n = surface.shape[0]
+    counts = np.diff(surface.indptr)[cols]
+    entry = np.repeat(np.arange(len(rows)), counts)
+    slots = np.arange(counts.sum()) + np.repeat(surface.indptr[cols] - np.cumsum(counts) + counts, counts)
+    keys = rows.astype(np.int64) * n + cols
+    order = np.argsort(keys)
+    ordered = keys[order]
+    wanted = rows[entry].astype(np.int64) * n + surface.indices[slots]
+    position = np.searchsorted(ordered, wanted).clip(0, len(keys) - 1)
+    found = ordered[position] == wanted
+    links = coo_matrix((np.ones(int(found.sum())), (entry[found], order[position[found]])), shape=(len(rows),) * 2)
+    _, piece = connected_components(links, directed=False)
+    nearest = np.lexsort((to_probe, rows))
+    first = nearest[np.r_[True, rows[nearest][1:] != rows[nearest][:-1]]]
+    own = np.full(rows.max() + 1, -1)
+    own[rows[first]] = piece[first]
+    return piece == own[rows]
