@@ -263,11 +263,11 @@ def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarra
     pair_rows, pair_cols = _within(cKDTree(probes), tree, 2 * scale)
     offset = points[pair_cols] - probes[pair_rows]
     axial = np.einsum("ij,ij->i", offset, along[pair_rows])
-    in_slab = np.abs(axial) <= 0.5 * scale[pair_rows]
-    rows, cols = pair_rows[in_slab], pair_cols[in_slab]
-    through = _piece_through_probe(surface, rows, cols, np.linalg.norm(offset[in_slab], axis=1))
-    rows = rows[through]
-    across = (offset[in_slab] - axial[in_slab, None] * along[pair_rows[in_slab]])[through]
+    in_slab = np.flatnonzero(np.abs(axial) <= 0.5 * scale[pair_rows])
+    section = in_slab[_piece_through_probe(surface, pair_rows[in_slab], pair_cols[in_slab],
+                                           np.linalg.norm(offset[in_slab], axis=1))]
+    rows = pair_rows[section]
+    across = offset[section] - axial[section, None] * along[rows]
     count = np.bincount(rows, minlength=len(probes))
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
