@@ -51,7 +51,8 @@ class ContractionParams:
     # (skelcore.ring_jumps; not in cloudcontr): a coarse sampling's rings do not join parts across empty space
     drop_jumps: bool = True
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
-    collapse: float = 0.5  # stop when one step shrinks the longest extent below this share (not in cloudcontr)
+    collapse: float = 0.5  # stop when one step shrinks the longest extent, or a second one spanned at least this share
+    # of the longest, below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
     # GLSkeleton only (skelcore.glskeleton; defaults from the authors' MATLAB):
     gl_merge: float = 1e5  # a point absorbs its nearest ring neighbour when its merge score < gl_merge * s_i^2

@@ -43,7 +43,7 @@ REJECTION_CAUSES = {  # a step rejected for these ends the run on the state befo
     "nan": "the solve produced NaN",
     "solver_failure": "the sparse solver failed",
     "bbox_growth": "the bounding box grew past its limit",
-    "collapse": "one step shrank the cloud's length past its limit (a curve collapsing)",
+    "collapse": "one step pulled the cloud together past its limit (a curve or a loop collapsing)",
     "torn": "the step tore the cloud apart (many one-rings widened)",
     "flung": "the step flung points out of the input's bounding box",
 }
@@ -208,7 +208,10 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     past params.bbox_growth of the input's (run.extent0; robust extents: a few points flung out by degenerate
     rings do not end the contraction of the rest), collapse: once a cloud is a thin curve its rings
     degenerate and a step can pull the whole curve together; the longest extent falling below
-    params.collapse of the current one in a single step is that, never a contraction onto the skeleton;
+    params.collapse of the current one in a single step is that, never a contraction onto the skeleton, and so
+    is the second principal extent falling so, where the cloud spans it at least params.collapse as far as the
+    longest (a loop pulled together across itself: GLSkeleton's merges thin a ring's points and the Laplacian
+    then shortens it, until one step flattens a thick torus's ring into a bar);
     and a fling: more than ROBUST_SHARE of the points newly outside the input's box (RunStart.box).
     The first step solves on the input's own rings, so it is exempt from the last two: an over-strong first
     step is a contraction to show (and judge), not a degenerate one.
@@ -239,6 +242,10 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
         longest, before = np.ptp(candidate, axis=0).max(), np.ptp(current, axis=0).max()
         if longest < params.collapse * before:
             failure = ("collapse", f"longest extent {longest / before:.0%} of the step before")
+    if failure is None and not first_step:
+        spans, after = principal_extents(current), principal_extents(candidate)
+        if spans[1] >= params.collapse * spans[2] and after[1] < params.collapse * spans[1]:
+            failure = ("collapse", f"second extent {after[1] / spans[1]:.0%} of the step before")
     if failure is None and not first_step:
         # A contraction moves points inward; the growth check reads the middle 98%, so it lets a fling of up to
         # ROBUST_SHARE of the points through: this catches that (a folding sheet throws its corners out).
@@ -325,6 +332,14 @@ def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParam
         return False
     after = skeleton_scale_share(candidate, diagonal)
     return after < params.curve_share and after > skeleton_scale_share(current, diagonal)
+
+
+def principal_extents(points: np.ndarray) -> np.ndarray:
+    """(3,) the extents of the middle 98% of the points along their principal axes, ascending; the axes are those
+    of the 98% nearest the median, so a few points flung far do not turn them."""
+    distance = np.linalg.norm(points - np.median(points, axis=0), axis=1)
+    axes = np.linalg.eigh(np.cov(points[distance <= np.quantile(distance, 1 - ROBUST_SHARE)].T))[1]
+    return np.sort(robust_extent(points @ axes))
 
 
 def stopped(state: IterationState, reason: str, detail: str, notes: list[str]) -> IterationState:

@@ -259,3 +259,29 @@ def test_an_unevenly_sampled_drilled_plate_keeps_its_loops():
     assert result.states[-1].termination == "torn"
     assert {key: result.skeleton.topology()[key] for key in ("cycles", "components")} == {"cycles": 3,
                                                                                           "components": 1}
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_a_thick_ring_is_not_pulled_together_across_itself(seed):
+    """A torus whose tube is 0.35 of its ring radius, 10k points: GLSkeleton's state 5 is a thin ring on the axis,
+    then one step pulled the ring together across itself (its second extent fell to 31% and 45%), and the skeleton
+    of that state ran from 0.5 to 1.1 ring radii. The step is rejected as a collapse: the ring stays on the axis."""
+    import skelcore
+    from skelcore.solids import _torus, sample_mesh
+
+    mesh = _torus(1.0, 0.35).to_mesh()
+    points, _ = sample_mesh(np.asarray(mesh.vert_properties[:, :3], float), np.asarray(mesh.tri_verts), 10_000, seed)
+    result = skelcore.skeletonize(points, method="glskeleton")
+    assert result.states[-1].termination == "collapse" and "second extent" in result.states[-1].message
+    radius = np.linalg.norm(result.nodes[:, :2], axis=1)
+    assert result.topology["cycles"] == 1 and np.abs(radius - 1.0).max() < 0.05, radius
+
+
+def test_principal_extents_ignore_the_frame_and_a_few_strays():
+    from skelcore.step import principal_extents
+
+    rng = np.random.default_rng(0)
+    plate = rng.uniform(-1, 1, (5000, 3)) * [2.0, 1.0, 0.1]
+    plate[:20] += 50.0  # strays beyond the middle 98%
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    assert np.allclose(principal_extents(plate @ rotation.T), [0.2, 2.0, 4.0], rtol=0.05)
