@@ -272,7 +272,10 @@ def _rows(body: bytes, skipped: int, data: bytes, path) -> np.ndarray:
         return np.asarray(rows, dtype=np.float64)
     except ValueError:
         data.decode("utf-8")  # a file that is not text is refused as such (io.load words the UnicodeDecodeError)
-        bad = next(row for row, values in enumerate(rows) if not all(map(is_number, values)))
+        numeric = [all(map(is_number, values)) for values in rows]
+        if not any(numeric):  # prose, not a cloud with a bad line: naming one line would mislead
+            raise InputError(f"{path}: no line holds three numbers (x y z); is it a point cloud?") from None
+        bad = numeric.index(False)
         words = b" ".join(rows[bad]).decode()[:40]
         raise InputError(f"{path}: line {numbers[bad]} holds {words!r}, not three numbers") from None
 

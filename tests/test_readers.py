@@ -74,7 +74,8 @@ def test_uneven_or_commented_text_is_read_line_by_line(tmp_path, text, rows):
 
 @pytest.mark.parametrize("text, words", [("1 2 3\n4 5\n6 7 8\n", "line 2 has fewer than 3"),
                                          ("1 2 3\n1 2 x\n4 5 6 7\n", "line 2 holds '1 2 x', not three numbers"),
-                                         ("x y z\n", "holds no points")])
+                                         ("x y z\n", "holds no points"),
+                                         ("just some words\nno numbers here\n", r"no line holds three numbers \(x y z\)")])
 def test_text_that_is_not_points_is_refused_naming_the_line(tmp_path, text, words):
     from skelcore.errors import InputError
 
