@@ -9,6 +9,7 @@ import numpy as np
 from skelcore import pipeline, report
 
 from .layout import CARD
+from .words import METHOD_LABELS
 
 RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
 
@@ -24,7 +25,7 @@ class Pinned:
 
 def describe(state, role: str) -> str:
     p = state.params
-    return f"{role}: {p.method}, W_H0 {p.wh0:g}, s_L {p.sl:g}, it {state.iteration}"
+    return f"{role}: {METHOD_LABELS[p.method]}, W_H0 {p.wh0:g}, s_L {p.sl:g}, iteration {state.iteration}"
 
 
 def pin(session) -> Pinned:

@@ -64,7 +64,7 @@ def status_markdown(session, index: int, *, run: str, readiness: Readiness | Non
         f"ring-size ratio a_t = {state.ring_ratio:.4f}", f"curve-like {share}")]
     behind = "" if following or index == len(history) - 1 else " &middot; _not following the newest (key L)_"
     return "\n\n".join(filter(None, [
-        f"**Iteration {state.iteration}** of {latest.iteration} computed{behind} &middot; run {run}",
+        f"**Iteration {state.iteration}** {_computed(latest.iteration)}{behind} &middot; run {run}",
         " &middot; ".join([counts + held, *figures]),
         # what it means for the skeleton, the legend says beside it
         readiness is not None and readiness.barely_contracted
@@ -114,3 +114,8 @@ def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, vis
     return legend_html(quantity, note, caveat=caveat, pinned=pinned,
                        extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown, layers=layers,
                        original_coloured=original_coloured)
+
+
+def _computed(newest: int) -> str:
+    """How far the run has got, after the shown iteration's number."""
+    return "(the input) &middot; no step computed yet" if newest == 0 else f"of {newest} computed"
