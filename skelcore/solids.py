@@ -133,6 +133,41 @@ def chain(links: int = 3):
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 
+def _rod(length: float, radius: float, centre, turn=(0.0, 0.0, 0.0)):
+    """A round rod along z (turned by `turn`, degrees about x, y, z) centred at `centre`."""
+    rod = _manifold().Manifold.cylinder(length, radius, radius, SEGMENTS, True)
+    return rod.rotate(turn).translate(centre)
+
+
+def table():
+    """A top 2 x 1.2 x 0.08 on four round legs (radius 0.05, 1 long): genus 0, plates and rods at joints."""
+    m3d = _manifold()
+    legs = [_rod(1.0, 0.05, (x, y, 0.5)) for x in (-0.9, 0.9) for y in (-0.5, 0.5)]
+    return m3d.Manifold.batch_boolean([m3d.Manifold.cube((2.0, 1.2, 0.08), True).translate((0.0, 0.0, 1.0)), *legs],
+                                      m3d.OpType.Add)
+
+
+def chair():
+    """A seat 1 x 1 x 0.08 on four legs (radius 0.04), a back of two uprights joined by a top rail and a middle
+    rail: genus 2 (the two openings of the back)."""
+    m3d = _manifold()
+    parts = [m3d.Manifold.cube((1.0, 1.0, 0.08), True).translate((0.0, 0.0, 0.5))]
+    parts += [_rod(0.5, 0.04, (x, y, 0.25)) for x in (-0.45, 0.45) for y in (-0.45, 0.45)]
+    parts += [_rod(1.0, 0.04, (x, 0.45, 1.0)) for x in (-0.45, 0.45)]
+    parts += [_rod(0.94, radius, (0.0, 0.45, z), (0.0, 90.0, 0.0)) for z, radius in ((1.47, 0.04), (1.0, 0.03))]
+    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+
+
+def stool():
+    """A round seat (radius 0.5, 0.06 thick) on three legs joined by a ring below it: genus 3 (the ring, and two
+    independent loops through the seat between the legs)."""
+    m3d = _manifold()
+    parts = [_rod(0.06, 0.5, (0.0, 0.0, 1.0))]
+    parts += [_rod(1.0, 0.04, (0.4 * np.cos(a), 0.4 * np.sin(a), 0.5)) for a in 2 * np.pi * np.arange(3) / 3]
+    parts.append(_torus(0.4, 0.03).translate((0.0, 0.0, 0.4)))
+    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+
+
 def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
     """A ball of radius 1 with `handles` small ring handles (ring radius `ring`, tube `tube`) standing on it, half
     sunk, at spread-out directions: genus `handles`, with loops small beside the body (an elephant's handles)."""
@@ -188,6 +223,10 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "handled_ball": (handled_ball, None, "ball with 3 small ring handles (genus 3)"),
     "thin_handled_ball": (lambda: handled_ball(3, 0.2, 0.04), None,
                           "ball with 3 thin ring handles, one or two points across at 10k points (genus 3)"),
+    "thick_torus": (lambda: _torus(1.0, 0.5), 0, "torus whose tube is half its ring radius (a doughnut)"),
+    "table": (table, None, "table: a top plate on four round legs"),
+    "chair": (chair, None, "chair: seat on four legs, a back of two uprights and two rails (genus 2)"),
+    "stool": (stool, None, "round stool: three legs joined by a ring below the seat (genus 3)"),
 }
 
 

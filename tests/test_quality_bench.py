@@ -18,7 +18,8 @@ def test_every_solid_has_the_genus_and_pieces_its_construction_promises(name):
     expected = {"block_1_hole": (1, 1), "block_2_holes": (2, 1), "block_3_holes": (3, 1), "block_4_holes": (4, 1),
                 "mug": (1, 1), "pretzel": (3, 1), "linked_rings_2": (2, 2), "linked_rings_3": (3, 3),
                 "gear": (5, 1), "chain": (3, 3), "trefoil": (1, 1), "handled_ball": (3, 1),
-                "thin_handled_ball": (3, 1)}[name]
+                "thin_handled_ball": (3, 1), "thick_torus": (1, 1), "table": (0, 1), "chair": (2, 1),
+                "stool": (3, 1)}[name]
     assert (topology["genus"], topology["components"]) == expected
 
 
