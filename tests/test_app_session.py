@@ -776,3 +776,52 @@ def test_a_repeated_notice_replaces_the_one_still_up():
                             "Parameter refused: s_L = 0.5: must be at least 1"]
     messages.withdraw("Run has ended")
     assert client.shown == ["Parameter refused: s_L = 0.5: must be at least 1"]
+
+
+class _Broadcast:
+    """A browser stand-in for a Viewer: the server's own GUI and scene, which every browser shares."""
+    client_id = 1
+
+    def __init__(self, server):
+        self.gui, self.scene, self.atomic, self.flush = server.gui, server.scene, server.atomic, server.flush
+
+
+def test_while_playing_the_plots_follow_the_points_when_each_computation_outlasts_an_iteration(cloud):
+    """Each analysis ends only once the points have moved past its state, as when the metrics and figures take longer
+    than an iteration: the plots of a state already passed are still drawn, the newest ready, so they trail the
+    points by one computation, never by many; once the run ends they show its last state."""
+    import time
+
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, ContractionParams(wl0=1.0, sl=1.0, max_iterations=12),
+                                          look_ahead=False))
+    presenter, drawn = inspector.presenter, []
+    try:
+        inspector._connect(_Broadcast(server))
+        assert inspector.wait_idle(120)
+        viewer = presenter.all()[0]
+        plots, mark = presenter.analyses.plots, presenter.mark
+
+        def outlasting(run, index):
+            while inspector.worker.playing and viewer.drawn["points"][1] <= index:
+                time.sleep(0.01)
+            return plots(run, index)
+
+        def recording(stage, each, run, index):
+            drawn.append((stage, index, inspector.worker.playing, viewer.drawn["points"][1]))
+            mark(stage, each, run, index)
+
+        presenter.analyses.plots, presenter.mark = outlasting, recording
+        inspector.playback.start(lambda: inspector._tick(True), None, full=True)
+        assert inspector.wait_idle(120) and inspector.session.finished
+    finally:
+        inspector.close()
+        server.stop()
+    while_playing = [(index, shown) for stage, index, playing, shown in drawn if stage == "plots" and playing]
+    assert len(while_playing) >= 2, drawn
+    assert all(index < shown for index, shown in while_playing)  # of a state passed, never of one to come
+    assert [index for stage, index, *_ in drawn if stage == "plots"][-1] == len(inspector.session.history) - 1
