@@ -33,6 +33,13 @@ class Loader:
         self.playback.pause()
         self.worker.submit(lambda: self.load(lambda voxel=None, drop=False: cloud))
 
+    def select_loaded(self) -> None:
+        """The asset list selects the cloud loaded when it is a bundled asset, else nothing (an upload, the command
+        line's file): a list left at another asset reads as the cloud shown."""
+        if self.assets:  # else the list only says there are none
+            loaded = Path(self.session.cloud.name).resolve()
+            self.files.asset.value = next((name for name, path in self.assets.items() if path.resolve() == loaded), "")
+
     def on_load_asset(self, event) -> None:
         path = self.assets.get(self.files.asset.value)
         if path is not None:  # only names of files the server listed itself

@@ -825,3 +825,32 @@ def test_while_playing_the_plots_follow_the_points_when_each_computation_outlast
     assert len(while_playing) >= 2, drawn
     assert all(index < shown for index, shown in while_playing)  # of a state passed, never of one to come
     assert [index for stage, index, *_ in drawn if stage == "plots"][-1] == len(inspector.session.history) - 1
+
+
+def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
+    """Files' list of bundled assets shows the loaded cloud when it is one of them, nothing for another file (an
+    upload named like an asset included), never the list's first asset."""
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+    from app.session import bundled_assets
+    from skelcore.io import load
+
+    assets = bundled_assets(assets_dir)
+    assert next(iter(assets)) != "torus.ply"
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(load(assets["torus.ply"]), look_ahead=False), assets=assets)
+    listed = inspector.ui.files.asset
+    try:
+        assert inspector.wait_idle(120) and listed.value == "torus.ply"
+        inspector.open(validate(make_shape("capsule", 800).points, name="capsule.ply"))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply" and listed.value == ""
+        listed.value = "y_branch.ply"
+        inspector.loader.on_load_asset(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name.endswith("y_branch.ply")
+        assert listed.value == "y_branch.ply"
+    finally:
+        inspector.close()
+        server.stop()
