@@ -73,11 +73,12 @@ class Loader:
         try:
             with self.activity.busy(client, what, f"{what.lower()} and computing its one-rings",
                                     after=0.0 if at_once else PROGRESS_AFTER):
-                cloud = read()  # an InputError leaves the session as it was
+                try:
+                    cloud = read()  # an InputError leaves the session as it was
+                except NonFiniteError as error:
+                    self._offer_to_drop(client, error, _dropping(read), what)
+                    return
                 self.session.load(cloud)
-        except NonFiniteError as error:
-            self._offer_to_drop(client, error, read, what)
-            return
         except TooLargeError as error:
             self.offer = (error.voxel_size, read)
             self.files.downsample.label = f"Load downsampled (voxel {error.voxel_size:g})"
@@ -90,7 +91,7 @@ class Loader:
             self.messages.notify(client, f"Loaded {Path(cloud.name).name}", "; ".join(cloud.notes), color="blue")
 
     def _offer_to_drop(self, client, error: NonFiniteError, read, what: str) -> None:
-        """A file with a few NaN/Inf rows: ask whether to load it without them."""
+        """A file with a few NaN/Inf rows, which `read` leaves out: ask whether to load it without them."""
         self.messages.notify(client, "Points with NaN or Inf", str(error))
         if client is None:
             return
@@ -102,11 +103,22 @@ class Loader:
         @drop.on_click
         async def _(event) -> None:
             modal.close()
-            self.worker.submit(lambda: self.load(lambda: read(drop=True), client, what, at_once=True), client)
+            self.worker.submit(lambda: self.load(read, client, what, at_once=True), client)
 
         @cancel.on_click
         async def _(event) -> None:
             modal.close()
+
+
+def _dropping(read):
+    """`read` leaving out the points with NaN or Inf. They are left out now: a file whose other points cannot be
+    loaded (too few of them, say) is refused at once, not after the person agreed to drop them; what can is kept
+    for Drop. A cloud too large is read again then, to be offered voxel-downsampled."""
+    try:
+        cloud = read(drop=True)
+    except TooLargeError:
+        return lambda voxel=None, drop=False: read(voxel, True)
+    return lambda voxel=None, drop=False: cloud
 
 
 def _budget() -> int:
