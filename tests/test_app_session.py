@@ -776,4 +776,3 @@ def test_a_repeated_notice_replaces_the_one_still_up():
                             "Parameter refused: s_L = 0.5: must be at least 1"]
     messages.withdraw("Run has ended")
     assert client.shown == ["Parameter refused: s_L = 0.5: must be at least 1"]
-
