@@ -10,7 +10,7 @@ from skelcore.errors import InputError, NonFiniteError, TooLargeError
 from skelcore.io import load, load_bytes
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 
-from .layout import FileWidgets
+from .layout import NO_ASSET, FileWidgets
 from .messages import Messages
 from .playback import Playback
 from .progress import PROGRESS_AFTER, Activity
@@ -34,11 +34,20 @@ class Loader:
         self.worker.submit(lambda: self.load(lambda voxel=None, drop=False: cloud))
 
     def select_loaded(self) -> None:
-        """The asset list selects the cloud loaded when it is a bundled asset, else nothing (an upload, the command
-        line's file): a list left at another asset reads as the cloud shown."""
-        if self.assets:  # else the list only says there are none
-            loaded = Path(self.session.cloud.name).resolve()
-            self.files.asset.value = next((name for name, path in self.assets.items() if path.resolve() == loaded), "")
+        """The asset list selects the cloud loaded when it is a bundled asset, else a first entry that selects none
+        (an upload, the command line's file): a list left at another asset reads as the cloud shown. (A browser's
+        list keeps showing its last choice for a value that is none of its entries.)"""
+        if not self.assets:  # the list only says there are none
+            return
+        loaded = Path(self.session.cloud.name).resolve()
+        name = next((name for name, path in self.assets.items() if path.resolve() == loaded), None)
+        listed = self.files.asset
+        if name is None:
+            listed.options = (NO_ASSET, *self.assets)
+            listed.value = NO_ASSET
+        else:
+            listed.value = name  # before the entry it replaces goes
+            listed.options = tuple(self.assets)
 
     def on_load_asset(self, event) -> None:
         path = self.assets.get(self.files.asset.value)

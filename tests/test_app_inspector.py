@@ -72,13 +72,14 @@ def test_while_playing_the_plots_follow_the_points_when_each_computation_outlast
 
 
 def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
-    """Files' list of bundled assets shows the loaded cloud when it is one of them, nothing for another file (an
-    upload named like an asset included), never the list's first asset."""
+    """Files' list of bundled assets shows the loaded cloud when it is one of them, an entry selecting none for
+    another file (an upload named like an asset included), never the list's first asset."""
     import types
 
     import viser
 
     from app.inspector import Inspector
+    from app.layout import NO_ASSET
     from app.session import bundled_assets
     from skelcore.io import load
 
@@ -88,13 +89,16 @@ def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
     inspector = Inspector(server, Session(load(assets["torus.ply"]), look_ahead=False), assets=assets)
     listed = inspector.ui.files.asset
     try:
-        assert inspector.wait_idle(120) and listed.value == "torus.ply"
+        assert inspector.wait_idle(120) and listed.value == "torus.ply" and listed.options == tuple(assets)
         inspector.open(validate(make_shape("capsule", 800).points, name="capsule.ply"))
-        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply" and listed.value == ""
+        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply"
+        assert listed.value == NO_ASSET and listed.options == (NO_ASSET, *assets)
+        inspector.loader.on_load_asset(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply"  # the entry loads nothing
         listed.value = "y_branch.ply"
         inspector.loader.on_load_asset(types.SimpleNamespace(client=None))
         assert inspector.wait_idle(120) and inspector.session.cloud.name.endswith("y_branch.ply")
-        assert listed.value == "y_branch.ply"
+        assert listed.value == "y_branch.ply" and listed.options == tuple(assets)
     finally:
         inspector.close()
         server.stop()
