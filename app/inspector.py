@@ -319,6 +319,7 @@ class Inspector:
             self.ui.view.opacity["original"].value = opacity
             self.ui.view.size["original"].value = 1.0 if opacity == 1 else 0.7
         frame_camera(self.server.initial_camera, cloud.points)
+        self.loader.select_loaded()
         self.labels.refresh()
         self.shown = len(self.session.history) - 1  # iteration 0, or the end of a finished run opened as such
         settings = self.presenter.view_settings()

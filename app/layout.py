@@ -46,6 +46,7 @@ CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
 PLAY, PAUSE = "Play", "Pause"  # the Play button's label: what a click does
 COMPARE_TITLES = ("convergence, pinned and current", "final D_theta", "final delta_kappa")  # the Compare tab's plots
+NO_ASSET = "(choose an asset)"  # the asset list's first entry while the cloud loaded is none of them
 PROVISIONAL = "Show provisional"  # the View tab's checkbox that draws a skeleton before the cloud is curve-like
 COMPARE_HINT = "Pin a run, change parameters or method, Restart: both runs show here."
 RESOLUTIONS = ("1280x720", "800x600", "1600x1000", "1920x1080", "2560x1440")

@@ -10,7 +10,7 @@ from skelcore.errors import InputError, NonFiniteError, TooLargeError
 from skelcore.io import load, load_bytes
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 
-from .layout import FileWidgets
+from .layout import NO_ASSET, FileWidgets
 from .messages import Messages
 from .playback import Playback
 from .progress import PROGRESS_AFTER, Activity
@@ -32,6 +32,22 @@ class Loader:
         """Replace the session's cloud by a validated skelcore.io.Cloud."""
         self.playback.pause()
         self.worker.submit(lambda: self.load(lambda voxel=None, drop=False: cloud))
+
+    def select_loaded(self) -> None:
+        """The asset list selects the cloud loaded when it is a bundled asset, else a first entry that selects none
+        (an upload, the command line's file): a list left at another asset reads as the cloud shown. (A browser's
+        list keeps showing its last choice for a value that is none of its entries.)"""
+        if not self.assets:  # the list only says there are none
+            return
+        loaded = Path(self.session.cloud.name).resolve()
+        name = next((name for name, path in self.assets.items() if path.resolve() == loaded), None)
+        listed = self.files.asset
+        if name is None:
+            listed.options = (NO_ASSET, *self.assets)
+            listed.value = NO_ASSET
+        else:
+            listed.value = name  # before the entry it replaces goes
+            listed.options = tuple(self.assets)
 
     def on_load_asset(self, event) -> None:
         path = self.assets.get(self.files.asset.value)
@@ -66,11 +82,12 @@ class Loader:
         try:
             with self.activity.busy(client, what, f"{what.lower()} and computing its one-rings",
                                     after=0.0 if at_once else PROGRESS_AFTER):
-                cloud = read()  # an InputError leaves the session as it was
+                try:
+                    cloud = read()  # an InputError leaves the session as it was
+                except NonFiniteError as error:
+                    self._offer_to_drop(client, error, _dropping(read), what)
+                    return
                 self.session.load(cloud)
-        except NonFiniteError as error:
-            self._offer_to_drop(client, error, read, what)
-            return
         except TooLargeError as error:
             self.offer = (error.voxel_size, read)
             self.files.downsample.label = f"Load downsampled (voxel {error.voxel_size:g})"
@@ -83,7 +100,7 @@ class Loader:
             self.messages.notify(client, f"Loaded {Path(cloud.name).name}", "; ".join(cloud.notes), color="blue")
 
     def _offer_to_drop(self, client, error: NonFiniteError, read, what: str) -> None:
-        """A file with a few NaN/Inf rows: ask whether to load it without them."""
+        """A file with a few NaN/Inf rows, which `read` leaves out: ask whether to load it without them."""
         self.messages.notify(client, "Points with NaN or Inf", str(error))
         if client is None:
             return
@@ -95,11 +112,22 @@ class Loader:
         @drop.on_click
         async def _(event) -> None:
             modal.close()
-            self.worker.submit(lambda: self.load(lambda: read(drop=True), client, what, at_once=True), client)
+            self.worker.submit(lambda: self.load(read, client, what, at_once=True), client)
 
         @cancel.on_click
         async def _(event) -> None:
             modal.close()
+
+
+def _dropping(read):
+    """`read` leaving out the points with NaN or Inf. They are left out now: a file whose other points cannot be
+    loaded (too few of them, say) is refused at once, not after the person agreed to drop them; what can is kept
+    for Drop. A cloud too large is read again then, to be offered voxel-downsampled."""
+    try:
+        cloud = read(drop=True)
+    except TooLargeError:
+        return lambda voxel=None, drop=False: read(voxel, True)
+    return lambda voxel=None, drop=False: cloud
 
 
 def _budget() -> int:

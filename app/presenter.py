@@ -141,10 +141,21 @@ class Presenter:
                 self.skeletons.request((viewer, run, index), viewer.client, key=viewer.id)
 
     # ------------------------------------------------------------------ analysis threads
+    def _plots_wanted(self, viewer: Viewer, run, index: int, points: tuple | None) -> bool:
+        """Whether the plots of history[index], just computed, still go to a viewer whose points show `points`
+        ((run, index) of viewer.drawn): they show that state, or the viewer follows a playing run past it and its
+        plots are older. When a computation outlasts an iteration, waiting for the state shown would leave the
+        plots behind until the run stops; the newest ready ones trail the points by one computation at most."""
+        if viewer.closed or points is None or points[0] is not run:
+            return False
+        plots = viewer.drawn.get("plots")
+        return points[1] == index or (self.worker.playing and viewer.following and points[1] > index
+                                      and (plots is None or plots[0] is not run or plots[1] < index))
+
     def _analyse(self, request) -> None:
         """Plots, verdict and colours of what a viewer shows."""
         viewer, run, index = request
-        if not viewer.showing(run, index):
+        if not viewer.showing(run, index):  # it shows a later state, whose request is waiting
             return
         state, session = run.history[index], self.session
         with self.activity.busy(None, "Measuring", f"metrics of iteration {state.iteration}", notify=False):
@@ -157,8 +168,11 @@ class Presenter:
             verdict = session.verdict(index, run, with_skeleton=(index, session.skeleton_params) in run.evidence)
             comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run))
                           if self.pinned is not None else None)
-        if not viewer.showing(run, index):
+        points = viewer.drawn.get("points")
+        if not self._plots_wanted(viewer, run, index, points):
             return
+        if points[1] != index:  # drawn late: the status and legend speak of the points shown
+            self.analyses.readiness(run, points[1])
         with viewer.client.atomic():
             viewer.show_plots(plots, verdict)
             if colours is not None:

@@ -100,9 +100,12 @@ def run_notes(run, state, notice: str) -> str:
 
 def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, visible: dict[str, bool],
            original_coloured: bool, provisional_wanted: bool, pinned: bool, labels_html: str) -> str:
-    """The legend of one browser's view (`visible`: its layers shown): the layers it draws, and why a skeleton is
-    provisional, not drawn yet, or may not follow the shape."""
+    """The legend of one browser's view (`visible`: its layers shown): the layers it draws (the skeleton's node
+    kinds once the state is known to have a skeleton drawn), and why a skeleton is provisional, not drawn yet, or
+    may not follow the shape."""
     skeleton_shown = visible["skeleton"]
+    skeleton_drawn = (skeleton_shown and readiness is not None
+                      and (not readiness.provisional or provisional_wanted))  # as app.presenter draws it
     caveat = ""
     if readiness is not None and readiness.provisional and skeleton_shown:
         caveat = f"{'skeleton provisional' if provisional_wanted else 'no skeleton yet'}: {readiness.reason(state)}"
@@ -112,7 +115,7 @@ def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, vis
     drawn = {"original": True, "contracted": True, "removed": len(state.owner) > state.n_points}  # LBC absorbs none
     layers = tuple(layer for layer in POINT_LAYERS if visible[layer] and drawn[layer])
     return legend_html(quantity, note, caveat=caveat, pinned=pinned,
-                       extra=labels_html if colour_by == "label" else "", skeleton=skeleton_shown, layers=layers,
+                       extra=labels_html if colour_by == "label" else "", skeleton=skeleton_drawn, layers=layers,
                        original_coloured=original_coloured)
 
 

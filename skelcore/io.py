@@ -181,10 +181,13 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing them (NonFiniteError)."""
     check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)
     notes: list[str] = []
+    dropped = 0
     if drop_nonfinite:
         points, faces, labels, dropped = _drop_nonfinite(points, faces, labels, name)
         if dropped:
             notes.append(f"dropped {dropped} points with NaN or Inf coordinates")
+        if dropped and len(points) < MIN_POINTS:  # said before as_points calls a file of NaN rows empty
+            raise _too_few(name, len(np.unique(points, axis=0)), dropped)
     points = as_points(points, name)
     if labels is not None:
         labels = as_labels(labels, len(points), name)
@@ -233,11 +236,17 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         points = points[order]
         labels = None if labels is None else labels[order]
     if len(points) < MIN_POINTS:
-        raise InputError(f"{name}: only {len(points)} distinct points, at least {MIN_POINTS} are needed")
+        raise _too_few(name, len(points), dropped)
     points, scale = _scaled(points, name)
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale)
+
+
+def _too_few(name: str, distinct: int, dropped: int) -> InputError:
+    """Too few distinct points to contract, and whether dropping the NaN or Inf rows left so few."""
+    left = f" remain after dropping the {dropped} with NaN or Inf coordinates" if dropped else ""
+    return InputError(f"{name}: only {distinct} distinct points{left}, at least {MIN_POINTS} are needed")
 
 
 def _may_repeat(points: np.ndarray) -> bool:

@@ -51,6 +51,24 @@ def test_a_run_that_ends_barely_contracted_warns_that_its_skeleton_may_not_follo
     assert "Barely contracted" not in status and "barely contracted" not in key
 
 
+def test_the_legend_names_the_node_kinds_only_of_a_state_whose_skeleton_is_drawn(torus):
+    """Iteration 0 has no skeleton (nothing contracted, provisional ones not asked for): no end, junction or path
+    node in its legend, nor before its state is measured; a finished run's skeleton has them."""
+    session = Session(torus, ContractionParams(), look_ahead=False)
+    readiness = Analyses(session).readiness(session.run, 0)
+    assert readiness.provisional
+    for key in (_legend(session.latest, readiness), _legend(session.latest, None)):
+        assert "junction" not in key and "path node" not in key
+    assert "no skeleton yet: nothing contracted yet (iteration 0)" in _legend(session.latest, readiness)
+    visible = {"original": True, "contracted": True, "skeleton": True, "removed": False}
+    provisional = legend("plain", session.latest, readiness, note="", visible=visible, original_coloured=False,
+                         provisional_wanted=True, pinned=False, labels_html="")
+    assert "junction" in provisional and "skeleton provisional" in provisional
+    while session.step() is not None:
+        pass
+    assert "junction" in _legend(session.latest, Analyses(session).readiness(session.run, len(session.history) - 1))
+
+
 @pytest.fixture(scope="module")
 def held_and_barely():
     """The longest status: a cloud with thin handles held in place, contracted at reduced resolution, its run ended

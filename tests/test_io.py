@@ -149,6 +149,15 @@ def test_too_few_points(tmp_path):
     assert_one_line(error, "few.xyz", "only 5 distinct points", f"at least {io.MIN_POINTS}")
 
 
+def test_too_few_points_left_after_dropping_the_nonfinite_ones():
+    points = np.vstack([sphere(5), [[np.nan, 0, 0]], sphere(5)])  # 5 distinct points left
+    for name, rows, left in (("few.xyz", points, 5), ("none.xyz", points[5:6], 0)):
+        with pytest.raises(InputError) as error:
+            io.validate(rows, name=name, drop_nonfinite=True)
+        assert_one_line(error, name, f"only {left} distinct points remain after dropping the 1 with NaN or Inf "
+                        f"coordinates", f"at least {io.MIN_POINTS}")
+
+
 def test_identical_points(tmp_path):
     points = np.tile([[1.0, 2.0, 3.0]], (100, 1)) + np.repeat(np.arange(25)[:, None] * 1e-15, 4, axis=0)
     with pytest.raises(InputError) as error:

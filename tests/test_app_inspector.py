@@ -1,0 +1,138 @@
+"""The inspector without a browser: a viser server, and a stand-in for a browser where a test needs one."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.session import Session
+from skelcore.io import validate
+from skelcore.params import ContractionParams
+from skelcore.shapes import make_shape
+
+
+@pytest.fixture(scope="module")
+def cloud():
+    return validate(make_shape("torus", 800).points, name="torus.xyz")
+
+
+class _Broadcast:
+    """A browser stand-in: the server's own GUI and scene, which every browser shares; its notices are kept."""
+    client_id = 1
+
+    def __init__(self, server):
+        self.gui, self.scene, self.atomic, self.flush = server.gui, server.scene, server.atomic, server.flush
+        self.notices: list[tuple[str, str]] = []
+
+    def add_notification(self, title, body, **_):
+        import types
+
+        self.notices.append((title, body))
+        return types.SimpleNamespace(remove=lambda: None)
+
+
+def test_while_playing_the_plots_follow_the_points_when_each_computation_outlasts_an_iteration(cloud):
+    """Each analysis ends only once the points have moved past its state, as when the metrics and figures take longer
+    than an iteration: the plots of a state already passed are still drawn, the newest ready, so they trail the
+    points by one computation, never by many; once the run ends they show its last state."""
+    import time
+
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, ContractionParams(wl0=1.0, sl=1.0, max_iterations=12),
+                                          look_ahead=False))
+    presenter, drawn = inspector.presenter, []
+    try:
+        inspector._connect(_Broadcast(server))
+        assert inspector.wait_idle(120)
+        viewer = presenter.all()[0]
+        plots, mark = presenter.analyses.plots, presenter.mark
+
+        def outlasting(run, index):
+            while inspector.worker.playing and viewer.drawn["points"][1] <= index:
+                time.sleep(0.01)
+            return plots(run, index)
+
+        def recording(stage, each, run, index):
+            drawn.append((stage, index, inspector.worker.playing, viewer.drawn["points"][1]))
+            mark(stage, each, run, index)
+
+        presenter.analyses.plots, presenter.mark = outlasting, recording
+        inspector.playback.start(lambda: inspector._tick(True), None, full=True)
+        assert inspector.wait_idle(120) and inspector.session.finished
+    finally:
+        inspector.close()
+        server.stop()
+    while_playing = [(index, shown) for stage, index, playing, shown in drawn if stage == "plots" and playing]
+    assert len(while_playing) >= 2, drawn
+    assert all(index < shown for index, shown in while_playing)  # of a state passed, never of one to come
+    assert [index for stage, index, *_ in drawn if stage == "plots"][-1] == len(inspector.session.history) - 1
+
+
+def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
+    """Files' list of bundled assets shows the loaded cloud when it is one of them, an entry selecting none for
+    another file (an upload named like an asset included), never the list's first asset."""
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+    from app.layout import NO_ASSET
+    from app.session import bundled_assets
+    from skelcore.io import load
+
+    assets = bundled_assets(assets_dir)
+    assert next(iter(assets)) != "torus.ply"
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(load(assets["torus.ply"]), look_ahead=False), assets=assets)
+    listed = inspector.ui.files.asset
+    try:
+        assert inspector.wait_idle(120) and listed.value == "torus.ply" and listed.options == tuple(assets)
+        inspector.open(validate(make_shape("capsule", 800).points, name="capsule.ply"))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply"
+        assert listed.value == NO_ASSET and listed.options == (NO_ASSET, *assets)
+        inspector.loader.on_load_asset(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name == "capsule.ply"  # the entry loads nothing
+        listed.value = "y_branch.ply"
+        inspector.loader.on_load_asset(types.SimpleNamespace(client=None))
+        assert inspector.wait_idle(120) and inspector.session.cloud.name.endswith("y_branch.ply")
+        assert listed.value == "y_branch.ply" and listed.options == tuple(assets)
+    finally:
+        inspector.close()
+        server.stop()
+
+
+def test_an_upload_with_nan_rows_is_offered_without_them_only_when_the_rest_can_be_loaded(cloud):
+    """A file whose finite rows are too few to load is refused at once, in one line saying so, not after the person
+    agreed to drop the others; with enough of them the drop is offered."""
+    import dataclasses
+    import types
+
+    import viser
+    from viser._gui_handles import UploadedFile
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, look_ahead=False))
+    loader, said = inspector.loader, {}
+    try:
+        assert inspector.wait_idle(120)
+        for finite in (4, 40):
+            points = np.vstack([make_shape("capsule", 40, seed=0).points[:finite], [[np.nan, 1, 1], [2, 2, np.inf]]])
+            data = "\n".join(" ".join(f"{value:.6f}" for value in row) for row in points).encode()
+            loader.files = dataclasses.replace(loader.files, upload=types.SimpleNamespace(
+                value=UploadedFile("holes.xyz", data)))  # what viser holds once a browser uploaded the file
+            client = _Broadcast(server)
+            loader.on_upload(types.SimpleNamespace(client=client))
+            assert inspector.wait_idle(120)
+            said[finite] = [notice for notice in client.notices if not notice[0].startswith("Reading")]  # no progress
+    finally:
+        inspector.close()
+        server.stop()
+    assert said[4] == [("Error", "holes.xyz: only 4 distinct points remain after dropping the 2 with NaN or Inf "
+                                 "coordinates, at least 20 are needed")]
+    assert [title for title, _ in said[40]] == ["Points with NaN or Inf"]
+    assert inspector.session.cloud.name == cloud.name  # nothing loaded without the person's yes
