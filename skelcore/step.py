@@ -337,8 +337,9 @@ def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParam
 def principal_extents(points: np.ndarray) -> np.ndarray:
     """(3,) the extents of the middle 98% of the points along their principal axes, ascending; the axes are those
     of the 98% nearest the median, so a few points flung far do not turn them."""
-    distance = np.linalg.norm(points - np.median(points, axis=0), axis=1)
-    axes = np.linalg.eigh(np.cov(points[distance <= np.quantile(distance, 1 - ROBUST_SHARE)].T))[1]
+    offset = points - np.median(points, axis=0)
+    distance2 = np.einsum("ij,ij->i", offset, offset)
+    axes = np.linalg.eigh(np.cov(points[distance2 <= np.quantile(distance2, 1 - ROBUST_SHARE)].T))[1]
     return np.sort(robust_extent(points @ axes))
 
 
