@@ -3,10 +3,16 @@ calls `changed`, which redraws the Play button and every status from it at once 
 the button and the status never disagree."""
 from __future__ import annotations
 
+import time
 from typing import Callable
 
 from .layout import RunControls
 from .worker import Worker
+
+# A Play from one browser within this many seconds of its Pause is a double click on Pause: the button's new label
+# reaches the browser a round trip after the first click, so the second still aimed at Pause. (A Pause is never
+# dropped: stopping is what a person can always ask for.)
+DOUBLE_CLICK = 0.4
 
 
 class Playback:
@@ -14,12 +20,15 @@ class Playback:
         self.worker = worker
         self.controls = controls
         self.changed = changed
+        self._paused_by: dict[object, float] = {}  # browser -> when it last paused with the button
 
     def toggle(self, tick: Callable[[], bool], client) -> None:
-        """Play (tick once per iteration until it returns False), or Pause."""
+        """Play (tick once per iteration until it returns False), or Pause; a double click on Pause pauses."""
+        who, now = getattr(client, "client_id", None), time.monotonic()
         if self.worker.playing:
+            self._paused_by[who] = now
             self.pause()
-        else:
+        elif now - self._paused_by.get(who, -DOUBLE_CLICK) >= DOUBLE_CLICK:
             self.start(tick, client, full=True)
 
     def start(self, tick: Callable[[], bool], client, full: bool) -> None:

@@ -226,3 +226,32 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     boxes.wh0.value = 0.0
     assert panel.parameters(None) is None  # Restart: said at once
     assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == 1.0 and len(pauses) == 3
+
+
+def test_a_double_click_on_pause_pauses(monkeypatch):
+    """The reviewer double-clicked Pause: the run paused and, the second click landing before the button said Play,
+    played on. A Play from the same browser within a double click's time of its Pause is dropped; another
+    browser's is not, nor one after it, and a Pause never is."""
+    from app import playback
+
+    clock = [100.0]
+    monkeypatch.setattr(playback.time, "monotonic", lambda: clock[0])
+    worker = types.SimpleNamespace(playing=False)
+    worker.play = lambda tick, client, interval: setattr(worker, "playing", True)
+    worker.pause = lambda: setattr(worker, "playing", False)
+    controls = types.SimpleNamespace(interval=types.SimpleNamespace(value=0.5))
+    play = playback.Playback(worker, controls, changed=lambda: None)
+    me, other = types.SimpleNamespace(client_id=1), types.SimpleNamespace(client_id=2)
+    play.toggle(lambda: True, me)
+    clock[0] += 0.1
+    play.toggle(lambda: True, me)  # Pause at once: never dropped
+    assert not worker.playing
+    clock[0] += 0.2
+    play.toggle(lambda: True, me)  # the double click's second half
+    assert not worker.playing
+    play.toggle(lambda: True, other)  # another browser's Play is its own
+    assert worker.playing
+    play.toggle(lambda: True, other)
+    clock[0] += playback.DOUBLE_CLICK
+    play.toggle(lambda: True, me)
+    assert worker.playing
