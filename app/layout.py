@@ -141,6 +141,11 @@ class PlotWidgets:
     compare_theta: viser.GuiPlotlyHandle
     compare_kappa: viser.GuiPlotlyHandle
 
+    def show_compare_plots(self, shown: bool) -> None:
+        """The Compare tab's plots, hidden until a run is pinned: before, three empty frames said nothing."""
+        for plot in (self.compare_convergence, self.compare_theta, self.compare_kappa):
+            plot.visible = shown
+
 
 @dataclass
 class Layout:
@@ -316,5 +321,7 @@ def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
         compare_convergence = plot(COMPARE_TITLES[0], 1.15)
         compare_theta = plot(COMPARE_TITLES[1], HISTOGRAM_ASPECT)
         compare_kappa = plot(COMPARE_TITLES[2], HISTOGRAM_ASPECT)
-    return PlotWidgets(verdict_line, verdict, hist_theta, hist_kappa, convergence, pin, compare_note, compare_convergence,
-                       compare_theta, compare_kappa)
+    widgets = PlotWidgets(verdict_line, verdict, hist_theta, hist_kappa, convergence, pin, compare_note,
+                          compare_convergence, compare_theta, compare_kappa)
+    widgets.show_compare_plots(False)
+    return widgets

@@ -73,15 +73,17 @@ class Viewer:
         self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{table}\n\n</div>'
         self.ui.plots.verdict_line.content = f"{table.splitlines()[0] if table else ''} _(criteria: Verdict tab)_"
 
-    def show_comparison(self, note: str, convergence, theta, kappa) -> None:
+    def show_comparison(self, note: str, convergence, theta, kappa, shown: bool = True) -> None:
         plots = self.ui.plots
         plots.compare_note.content = note
         plots.compare_convergence.figure, plots.compare_theta.figure, plots.compare_kappa.figure = (
             convergence, theta, kappa)
+        plots.show_compare_plots(shown)
 
     def clear_comparison(self) -> None:
-        """The Compare tab as it is before any pin."""
-        self.show_comparison(layout.COMPARE_HINT, *(layout.empty_plot(title) for title in layout.COMPARE_TITLES))
+        """The Compare tab as it is before any pin: the hint, no plots."""
+        self.show_comparison(layout.COMPARE_HINT, *(layout.empty_plot(title) for title in layout.COMPARE_TITLES),
+                             shown=False)
 
     def close(self) -> None:
         self.closed = True

@@ -697,6 +697,10 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
     step(inspector, page, 2)
     open_tab(page, "Compare")
     before = inspector.presenter.pinned
+    plots = page.viewer.ui.plots
+    if before is None:  # nothing pinned: the hint alone, no empty plot frames
+        assert not plots.compare_convergence.visible and page.locator(".js-plotly-plot:visible",
+                                                                      has_text="pinned and current").count() == 0
     page.get_by_role("button", name=re.compile(r"^Pin this run")).click()  # "... instead" once one is pinned
     wait_until(lambda: inspector.presenter.pinned is not None and inspector.presenter.pinned is not before, "the pinned run")
     open_tab(page, "Parameters")
@@ -707,6 +711,7 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
     inspector.wait_idle()
     step(inspector, page, 2)
     wait_until(lambda: drawn(page, "plots") == 2, "the new run plotted")
+    assert all(getattr(plots, each).visible for each in ("compare_convergence", "compare_theta", "compare_kappa"))
     names = [trace.name for trace in page.viewer.ui.plots.compare_convergence.figure.data]
     assert any(name.startswith("pinned:") for name in names) and any(name.startswith("current:") for name in names)
     plot = page.locator(".js-plotly-plot", has_text="pinned and current").first
@@ -735,6 +740,7 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
         assert page.viewer.ui.plots.pin.label == PIN
         assert page.viewer.ui.plots.compare_note.content == COMPARE_HINT
         assert not page.viewer.ui.plots.compare_convergence.figure.data  # the pinned run's curves are gone
+        assert not plots.compare_convergence.visible and not plots.compare_kappa.visible
     finally:
         inspector.open(inspector.module_cloud)
         wait_until(lambda: inspector.session.cloud.name == "torus.xyz", "the module's cloud")
