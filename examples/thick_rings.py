@@ -12,21 +12,17 @@ from __future__ import annotations
 
 import argparse
 
-import manifold3d
 import numpy as np
 
 import skelcore
 from skelcore.evaluate import evaluate, make_graph
-from skelcore.solids import sample_mesh
+from skelcore.solids import sample_mesh, solid_arrays, torus
 
 METHODS = ("lbc", "glskeleton")
-SEGMENTS = 64  # of the tube's circle and of the revolution
 
 
 def torus_points(tube: float, points: int, seed: int) -> np.ndarray:
-    mesh = manifold3d.Manifold.revolve(manifold3d.CrossSection.circle(tube, SEGMENTS).translate((1.0, 0.0)),
-                                       SEGMENTS).to_mesh()
-    return sample_mesh(np.asarray(mesh.vert_properties[:, :3], float), np.asarray(mesh.tri_verts), points, seed)[0]
+    return sample_mesh(*solid_arrays(torus(1.0, tube)), points, seed)[0]
 
 
 def centre_circle(samples: int = 400):

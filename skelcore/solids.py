@@ -42,7 +42,8 @@ def _manifold():
     return manifold3d
 
 
-def _torus(major: float, minor: float):
+def torus(major: float, minor: float):
+    """A torus of ring radius `major` and tube radius `minor`, around z in the xy plane."""
     m3d = _manifold()
     ring = m3d.CrossSection.circle(minor, SEGMENTS).translate((major, 0.0))
     return m3d.Manifold.revolve(ring, SEGMENTS)  # around z, in the xy plane
@@ -51,7 +52,7 @@ def _torus(major: float, minor: float):
 def _stadium_link(half_straight: float, major: float, minor: float):
     """A chain link: two half rings joined by straight bars along x, in the xy plane."""
     m3d = _manifold()
-    right, left = _torus(major, minor).split_by_plane((1.0, 0.0, 0.0), 0.0)
+    right, left = torus(major, minor).split_by_plane((1.0, 0.0, 0.0), 0.0)
     bar = m3d.Manifold.cylinder(2 * half_straight, minor, minor, SEGMENTS, True).rotate((0.0, 90.0, 0.0))
     return m3d.Manifold.batch_boolean([
         right.translate((half_straight, 0.0, 0.0)), left.translate((-half_straight, 0.0, 0.0)),
@@ -82,7 +83,7 @@ def mug():
     m3d = _manifold()
     body = m3d.Manifold.cylinder(1.1, 0.5, 0.5, SEGMENTS)
     cavity = m3d.Manifold.cylinder(1.1, 0.4, 0.4, SEGMENTS).translate((0.0, 0.0, 0.12))
-    handle = _upright(_torus(0.3, 0.08)).translate((0.5, 0.0, 0.55))
+    handle = _upright(torus(0.3, 0.08)).translate((0.5, 0.0, 0.55))
     # The handle's ends are cut inside the wall (not on its surface: coincident faces would leave slivers).
     return (body - cavity) + (handle - m3d.Manifold.cylinder(1.1, 0.45, 0.45, SEGMENTS))
 
@@ -90,7 +91,7 @@ def mug():
 def pretzel():
     """Three rings in a row, each overlapping the next along a lens (no extra hole between them): genus 3."""
     m3d = _manifold()
-    ring = _torus(1.0, 0.3)
+    ring = torus(1.0, 0.3)
     return m3d.Manifold.batch_boolean([ring.translate((x, 0.0, 0.0)) for x in (-1.7, 0.0, 1.7)], m3d.OpType.Add)
 
 
@@ -102,7 +103,7 @@ def linked_rings(count: int):
     deviations of the strongest benchmark noise, so noise never joins two rings."""
     m3d = _manifold()
     pitch, closest = (1.0, 1.0) if count == 2 else (4.0 / 3.0, 2.0 / 3.0)
-    ring = _torus(1.0, 0.15 * closest)
+    ring = torus(1.0, 0.15 * closest)
     rings = [(ring if i % 2 == 0 else _upright(ring)).translate((pitch * i, 0.0, 0.0)) for i in range(count)]
     return m3d.Manifold.batch_boolean(rings, m3d.OpType.Add) if count > 1 else rings[0]
 
@@ -164,7 +165,7 @@ def stool():
     m3d = _manifold()
     parts = [_rod(0.06, 0.5, (0.0, 0.0, 1.0))]
     parts += [_rod(1.0, 0.04, (0.4 * np.cos(a), 0.4 * np.sin(a), 0.5)) for a in 2 * np.pi * np.arange(3) / 3]
-    parts.append(_torus(0.4, 0.03).translate((0.0, 0.0, 0.4)))
+    parts.append(torus(0.4, 0.03).translate((0.0, 0.0, 0.4)))
     return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
 
 
@@ -173,7 +174,7 @@ def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
     sunk, at spread-out directions: genus `handles`, with loops small beside the body (an elephant's handles)."""
     m3d = _manifold()
     ball = m3d.Manifold.sphere(1.0, SEGMENTS)
-    handle = _upright(_torus(ring, tube))  # in the xz plane, around the y axis
+    handle = _upright(torus(ring, tube))  # in the xz plane, around the y axis
     parts = [ball]
     for i in range(handles):  # golden-angle directions on the upper half: apart from each other
         height = 0.8 - 1.2 * i / max(handles - 1, 1)
@@ -223,7 +224,7 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "handled_ball": (handled_ball, None, "ball with 3 small ring handles (genus 3)"),
     "thin_handled_ball": (lambda: handled_ball(3, 0.2, 0.04), None,
                           "ball with 3 thin ring handles, one or two points across at 10k points (genus 3)"),
-    "thick_torus": (lambda: _torus(1.0, 0.5), 0, "torus whose tube is half its ring radius (a doughnut)"),
+    "thick_torus": (lambda: torus(1.0, 0.5), 0, "torus whose tube is half its ring radius (a doughnut)"),
     "table": (table, None, "table: a top plate on four round legs"),
     "chair": (chair, None, "chair: seat on four legs, a back of two uprights and two rails (genus 2)"),
     "stool": (stool, None, "round stool: three legs joined by a ring below the seat (genus 3)"),
@@ -234,7 +235,12 @@ def solid_mesh(name: str) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS)."""
     if name not in SOLIDS:
         raise InputError(f"solid {name!r}: unknown (choose from {', '.join(SOLIDS)})")
-    mesh = SOLIDS[name][0]().to_mesh()
+    return solid_arrays(SOLIDS[name][0]())
+
+
+def solid_arrays(solid) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (v,3) and triangles (f,3) of a manifold3d solid's mesh."""
+    mesh = solid.to_mesh()
     return np.asarray(mesh.vert_properties[:, :3], dtype=np.float64), np.asarray(mesh.tri_verts, dtype=np.int64)
 
 

@@ -267,10 +267,9 @@ def test_a_thick_ring_is_not_pulled_together_across_itself(seed):
     then one step pulled the ring together across itself (its second extent fell to 31% and 45%), and the skeleton
     of that state ran from 0.5 to 1.1 ring radii. The step is rejected as a collapse: the ring stays on the axis."""
     import skelcore
-    from skelcore.solids import _torus, sample_mesh
+    from skelcore.solids import sample_mesh, solid_arrays, torus
 
-    mesh = _torus(1.0, 0.35).to_mesh()
-    points, _ = sample_mesh(np.asarray(mesh.vert_properties[:, :3], float), np.asarray(mesh.tri_verts), 10_000, seed)
+    points, _ = sample_mesh(*solid_arrays(torus(1.0, 0.35)), 10_000, seed)
     result = skelcore.skeletonize(points, method="glskeleton")
     assert result.states[-1].termination == "collapse" and "second extent" in result.states[-1].message
     radius = np.linalg.norm(result.nodes[:, :2], axis=1)
