@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import statistics
 import threading
 import time
@@ -38,7 +39,7 @@ WAIT = 300.0  # seconds: a waiting limit, not part of any figure
 # step shows the last iteration again), and a frame was drawn after that: that status arrives with the points,
 # after any "busy" line.
 PROBE = """(iteration) => {
-  const status = [...document.querySelectorAll('p')].find(p => p.textContent.includes('computed'));
+  const status = [...document.querySelectorAll('p')].find(p => /Iteration \d+ /.test(p.textContent));
   const panel = status.parentElement;
   window.__skelDrawn = new Promise(resolve => {
     const observer = new MutationObserver(() => {
@@ -93,7 +94,7 @@ def run_bench(n_points: int = 10_000, repeats: int = 7, shape: str = "torus", sk
                 page.get_by_label("Show provisional").check()
             else:
                 page.get_by_label("Show skeleton").uncheck()
-            page.get_by_text("computed").first.wait_for()
+            page.get_by_text(re.compile(r"Iteration \d+ ")).first.wait_for()
             inspector.wait_idle(WAIT)
             wall = time.time() - time.perf_counter()  # perf_counter -> wall clock, for the page's times
             for attempt in range(repeats + 1):  # the first click warms up

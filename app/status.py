@@ -120,5 +120,6 @@ def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, vis
 
 
 def _computed(newest: int) -> str:
-    """How far the run has got, after the shown iteration's number."""
-    return "(the input) &middot; no step computed yet" if newest == 0 else f"of {newest} computed"
+    """How far the run has got, after the shown iteration's number. Before the first Step: "taken", not "computed",
+    since the run state beside it may say the next iteration was computed ahead."""
+    return "(the input) &middot; no step taken yet" if newest == 0 else f"of {newest} computed"

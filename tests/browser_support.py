@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io
+import re
 import shutil
 import time
 from pathlib import Path
@@ -15,6 +16,12 @@ VIEWPORT = {"width": 1280, "height": 720}
 VIEWPORTS = ({"width": 1600, "height": 1000}, {"width": 1280, "height": 720})  # the sizes the checks run at
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 WAIT = 120.0  # seconds: generous, for waiting only (2 shared cores, software WebGL)
+
+
+def status_line(page):
+    """The status's first paragraph: "Iteration N of M computed · run ..." ("Iteration 0 (the input) · ..." before
+    the first Step)."""
+    return page.locator("p", has_text=re.compile(r"Iteration \d+ ")).first
 
 
 def browser_missing() -> str | None:

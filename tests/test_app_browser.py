@@ -19,8 +19,8 @@ import pytest
 
 from browser_support import (ARTIFACTS, VIEWPORTS, browser_missing, button, canvas_image, click,
                              close_browser_notices, inside_viewport, launch, number_input, open_folder, open_tab,
-                             open_viewer, overflows, save_page, scroll_to_top, set_value, shown_in_panel, wait_until,
-                             write_ply)
+                             open_viewer, overflows, save_page, scroll_to_top, set_value, shown_in_panel, status_line,
+                             wait_until, write_ply)
 
 pytestmark = [pytest.mark.browser, pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))]
 
@@ -120,7 +120,7 @@ def fresh_sized(inspector, sized):
 
 def shown_iteration(page) -> int | None:
     """The iteration number the status panel of this page shows."""
-    text = page.locator("p", has_text="computed").first.inner_text()
+    text = status_line(page).inner_text()
     match = re.search(r"Iteration (\d+)", text)
     return int(match.group(1)) if match else None
 
@@ -315,7 +315,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
 
 def _status(page):
     """This browser's status (the paragraph naming the iteration, and those after it)."""
-    return page.locator("p", has_text="computed").first.locator("xpath=..")
+    return status_line(page).locator("xpath=..")
 
 
 def _the_panel_fits_under_the_status(page) -> None:
@@ -562,7 +562,7 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
 
 def _run_state(page) -> str:
     """What the status says the run does: its first line ends "run playing", "run paused", ..."""
-    return page.locator("p", has_text="computed").first.inner_text().split(" · run ", 1)[-1]
+    return status_line(page).inner_text().split(" · run ", 1)[-1]
 
 
 def test_the_play_button_and_the_status_agree_as_play_starts_and_stops(fresh, page, monkeypatch):

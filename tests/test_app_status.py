@@ -148,7 +148,7 @@ def test_parameter_changes_are_said_below_the_tabs_not_in_the_status(torus):
 def test_before_the_first_step_the_status_says_the_input_is_shown_not_iteration_0_of_0(torus):
     session = Session(torus, look_ahead=False)
     first = status_markdown(session, 0, run="ready", readiness=None, skeleton="", following=True)
-    assert "**Iteration 0** (the input) &middot; no step computed yet" in first and "of 0" not in first
+    assert "**Iteration 0** (the input) &middot; no step taken yet" in first and "of 0" not in first
     session.step()
     assert "**Iteration 1** of 1 computed" in status_markdown(session, 1, run="ready", readiness=None, skeleton="",
                                                              following=True)
