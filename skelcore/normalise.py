@@ -1,8 +1,9 @@
 """cloudcontr's normalisation (GS.normalize): centre the bounding box, largest extent 1.6.
 
 The box is the OBJECT's box (`object_box`): stray points far from the object, which a scan leaves and which
-cleaning may be told to keep, neither rescale nor shift it, so they cannot shrink the object in the working
-frame nor the skeleton's sample radius that is a fraction of its diagonal."""
+cleaning may be told to keep, and pieces lying further from the object than its own size (a second object, a
+patch of background), neither rescale nor shift it, so they cannot shrink the object in the working frame nor
+the skeleton's sample radius that is a fraction of its diagonal."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -75,13 +76,55 @@ def robust_extent(points: np.ndarray) -> np.ndarray:
     return high - low
 
 
+# Cells along the largest extent of the grid that finds pieces apart (`far_pieces`). A far piece lies more than
+# the object's extent away, so more than half the cloud's largest extent: at 16 cells that is 8 cells or more,
+# and pieces within two cells of each other, which the grid cannot tell apart, are never far.
+PIECE_GRID = 16
+
+
+def far_pieces(points: np.ndarray) -> np.ndarray | None:
+    """(n,) True for the points of pieces whose gap to the object exceeds the object's own largest extent: the
+    object is the piece holding most of the points (as the middle 98% assumes); None when there is none such or
+    nothing lies that far. A cluster of a few percent of the points that far (a second object, a patch of wall)
+    would otherwise pull the middle 98% out to it and, as it sets the scale, shrink the object to a few nodes."""
+    from .inside import dilated, label_regions  # scipy: imported only when a cloud is measured
+
+    low, high = bounds(points)
+    size = float((high - low).max()) / PIECE_GRID
+    if not size > 0:
+        return None
+    shape = np.minimum(((high - low) / size).astype(np.int64) + 1, PIECE_GRID)
+    cell = np.zeros(len(points), np.int64)  # the flat cell of each point, built column by column (see `bounds`)
+    for axis, column in enumerate(points.T):
+        cell *= shape[axis]
+        cell += np.minimum(((column - low[axis]) / size).astype(np.int64), shape[axis] - 1)
+    occupied = (np.bincount(cell, minlength=int(np.prod(shape))) > 0).reshape(shape)
+    regions, count = label_regions(dilated(occupied))  # cells within two of each other: one piece
+    if count < 2:
+        return None
+    piece = regions.ravel()[cell] - 1
+    main = int(np.argmax(np.bincount(piece, minlength=count)))
+    members = piece == main
+    if 2 * members.sum() <= len(points):
+        return None
+    main_low, main_high = bounds(points[members])
+    piece_low, piece_high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
+    np.minimum.at(piece_low, piece, points)
+    np.maximum.at(piece_high, piece, points)
+    gap = np.linalg.norm(np.maximum(np.maximum(piece_low - main_high, main_low - piece_high), 0.0), axis=1)
+    far = gap > float((main_high - main_low).max())
+    return far[piece] if far.any() else None
+
+
 def object_core(points: np.ndarray) -> np.ndarray | None:
-    """(n,) True for the points within OBJECT_FENCE robust extents of the middle 98% on every axis, the object
-    without the strays far out; None when nothing lies far out (every point belongs)."""
-    low, high = _middle_box(points)
+    """(n,) True for the points of the object: not in `far_pieces`, and within OBJECT_FENCE robust extents of the
+    middle 98% of the rest on every axis (the object without the strays far out); None when nothing lies far out
+    (every point belongs)."""
+    far = far_pieces(points)
+    low, high = _middle_box(points if far is None else points[~far])
     margin = OBJECT_FENCE * (high - low)
     lowest, highest = bounds(points)
-    if (lowest >= low - margin).all() and (highest <= high + margin).all():
+    if far is None and (lowest >= low - margin).all() and (highest <= high + margin).all():
         return None
     return np.all((points >= low - margin) & (points <= high + margin), axis=1)
 

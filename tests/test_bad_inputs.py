@@ -219,9 +219,11 @@ def test_a_shape_lost_in_its_coordinates_is_refused_with_the_reason(where, words
         assert word in err, err
 
 
-def test_two_small_clusters_far_apart_give_a_message(tmp_path, capsys):
+def test_small_clusters_far_apart_give_a_message(tmp_path, capsys):
+    """None of them holds most of the points, so none is the object whose size sets the scale
+    (skelcore.normalise.far_pieces), and at the whole cloud's scale no part has a surface."""
     rng = np.random.default_rng(0)
-    points = np.vstack([rng.normal(size=(300, 3)) * 0.01, rng.normal(size=(300, 3)) * 0.01 + 1e6])
+    points = np.vstack([rng.normal(size=(300, 3)) * 0.01 + offset for offset in (0.0, 1e6, -1e6)])
     path = tmp_path / "clusters.xyz"
     path.write_text(_rows(points))
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2

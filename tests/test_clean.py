@@ -103,6 +103,39 @@ def test_denoising_reads_cleanings_neighbours_with_the_same_result():
     assert np.array_equal(shared, denoised(points[report.kept], k))
 
 
+@pytest.mark.parametrize("share", [0.03, 0.1])
+def test_a_far_cluster_of_a_few_percent_does_not_collapse_the_object(share):
+    """A dense cluster of 3-10% of the points ten object sizes away (a second object, a patch of wall) survives
+    cleaning and once pulled the middle 98% out to it: the object shrank in the working frame and its skeleton
+    to 9 nodes. Now it sets neither the frame nor the sample radius: the torus keeps its loop and the node count
+    it has alone, and the cluster is a piece of its own."""
+    import skelcore
+    from skelcore.normalise import Normalisation, far_pieces
+
+    torus = ring(3000)
+    cluster = np.random.default_rng(4).normal(0, 0.1, (round(share * len(torus)), 3)) + [30.0, 0.0, 0.0]
+    scene = np.vstack([torus, cluster])
+    assert np.array_equal(np.flatnonzero(far_pieces(scene)), np.arange(len(torus), len(scene)))
+    assert Normalisation.fit(scene).scale == pytest.approx(Normalisation.fit(torus).scale)
+    alone, beside = (skelcore.skeletonize(points) for points in (torus, scene))
+    assert beside.skeleton.radius == pytest.approx(alone.skeleton.radius)
+    topology = beside.skeleton.topology()
+    assert (topology["cycles"], topology["components"]) == (1, 2)
+    assert len(beside.nodes) >= 0.8 * len(alone.nodes)
+
+
+def test_pieces_apart_by_less_than_the_objects_size_or_without_a_majority_are_the_object():
+    """Two tori side by side, or of equal counts far apart, are one object as before: a piece is left out only when
+    its gap exceeds the extent of the piece holding most of the points."""
+    from skelcore.normalise import far_pieces
+
+    torus = ring(2000)
+    extent = float(np.ptp(torus, axis=0).max())
+    assert far_pieces(np.vstack([torus, torus[:200] + [1.5 * extent, 0, 0]])) is None
+    assert far_pieces(np.vstack([torus, torus + [30 * extent, 0, 0]])) is None
+    assert far_pieces(torus) is None
+
+
 def test_far_strays_kept_by_cleaning_do_not_rescale_the_object():
     """With cleaning off, a stray cluster ten object sizes away changes neither the working frame's scale nor
     the skeleton's sample radius; a clean cloud's object box is its whole box."""
