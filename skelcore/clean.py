@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 from .errors import ParameterError
 from .io import Cloud
 from .neighbours import CHUNK, knn, local_frames
+from .normalise import far_pieces
 from .params import check_flags, is_integer, is_real
 
 
@@ -154,6 +155,10 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
     points = cloud.points[kept]
     if params.denoise:
         points = denoised(points, params.neighbours, _kept_neighbours(report, params.neighbours, cloud.points))
+    far = far_pieces(points)
+    if far is not None:
+        notes.append(f"{int(far.sum()):,} points lie further from the object than its own size: they are skeletonised "
+                     f"as pieces of their own and do not set the skeleton's scale")
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 
