@@ -200,6 +200,25 @@ def test_an_open_tube_among_closed_parts_holds_its_axis():
     assert not reference.inside.contains(parts[0] * [5.0, 5.0, 1.0]).any()
 
 
+def test_a_split_region_is_judged_by_its_cells_centres_only_where_points_fall():
+    """An open sheet (a bent leaf) splits the outside's votes, so its cells are judged one by one: by their centres,
+    as when every cell was judged at once, but only those a query reaches, and each once."""
+    from skelcore.inside import SPLIT, InsideTest
+
+    rng = np.random.default_rng(0)
+    u, v = rng.uniform(-1, 1, (2, 6000))
+    leaf = np.c_[u, v, 0.4 * u**2]
+    test = InsideTest.of_cloud(leaf, 0.01, 0.005)
+    split = np.argwhere(test.cells == SPLIT)
+    assert len(split) > 1000
+    cell = split[rng.choice(len(split), 300, replace=False)]
+    queries = test.origin + (cell + rng.uniform(0.05, 0.95, cell.shape)) * test.size  # anywhere in those cells
+    centres = test.origin + (cell + 0.5) * test.size
+    assert np.array_equal(test.contains(queries), test._side(centres) <= 0)
+    assert (test.cells == SPLIT).sum() == len(split) - 300  # judged once, remembered
+    assert np.array_equal(test.contains(queries), test._side(centres) <= 0)
+
+
 def test_cloud_contracted_onto_its_core_is_bounded():
     points, normals, core = torus()
     reference = MetricsReference.from_points(points)
