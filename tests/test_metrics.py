@@ -243,6 +243,49 @@ def test_mesh_reference_is_bounded_by_its_surface():
     assert reference.evaluate(vertices * 3.0).boundedness["inside_share"] == 0.0
 
 
+def _disagreements(faces):
+    """Pairs of faces sharing an edge that run along it in the same direction (inconsistent winding)."""
+    edges = np.stack([faces, np.roll(faces, -1, axis=1)], axis=-1).reshape(-1, 2)
+    seen, count = {}, 0
+    for u, v in edges.tolist():
+        count += seen.get((u, v), 0)
+        seen[(u, v)] = seen.get((u, v), 0) + 1
+    return count
+
+
+def test_scrambled_winding_is_repaired_as_trimesh_repairs_it_and_a_moebius_band_disagrees_once():
+    """A third of the faces of a capsule and of two separate bodies flipped: the winding comes out consistent and,
+    once each body is turned outward, face for face as trimesh.repair.fix_normals leaves it. A Moebius band has
+    no consistent winding: one pair of faces is left disagreeing, the least there can be."""
+    import trimesh
+
+    from skelcore.inside import _turn_bodies_outward, _wind_consistently
+
+    rng = np.random.default_rng(0)
+    for solid in (trimesh.creation.capsule(count=[24, 24]),
+                  trimesh.util.concatenate([trimesh.creation.box(), trimesh.creation.icosphere().apply_translation([3, 0, 0])])):
+        faces = solid.faces.copy()
+        flipped = rng.random(len(faces)) < 0.3
+        faces[flipped] = faces[flipped][:, ::-1]
+        ours, theirs = (trimesh.Trimesh(solid.vertices, faces, process=False) for _ in range(2))
+        _wind_consistently(ours)
+        assert _disagreements(ours.faces) == 0
+        _turn_bodies_outward(ours)
+        trimesh.repair.fix_normals(theirs)
+        _turn_bodies_outward(theirs)
+        assert np.array_equal(ours.faces, theirs.faces)
+    angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    vertices = np.array([[(1 + w * np.cos(t / 2)) * np.cos(t), (1 + w * np.cos(t / 2)) * np.sin(t), w * np.sin(t / 2)]
+                         for t in angle for w in (-0.2, 0.2)])
+    faces = []
+    for i in range(40):
+        p, q = (2 * i, 2 * i + 1), ((2 * i + 2, 2 * i + 3) if i < 39 else (1, 0))  # the half twist closes the band
+        faces += [[p[0], q[0], p[1]], [p[1], q[0], q[1]]]
+    band = trimesh.Trimesh(vertices, np.array(faces), process=False)
+    _wind_consistently(band)
+    assert _disagreements(band.faces) == 1
+
+
 def test_an_open_mesh_wound_inward_is_bounded_by_its_surface():
     """trimesh settles the winding's direction only on a watertight mesh: a capsule with one cap cut off and its
     faces wound inward is turned outward by its flux."""
