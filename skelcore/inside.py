@@ -228,8 +228,8 @@ def _wind_consistently(mesh) -> None:
 
 
 def _turn_bodies_outward(mesh) -> None:
-    """Flip the winding of each connected body whose faces point inward. trimesh makes the winding consistent but
-    settles its direction only on a watertight mesh; by the divergence theorem the flux of x - c through a closed
+    """Flip the winding of each connected body whose faces point inward. A consistent winding (_wind_consistently)
+    settles no direction; by the divergence theorem the flux of x - c through a closed
     surface with outward normals is three times its volume, so an outward body's sum of area * n.(x - c) is
     positive (c: the body's area-weighted centroid), and it stays so for a body with a few holes."""
     import trimesh

@@ -76,9 +76,9 @@ def robust_extent(points: np.ndarray) -> np.ndarray:
     return high - low
 
 
-# Cells along the largest extent of the grid that finds pieces apart (`far_pieces`). A far piece lies more than
-# the object's extent away, so more than half the cloud's largest extent: at 16 cells that is 8 cells or more,
-# and pieces within two cells of each other, which the grid cannot tell apart, are never far.
+# Cells along the largest extent of the grid that finds pieces apart (`far_pieces`). Pieces within two cells of
+# each other are one piece to it, so a piece is found far only once its gap also exceeds an eighth of the cloud's
+# largest extent: a piece it misses lies near the object, inside the box the object and its close pieces span.
 PIECE_GRID = 16
 
 
