@@ -203,16 +203,13 @@ def _wind_consistently(mesh) -> None:
     winding; on one that cannot (a Moebius band, a scan's crossed patches) only edges off the forest disagree, as
     with trimesh.repair.fix_winding's breadth-first walk, which goes face by face in Python and held the GIL for
     4 s on a 49k-face scan while the contraction waited for it."""
+    import trimesh
+
     faces, m = mesh.faces, len(mesh.faces)
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=-1).reshape(-1, 2)  # each face's three edges
-    key = directed.min(axis=1).astype(np.int64) * len(mesh.vertices) + directed.max(axis=1)
-    order = np.argsort(key, kind="stable")
-    start = np.r_[True, key[order][1:] != key[order][:-1]]
-    group = np.cumsum(start) - 1
-    shared = np.flatnonzero(start & (np.bincount(group)[group] == 2))  # edges of exactly two faces
-    first, second = order[shared], order[shared + 1]
-    agree = directed[first, 0] == directed[second, 1]  # u -> v in one face, v -> u in the other
-    low, high = np.minimum(first // 3, second // 3), np.maximum(first // 3, second // 3)
+    # edges of exactly two faces, as trimesh's face_adjacency takes them (mesh.edges: each face's three, directed)
+    first, second = trimesh.grouping.group_rows(mesh.edges_sorted, require_count=2).reshape(-1, 2).T
+    agree = mesh.edges[first, 0] == mesh.edges[second, 1]  # u -> v in one face, v -> u in the other
+    low, high = np.sort(mesh.edges_face[np.stack([first, second], axis=1)], axis=1).T
     _, once = np.unique(low * m + high, return_index=True)  # faces sharing two edges: one pair (a sum would blur it)
     forest = minimum_spanning_tree(sp.coo_matrix((2.0 - agree[once], (low[once], high[once])), shape=(m, m))).tocoo()
     a, b, agree = forest.row, forest.col, forest.data == 1.0
