@@ -157,8 +157,8 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
         points = denoised(points, params.neighbours, _kept_neighbours(report, params.neighbours, cloud.points))
     far = far_pieces(points)
     if far is not None:
-        notes.append(f"{int(far.sum()):,} points lie further from the object than its own size: they are skeletonised "
-                     f"as pieces of their own and do not set the skeleton's scale")
+        notes.append(f"{int(far.sum()):,} points lie further from the largest piece than its own size: they are "
+                     f"skeletonised as pieces of their own and do not set the skeleton's scale")
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
 

@@ -80,14 +80,22 @@ def robust_extent(points: np.ndarray) -> np.ndarray:
 # each other are one piece to it, so a piece is found far only once its gap also exceeds an eighth of the cloud's
 # largest extent: a piece it misses lies near the object, inside the box the object and its close pieces span.
 PIECE_GRID = 16
+# Points per occupied cell below which the grid's gaps are the sampling's: a surface sampled p points a cell has a
+# spacing of about a cell over sqrt(p), so the two-cell gap between pieces is 2 sqrt(p) spacings, which at 4 is
+# beyond cleaning's piece_gap (3 spacings). A sparse cloud (tens of points) breaks into such pieces of a few
+# points each, none of which is an object whose size could set the scale.
+MIN_PER_CELL = 4
 
 
-def far_pieces(points: np.ndarray) -> np.ndarray | None:
-    """(n,) True for the points of pieces whose gap to the object exceeds the object's own largest extent: the
-    object is the piece holding most of the points (as the middle 98% assumes); None when there is none such or
-    nothing lies that far. A cluster of a few percent of the points that far (a second object, a patch of wall)
-    would otherwise pull the middle 98% out to it and, as it sets the scale, shrink the object to a few nodes."""
-    from .inside import dilated, label_regions  # scipy: imported only when a cloud is measured
+def pieces_apart(points: np.ndarray) -> np.ndarray | None:
+    """(n,) 0 for the points of the object, 1, 2, ... for those of each piece whose gap to the object exceeds the
+    object's own largest extent: the object is the piece holding the most points with the pieces near it; None
+    when nothing lies that far, or when the cloud is sampled too sparsely for the grid (MIN_PER_CELL). A cluster
+    of a few percent of the points that far (a second object, a patch of wall) would otherwise pull the middle
+    98% out to it and, as it sets the scale, shrink the object to a few nodes; so would a row of like objects
+    far apart, where no piece holds most of the cloud: each is resolved at the scale of the largest (which of
+    equals does not matter, the others are far from it too)."""
+    from .regions import dilated, label_regions  # scipy: imported only when a cloud is measured
 
     low, high = bounds(points)
     size = float((high - low).max()) / PIECE_GRID
@@ -99,21 +107,30 @@ def far_pieces(points: np.ndarray) -> np.ndarray | None:
         cell *= shape[axis]
         cell += np.minimum(((column - low[axis]) / size).astype(np.int64), shape[axis] - 1)
     occupied = (np.bincount(cell, minlength=int(np.prod(shape))) > 0).reshape(shape)
+    if len(points) < MIN_PER_CELL * occupied.sum():
+        return None
     regions, count = label_regions(dilated(occupied))  # cells within two of each other: one piece
     if count < 2:
         return None
     piece = regions.ravel()[cell] - 1
-    main = int(np.argmax(np.bincount(piece, minlength=count)))
-    members = piece == main
-    if 2 * members.sum() <= len(points):
-        return None
+    members = piece == int(np.argmax(np.bincount(piece, minlength=count)))
     main_low, main_high = bounds(points[members])
     piece_low, piece_high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
     np.minimum.at(piece_low, piece, points)
     np.maximum.at(piece_high, piece, points)
     gap = np.linalg.norm(np.maximum(np.maximum(piece_low - main_high, main_low - piece_high), 0.0), axis=1)
     far = gap > float((main_high - main_low).max())
-    return far[piece] if far.any() else None
+    if not far.any():
+        return None
+    number = np.zeros(count, np.int64)
+    number[far] = np.arange(1, far.sum() + 1)
+    return number[piece]
+
+
+def far_pieces(points: np.ndarray) -> np.ndarray | None:
+    """(n,) True for the points of pieces far from the object (`pieces_apart`), None when there are none."""
+    apart = pieces_apart(points)
+    return None if apart is None else apart > 0
 
 
 def object_core(points: np.ndarray) -> np.ndarray | None:
@@ -126,7 +143,8 @@ def object_core(points: np.ndarray) -> np.ndarray | None:
     lowest, highest = bounds(points)
     if far is None and (lowest >= low - margin).all() and (highest <= high + margin).all():
         return None
-    return np.all((points >= low - margin) & (points <= high + margin), axis=1)
+    inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
+    return None if inside.all() else inside  # far pieces within the fence of the object and its near pieces
 
 
 def object_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -219,16 +219,19 @@ def test_a_shape_lost_in_its_coordinates_is_refused_with_the_reason(where, words
         assert word in err, err
 
 
-def test_small_clusters_far_apart_give_a_message(tmp_path, capsys):
-    """None of them holds most of the points, so none is the object whose size sets the scale
-    (skelcore.normalise.far_pieces), and at the whole cloud's scale no part has a surface."""
+def test_small_clusters_far_apart_are_skeletonised_each_with_a_note(tmp_path, capsys):
+    """None of them holds most of the points; the largest sets the scale (skelcore.normalise.far_pieces), the
+    others are pieces of their own, and the run says so. At the whole cloud's scale (as once) no part had a
+    surface and the run was refused."""
     rng = np.random.default_rng(0)
     points = np.vstack([rng.normal(size=(300, 3)) * 0.01 + offset for offset in (0.0, 1e6, -1e6)])
     path = tmp_path / "clusters.xyz"
     path.write_text(_rows(points))
-    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "clusters.xyz" in err and "Traceback" not in err
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "points lie further from the largest piece than its own size" in out and "Traceback" not in out
+    skeleton = json.loads((tmp_path / "out" / "skeleton.json").read_text())
+    assert skeleton["topology"]["components"] == 3, skeleton["topology"]
 
 
 def test_solver_failures_are_in_our_words(monkeypatch):

@@ -219,6 +219,23 @@ def test_a_split_region_is_judged_by_its_cells_centres_only_where_points_fall():
     assert np.array_equal(test.contains(queries), test._side(centres) <= 0)
 
 
+@pytest.mark.parametrize("apart", [30.0, 100.0])
+def test_two_tori_far_apart_are_each_turned_outward(apart):
+    """Each part's normals are turned outward by the sign of sum n.(p - c), which carries c times the sum of its
+    normals; with c the centroid of two tori thirty sizes apart that term outweighed each thin torus's volume,
+    both were turned inward, their axes judged outside and every run on them "unstable". c is now each far
+    piece's own centroid (skelcore.normalise.pieces_apart)."""
+    first, normals, core = torus(3000, small=0.2)
+    second, _, _ = torus(3000, small=0.2, seed=1)
+    offset = np.array([apart * 2.4, 0.0, 0.0])
+    points = np.vstack([first, second + offset])
+    reference = MetricsReference.from_points(points)
+    assert reference.inside.contains(np.vstack([core, core + offset])).all()
+    assert not reference.inside.contains(np.array([[0.0, 0.0, 0.0], offset])).any()  # the holes
+    outward = reference.inside.normals[:len(first)]
+    assert (np.einsum("ij,ij->i", outward, normals) > 0).mean() > 0.95
+
+
 def test_cloud_contracted_onto_its_core_is_bounded():
     points, normals, core = torus()
     reference = MetricsReference.from_points(points)
@@ -426,7 +443,7 @@ def test_inside_grid_operations_match_scipy_ndimage():
     import): the same cells and the same region numbers as ndimage's binary_dilation and label."""
     from scipy import ndimage
 
-    from skelcore.inside import dilated, label_regions
+    from skelcore.regions import dilated, label_regions
 
     rng = np.random.default_rng(0)
     for shape in [(1, 1, 1), (1, 5, 3), (5, 6, 7), (46, 27, 18)]:
