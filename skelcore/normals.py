@@ -105,10 +105,11 @@ def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> 
     turn each connected part outward as a whole: by the divergence theorem the flux of x - c through a closed
     surface with outward normals is three times its volume whatever the point c, so the sum of n_i.(p_i - c)
     over a part must be positive; c is the cloud's centroid, which turns an open patch away from the object's
-    centre, or for a piece far from the rest (skelcore.normalise.pieces_apart) the piece's own: that sum carries
-    c times the sum of the piece's normals, which sampling leaves a little off zero, and with c ten times the
-    piece's size away that term outweighed a thin torus's volume and turned both of two tori inward. (One point's sign, such as the farthest point's, fails where its PCA normal is ill-defined: a tip,
-    or noise; with 1% noise it turned whole clouds inward.) Edges that cross the surface (across a thin tube or
+    centre, or for a piece far from the rest (skelcore.normalise.pieces_apart) the piece's own: the sum carries c
+    times the sum of the piece's normals, which sampling leaves a little off zero, and with c thirty piece sizes
+    away that term outweighed a thin torus's volume and turned both of two tori inward. (One point's sign, such
+    as the farthest point's, fails where its PCA normal is ill-defined: a tip, or noise; with 1% noise it turned
+    whole clouds inward.) Edges that cross the surface (across a thin tube or
     plate, where the two sides face opposite ways) are left out: an edge must run along the tangent planes of
     both its ends."""
     n = len(points)
@@ -130,8 +131,8 @@ def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> 
     if apart is None:
         offsets = points - points.mean(axis=0)
     else:
-        count = np.bincount(apart)[:, None]
-        offsets = points - np.column_stack([np.bincount(apart, column) for column in points.T])[apart] / count[apart]
+        centres = np.stack([np.bincount(apart, column) for column in points.T], axis=1) / np.bincount(apart)[:, None]
+        offsets = points - centres[apart]
     roots = np.unique(labels, return_index=True)[1]  # any point of a part: the flux sets the part's sign
     # A virtual node n joined to every part's root makes the forest one tree: one BFS gives all parents.
     root = n

@@ -121,7 +121,8 @@ def test_a_far_cluster_of_a_few_percent_does_not_collapse_the_object(share):
     assert beside.skeleton.radius == pytest.approx(alone.skeleton.radius)
     topology = beside.skeleton.topology()
     assert (topology["cycles"], topology["components"]) == (1, 2)
-    said = [note for note in beside.cloud.notes if "points lie further from the largest piece than its own size" in note]
+    said = [note for note in beside.cloud.notes
+            if "points lie further from the largest piece than its own size" in note]
     assert len(said) == 1 and 0.8 * len(cluster) <= int(said[0].split()[0].replace(",", "")) <= len(cluster)
     assert len(beside.nodes) >= 0.8 * len(alone.nodes)
 
