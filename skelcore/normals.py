@@ -109,9 +109,8 @@ def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> 
     times the sum of the piece's normals, which sampling leaves a little off zero, and with c thirty piece sizes
     away that term outweighed a thin torus's volume and turned both of two tori inward. (One point's sign, such
     as the farthest point's, fails where its PCA normal is ill-defined: a tip, or noise; with 1% noise it turned
-    whole clouds inward.) Edges that cross the surface (across a thin tube or
-    plate, where the two sides face opposite ways) are left out: an edge must run along the tangent planes of
-    both its ends."""
+    whole clouds inward.) Edges that cross the surface (across a thin tube or plate, where the two sides face
+    opposite ways) are left out: an edge must run along the tangent planes of both its ends."""
     n = len(points)
     usable = np.nan_to_num(normals)
     cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1].ravel()
