@@ -27,7 +27,7 @@ the input are kept: a limb or a tail ends, and the hold above keeps its end.
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, csr_array
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
@@ -290,21 +290,21 @@ def _piece_through_probe(surface, rows: np.ndarray, cols: np.ndarray, to_probe: 
     join to the point nearest the probe."""
     if not len(rows):
         return np.zeros(0, dtype=bool)
-    # every entry (probe, a) against every (probe, b) with an edge a-b, found by the key probe * n + point
-    n = surface.shape[0]
+    # every entry (probe, a) against every (probe, b) with an edge a-b: b looked up in its probe's row of a
+    # (probes, points) table of entry numbers (a binary search within one probe's slab)
+    n, probes = surface.shape[0], int(rows.max()) + 1
     counts = np.diff(surface.indptr)[cols]
     entry = np.repeat(np.arange(len(rows)), counts)
     slots = np.arange(counts.sum()) + np.repeat(surface.indptr[cols] - np.cumsum(counts) + counts, counts)
-    keys = rows.astype(np.int64) * n + cols
-    order = np.argsort(keys)
-    ordered = keys[order]
-    wanted = rows[entry].astype(np.int64) * n + surface.indices[slots]
-    position = np.searchsorted(ordered, wanted).clip(0, len(keys) - 1)
-    found = ordered[position] == wanted
-    links = coo_matrix((np.ones(int(found.sum())), (entry[found], order[position[found]])), shape=(len(rows),) * 2)
+    table = csr_array((np.arange(1, len(rows) + 1), (rows, cols)), shape=(probes, n))
+    other = np.asarray(table[rows[entry], surface.indices[slots]]).ravel() - 1
+    found = other > entry  # each link once
+    links = coo_matrix((np.ones(int(found.sum())), (entry[found], other[found])), shape=(len(rows),) * 2)
     _, piece = connected_components(links, directed=False)
-    nearest = np.lexsort((to_probe, rows))
-    first = nearest[np.r_[True, rows[nearest][1:] != rows[nearest][:-1]]]
-    own = np.full(rows.max() + 1, -1)
-    own[rows[first]] = piece[first]
-    return piece == own[rows]
+    # each probe's piece is that of its entry nearest the probe (the first such entry on a tie)
+    nearest = np.full(probes, np.inf)
+    np.minimum.at(nearest, rows, to_probe)
+    at_nearest = np.flatnonzero(to_probe == nearest[rows])
+    first = np.full(probes, len(rows) - 1)
+    np.minimum.at(first, rows[at_nearest], at_nearest)
+    return piece == piece[first][rows]
