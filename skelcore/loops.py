@@ -38,6 +38,7 @@ surface edges support (ties: the longest). The curve keeps its length, and its p
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import networkx as nx
@@ -89,27 +90,29 @@ class SurfaceProbe:
         normal lies within 90 - CROSSING_ANGLE degrees of the disk's plane."""
         centre = corners.mean(axis=0)
         normal = np.linalg.svd(corners - centre)[2][2]
-        found: set[int] = set()
-        for a, b in zip(corners, np.roll(corners, -1, axis=0)):
-            triangle = np.array([centre, a, b])
-            middle = triangle.mean(axis=0)
-            reach = np.linalg.norm(triangle - middle, axis=1).max() + self.spacing
-            ids = np.asarray(self.tree.query_ball_point(middle, reach, return_sorted=False), dtype=np.int64)
-            # A point is at least as far from the triangle as from its plane: only those in a slab can be near.
-            # The slack covers rounding, of the coordinates and of the plane of a thin triangle.
-            plane = np.cross(a - centre, b - centre)
-            area2 = float(np.linalg.norm(plane))
-            if area2 == 0 or not len(ids):
-                continue
-            slack = 1e-9 * (self._scale + reach * np.linalg.norm(a - centre) * np.linalg.norm(b - centre) / area2)
-            ids = ids[np.abs((self.points[ids] - centre) @ (plane / area2)) <= self.spacing + slack]
-            if len(ids):
-                near = _triangle_distance(self.points[ids], triangle) <= self.spacing
-                found.update(ids[near].tolist())
+        # the fan's triangles (centre, a, b), all at once; a flat one (area 0) is skipped
+        a, b = corners, np.roll(corners, -1, axis=0)
+        plane = np.cross(a - centre, b - centre)
+        area2 = np.linalg.norm(plane, axis=1)
+        flat = area2 == 0
+        a, b, plane, area2 = a[~flat], b[~flat], plane[~flat], area2[~flat]
+        triangles = np.stack([np.broadcast_to(centre, a.shape), a, b], axis=1)
+        middles = triangles.mean(axis=1)
+        reach = np.linalg.norm(triangles - middles[:, None], axis=2).max(axis=1) + self.spacing
+        near = self.tree.query_ball_point(middles, reach, return_sorted=False, workers=-1)
+        triangle = np.repeat(np.arange(len(near)), [len(ids) for ids in near])
+        ids = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=len(triangle))
+        # A point is at least as far from the triangle as from its plane: only those in a slab can be near.
+        # The slack covers rounding, of the coordinates and of the plane of a thin triangle.
+        slack = 1e-9 * (self._scale + reach * np.linalg.norm(a - centre, axis=1) * np.linalg.norm(b - centre, axis=1)
+                        / area2)
+        height = np.abs(np.einsum("ij,ij->i", self.points[ids] - centre, (plane / area2[:, None])[triangle]))
+        in_slab = height <= self.spacing + slack[triangle]
+        ids, triangle = ids[in_slab], triangle[in_slab]
+        found = np.unique(ids[_triangle_distance(self.points[ids], triangles[triangle]) <= self.spacing])
         if len(found) < CROSSING_POINTS:
             return 0
-        ids = np.fromiter(found, dtype=np.int64)
-        across = np.abs(self.normals(ids) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
+        across = np.abs(self.normals(found) @ normal) < math.cos(math.radians(CROSSING_ANGLE))
         return int(across.sum())
 
     def inside(self) -> InsideTest:
@@ -149,38 +152,41 @@ def _lattice(m: int) -> np.ndarray:
 _LATTICE = _lattice(DISK_LATTICE)
 
 
-def _triangle_distance(points: np.ndarray, triangle: np.ndarray) -> np.ndarray:
-    """Distance of each point to the (filled) triangle."""
-    a, b, c = triangle
+def _triangle_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Distance of each point (m, 3) to its filled triangle (m, 3, 3), corners in rows (a flat one: inf)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     ab, ac = b - a, c - a
     normal = np.cross(ab, ac)
-    area2 = np.linalg.norm(normal)
-    if area2 == 0:
-        return np.full(len(points), np.inf)
-    normal /= area2
+    area2 = np.linalg.norm(normal, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal /= area2[:, None]
     rel = points - a
-    height = rel @ normal
+    height = np.einsum("ij,ij->i", rel, normal)
     foot = rel - height[:, None] * normal
     # barycentric coordinates of the foot
-    d00, d01, d11 = ab @ ab, ab @ ac, ac @ ac
-    d20, d21 = foot @ ab, foot @ ac
+    d00, d01, d11 = (np.einsum("ij,ij->i", *pair) for pair in ((ab, ab), (ab, ac), (ac, ac)))
+    d20, d21 = np.einsum("ij,ij->i", foot, ab), np.einsum("ij,ij->i", foot, ac)
     denom = area2 * area2  # = d00 d11 - d01^2 (Lagrange), without its cancellation on a thin sliver
-    v = (d11 * d20 - d01 * d21) / denom
-    w = (d00 * d21 - d01 * d20) / denom
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = (d11 * d20 - d01 * d21) / denom
+        w = (d00 * d21 - d01 * d20) / denom
     inside = (v >= 0) & (w >= 0) & (v + w <= 1)
     distance = np.abs(height)
-    if (~inside).any():
-        outside = points[~inside]
+    out = ~inside
+    if out.any():
         edges = [(a, b), (b, c), (c, a)]
-        distance[~inside] = np.min([segment_distance(outside, p, q) for p, q in edges], axis=0)
+        distance[out] = np.min([segment_distance(points[out], p[out], q[out]) for p, q in edges], axis=0)
+    distance[area2 == 0] = np.inf
     return distance
 
 
 def segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Distances of `points` (m,3) from the segment p-q (a point when p == q)."""
+    """Distances of `points` (m,3) from the segment p-q (a point when p == q): one segment (3,) for all, or one
+    per point (m, 3)."""
     d = q - p
-    t = np.clip((points - p) @ d / max(d @ d, 1e-300), 0.0, 1.0)
-    return np.linalg.norm(points - (p + t[:, None] * d), axis=1)
+    t = np.clip(np.einsum("...j,...j->...", points - p, d) / np.maximum(np.einsum("...j,...j->...", d, d), 1e-300),
+                0.0, 1.0)
+    return np.linalg.norm(points - (p + t[..., None] * d), axis=-1)
 
 
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
