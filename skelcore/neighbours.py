@@ -66,6 +66,16 @@ def knn(points: np.ndarray, k: int, tree: cKDTree | None = None) -> tuple[np.nda
     return distances, indices
 
 
+def leaf_knn(tree: cKDTree, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """knn of every point of `tree` with rows and neighbour ids both in the tree's leaf order (`tree.indices`:
+    row j is point tree.indices[j]), where neighbouring rows and their neighbours lie near in memory."""
+    k = min(k, tree.n)
+    distances, indices = tree.query(tree.data[tree.indices], k=k, workers=-1)
+    leaf = np.empty(tree.n, dtype=np.int64)
+    leaf[tree.indices] = np.arange(tree.n)
+    return distances.reshape(tree.n, k), leaf[indices.reshape(tree.n, k)]
+
+
 def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and eigenvectors (columns) of each neighbourhood's covariance."""
     values, vectors, _ = local_frames(points[neighbours])

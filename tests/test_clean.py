@@ -95,10 +95,15 @@ def test_denoising_reads_cleanings_neighbours_with_the_same_result():
     report = clean(points)
     assert report.neighbours is not None and len(report.outliers) > 20 and len(report.stray) >= 20
     k = CleaningParams().neighbours
-    kept_among = np.isin(report.neighbours[report.kept], report.kept).sum(axis=1)
+    # cleaning's kNN runs in the tree's leaf order: its rows and ids are leaf positions
+    kept_leaf = np.flatnonzero(np.isin(report.order, report.kept))
+    kept_among = np.isin(report.neighbours[kept_leaf], kept_leaf).sum(axis=1)
     assert (kept_among < k).any() and (kept_among >= k).mean() > 0.9  # both paths: read and asked again
-    rows = _kept_neighbours(report, k, points)
-    assert np.array_equal(rows, knn(points[report.kept], k)[1])
+    rows = _kept_neighbours(report, k, points, kept_leaf)
+    in_kept = np.searchsorted(report.kept, report.order[kept_leaf])  # each leaf row's place among the kept points
+    fresh = np.empty_like(rows)
+    fresh[in_kept] = in_kept[rows]
+    assert np.array_equal(fresh, knn(points[report.kept], k)[1])
     shared = cleaned(Cloud(points=points, name="x"), CleaningParams(), report).points
     assert np.array_equal(shared, denoised(points[report.kept], k))
 
