@@ -38,7 +38,7 @@ WAIT = 300.0  # seconds: a waiting limit, not part of any figure
 # Resolves with Date.now() once the status panel names the given iteration, or says the run ended (a rejected
 # step shows the last iteration again), and a frame was drawn after that: that status arrives with the points,
 # after any "busy" line.
-PROBE = """(iteration) => {
+PROBE = r"""(iteration) => {
   const status = [...document.querySelectorAll('p')].find(p => /Iteration \d+ /.test(p.textContent));
   const panel = status.parentElement;
   window.__skelDrawn = new Promise(resolve => {
