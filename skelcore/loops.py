@@ -240,6 +240,8 @@ def short_cycle_basis(graph: nx.Graph) -> tuple[list[list[int]], bool]:
     default, heavy noise) that takes minutes, so the shortest cycle through each edge is taken
     instead, shortest first while independent over GF(2) (a superset of the fundamental cycles completes it)."""
     rank = graph.number_of_edges() - graph.number_of_nodes() + nx.number_connected_components(graph)
+    if rank <= 1:  # no cycle, or the only one: that is the basis, and a minimum one (networkx's search: 0.06 s)
+        return nx.cycle_basis(graph), True
     if rank * graph.number_of_nodes() <= MINIMUM_BASIS_WORK:
         return nx.minimum_cycle_basis(graph, weight="length"), True
     index = {frozenset(edge): i for i, edge in enumerate(graph.edges)}
