@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -177,12 +179,20 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     if index is None:
         _, index = knn(points, neighbours)
     projected = np.empty_like(points)
-    for start in range(0, len(points), CHUNK):  # bounded (CHUNK, neighbours, 3) temporaries
+
+    def project(start: int) -> None:  # a block of CHUNK rows: bounded (CHUNK, neighbours, 3) temporaries
         rows = slice(start, start + CHUNK)
         _, frames, mean = local_frames(points[index[rows]], None if weights is None else weights[index[rows]])
         normal = frames[:, :, 0]
         offset = np.einsum("ij,ij->i", points[rows] - mean[:, 0], normal)
         projected[rows] = points[rows] - offset[:, None] * normal
+
+    starts = range(0, len(points), CHUNK)
+    if len(starts) == 1:
+        project(0)
+    else:  # numpy's gathers and LAPACK release the GIL: blocks on every core (1M points: 1.8 -> 1.0 s on two)
+        with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+            list(pool.map(project, starts))
     return projected
 
 
