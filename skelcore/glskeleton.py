@@ -11,22 +11,29 @@ Merge rule, after solve t (LCWR lines 96-104 for t = 1, 158-166 after; Remove_po
   c = CONTROL a_1 at t = 1, CONTROL (a_{t-1} - a_t) after;  rho_i = max(s_i^t - c s_i^0, S_FLOOR) / s_i^0;
   score_i = |s_L^(t+1) W_L0 rho_i G_i|^2 - |c s_i^0 / (s_i^0 - s_i^t) / rho_i d_i|^2 + SMOOTH |G_i - mean_ring G|^2
   and point i absorbs its nearest ring neighbour j when score_i < gl_merge (s_i^t)^2 (a NaN score never
-  merges, as in MATLAB). MATLAB's smoothness term reads G of row 1 instead of G_i, an evident slip:
-  we use G_i. A point takes part in at most one merge per step; the MATLAB pairs them greedily in
+  merges, as in MATLAB) and point i is curve-like (below). MATLAB's smoothness term reads G of row 1 instead
+  of G_i, an evident slip: we use G_i. A point takes part in at most one merge per step; the MATLAB pairs them greedily in
   index order, we pair them greedily in a fixed random order of the input ids (parallel rounds; index
   order makes long chains, hence many rounds, on spatially sorted files).
-Share cap (not in LCWR): in the first steps the threshold admits every point (the force and smoothness
-  terms are ~1e-3 against gl_merge s^2 ~ 4), so LCWR halves the cloud at step 1 whether or not it has
-  converged there, and the coarse cloud loses thick junctions and thin tips (the animal's legs zip together
-  below its shoulder). The score still ranks the points: at most gl_merge_share of them qualify per step,
-  those furthest below the threshold (gl_merge_share = 1 is LCWR).
+Curve-like points only (not in LCWR): in this frame the threshold admits every point at every step (the force
+  and smoothness terms are ~1e-3 against gl_merge s^2 ~ 4), so LCWR merges points whether or not their
+  contraction has converged. Merged early, a bulky part contracts as a coarser cloud whose merges re-form
+  longer rings at every step: a thick torus flattens into an annulus that the next solves shorten instead of
+  thinning (its ring shrank to 0.6 of its radius, skeleton 8x LBC's Chamfer distance). A point may merge only
+  where the candidate is curve-like at the skeleton's scale (skelcore.curveness.curve_like_points, the scale
+  the skeleton samples at): there the contraction has reached the curve the skeleton draws, and merging
+  thins out points along it. Points the rule admits elsewhere wait for a later step.
+Share cap (not in LCWR): the score still ranks the points: at most gl_merge_share of them qualify per step,
+  those furthest below the threshold, and of them the curve-like ones merge (gl_merge_share = 1: every admitted
+  curve-like point). Both must agree: filling the share with curve-like points of poorer score reduced an
+  animal's thin legs so fast that they zipped together below its shoulder (two junctions for one).
 Merged ring (Ring_combination.m): ring(i) U ring(j) minus i and j, at the INPUT positions, projected on the
   plane normal to G_i (PCA plane of the candidates when G_i vanishes), 2-D Delaunay fan of i. A fan with
   fewer than 3 triangles cancels the merge (MATLAB: a ring list of <= 3 entries; here its two points wait
   for the next step instead of pairing with others). Every other ring renames j to i and drops the
   triangles that degenerate (update_rings_after_manipulation.m). The absorbed point leaves the system;
   the absorber keeps its position and its ring sizes (LCWR lines 110-111, 124).
-  The first step that merges nothing ends the reduction for the run (`cflag`).
+  The first step whose rule admits no point at all ends the reduction for the run (`cflag`).
 Attraction weights (not in LCWR): LBC's W_H,i times m_i, the number of input points that point i stands
   for. A cot Laplacian row scales with the area per point, so a merged point is pulled m_i times harder
   while LCWR leaves its attraction at one point's: every reduction acts as a larger W_L (x2.6 on the helix
@@ -48,8 +55,9 @@ Termination (LCWR lines 145-151): e = (lambda_1 + lambda_2 + 2 lambda_3) / (2 su
   collapse guard and solver failure. LCWR has no ring-ratio rule (its `tc` is read and unused), and a_t itself no longer
   falls monotonically (a merge removes a point's nearest neighbour, so its ring size jumps). We keep LBC's
   rule, as a safeguard, on what one step does to the rings it solved with: from step 2, stop ('ring_ratio',
-  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination; but a step whose
-  state the covariance rule judges converged is the state LCWR ends on: it is kept, and the run ends there.
+  the step discarded as in LBC) when sum_i (s_i before - s_i after) / sum s^0 < termination, even where the
+  covariance rule would end on its state: a step that no longer shrinks the rings only shortens curves (on an
+  unevenly sampled plate with three holes, the state such a step left had lost one of them).
 Curves first (not in LCWR): the covariance of a whole plate or block barely changes while it thins to its
   medial sheet, so the covariance rule alone stops there (a drilled plate: 3 steps, its hole lost). It stops
   only a cloud at least curve_share curve-like (skelcore.curveness); until then the ring-ratio rule ends the
@@ -63,9 +71,11 @@ from typing import Generator
 
 import numpy as np
 
+from .curveness import curve_like_points
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
+from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
                    free_points, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
@@ -142,10 +152,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        stalled = rings_stalled(iteration, drop, current, candidate, params, run.diagonal)
-        # the ring rule is a safeguard (module docstring): it does not discard the state LCWR's own rule ends on
-        if stalled and not (drop >= 0 and covariance_settled(iteration, abs(_covariance_score(candidate) - score),
-                                                             candidate, params, run.diagonal)):
+        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
                      else f"widened the rings by {-drop:.4f}")
             state = stopped(state, "ring_ratio", f"the step {moved}", notes)
@@ -157,23 +164,25 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
 
         keep, new_row = np.ones(len(ids), dtype=bool), np.arange(len(ids))
         reduce_start = time.perf_counter()
-        if reducing and not stalled:  # a stalled step ends the run: nothing to reduce for
+        if reducing:
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
-            merging = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,
-                                 params.gl_merge, params.gl_merge_share)
+            on_curve = curve_like_points(candidate, SkeletonParams.sample_radius * run.diagonal)
+            merging, admitted = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,
+                                           params.gl_merge, params.gl_merge_share, on_curve)
             absorbers = np.flatnonzero(merging)
-            pairs = greedy_matching(absorbers, nearest[absorbers], priority[ids[absorbers]], len(ids))
-            merged = merge_rings(rings, absorbers[pairs], nearest[absorbers[pairs]], gamma, unit[ids])
-            if merged is None:
-                reducing = False
-                notes.append("point reduction stopped: no point met the merge rule")
-            else:
-                rings, keep, new_row = merged
-                pattern_start = time.perf_counter()
-                builder = LaplacianSystem(rings)
-                timings["pattern"] = time.perf_counter() - pattern_start
+            if len(absorbers) or not admitted:  # else the admitted points wait for curve-like parts
+                pairs = greedy_matching(absorbers, nearest[absorbers], priority[ids[absorbers]], len(ids))
+                merged = merge_rings(rings, absorbers[pairs], nearest[absorbers[pairs]], gamma, unit[ids])
+                if merged is None:
+                    reducing = False
+                    notes.append("point reduction stopped: no point met the merge rule")
+                else:
+                    rings, keep, new_row = merged
+                    pattern_start = time.perf_counter()
+                    builder = LaplacianSystem(rings)
+                    timings["pattern"] = time.perf_counter() - pattern_start
         timings["rings"] = time.perf_counter() - reduce_start - timings.get("pattern", 0.0)
 
         current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
@@ -184,11 +193,8 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         previous, score = score, _covariance_score(current)
         change = abs(score - previous) * (1.0 - share_removed)
         termination, detail = None, ""
-        # a stalled step reached here only as the state the covariance rule ends on (checked above, unreduced)
-        if stalled or covariance_settled(iteration, change, current, params, run.diagonal):
+        if covariance_settled(iteration, change, current, params, run.diagonal):
             termination, detail = "covariance", f"score changed by {change:.4f} < {params.gl_covariance:g}"
-            if stalled:
-                notes.append(f"the rings had stopped shrinking (by {drop:.4f} < {params.termination:g})")
         elif iteration >= params.max_iterations:
             termination = "max_iterations"
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), detail, *notes]))
@@ -211,9 +217,11 @@ def covariance_settled(iteration: int, change: float, points: np.ndarray, params
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,
-               control: float, force: float, threshold: float, share: float = 1.0) -> np.ndarray:
+               control: float, force: float, threshold: float, share: float = 1.0,
+               eligible: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
     """Which points absorb their nearest ring neighbour (module docstring, merge rule); `moved` = p^0 - x^t.
-    At most `share` of the points qualify: those furthest below the threshold."""
+    At most `share` of the points qualify: those furthest below the threshold; of them, those `eligible` ((n,);
+    None: all) merge. Also returns whether the threshold admitted any point."""
     rho = np.where(sizes - control * sizes0 > 0, sizes - control * sizes0, S_FLOOR) / sizes0
     counts = np.diff(rings.indptr)
     ring_mean = np.add.reduceat(gamma[rings.indices], rings.indptr[:-1]) / counts[:, None]
@@ -223,11 +231,12 @@ def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np
                  + SMOOTH * _square(gamma - ring_mean))
         margin = np.where(np.isnan(score), np.inf, score - threshold * sizes**2)
     merging = margin < 0
+    admitted = bool(merging.any())
     most = int(share * len(margin))
     if merging.sum() > most:
         merging[:] = False
         merging[np.argsort(margin, kind="stable")[:most]] = True
-    return merging
+    return merging if eligible is None else merging & eligible, admitted
 
 
 def greedy_matching(source: np.ndarray, target: np.ndarray, priority: np.ndarray, n: int) -> np.ndarray:

@@ -253,6 +253,16 @@ def test_default_k_is_cloudcontrs():
     assert default_k(100) == 8 and default_k(1000) == 12 and default_k(100_000) == 30
 
 
+def test_a_step_that_flattens_a_loop_is_rejected(monkeypatch):
+    """A ring pulled together across itself keeps its longest extent, so only the second-extent guard sees it:
+    the third solve squashes the torus's second principal axis to 30%, and the run keeps state 2."""
+    spoil_solve(monkeypatch, 3, lambda x: x * np.array([1.0, 0.3, 1.0]))
+    points = make_shape("torus", 800, seed=0).points  # its ring lies in the xy plane, centred on the origin
+    final = run_contraction(points, ContractionParams(termination=1e-9))[-1]
+    assert final.termination == "collapse" and final.iteration == 2
+    assert "second extent" in final.message
+
+
 def test_nearest_first_scan_equals_the_full_scan(monkeypatch):
     import skelcore.neighbours as neighbours
 

@@ -56,20 +56,48 @@ def test_point_count_falls_and_the_input_comes_first(runs):
     assert first.iteration == 0 and np.array_equal(first.points, shape.points)
     assert np.array_equal(first.point_ids, np.arange(3000)) and np.array_equal(first.owner, np.arange(3000))
     counts = [s.n_points for s in states]
-    assert counts[1] < counts[0] and all(a >= b for a, b in zip(counts, counts[1:]))
+    assert all(a >= b for a, b in zip(counts, counts[1:]))
     # each step, at most gl_merge_share of the points absorb a neighbour
     assert all(b >= a - int(GLSKELETON.gl_merge_share * a) for a, b in zip(counts, counts[1:]))
-    assert counts[-1] < 0.6 * counts[0]
+    assert counts[-1] < 0.85 * counts[0]
     assert states[-1].termination == "covariance" and "score changed by" in states[-1].message
     assert all(s.termination is None for s in states[:-1])
 
 
-def test_without_the_share_cap_the_first_step_merges_all_it_can(runs):
-    """gl_merge_share=1 is LCWR: nearly every point qualifies at step 1, and the matching removes far more
-    than the default cap lets through."""
-    shape, capped = runs("torus")
-    uncapped = run_contraction(shape.points, GLSKELETON.replace(gl_merge_share=1.0, max_iterations=1))
-    assert uncapped[1].n_points < 0.65 * 3000 < capped[1].n_points
+def test_points_merge_only_where_the_cloud_is_curve_like(monkeypatch):
+    """In the run's frame LCWR's threshold admits nearly every point from step 1 on; only those the curve test
+    passes merge. Nowhere curve-like: nothing merges, and the admitted points wait (the reduction goes on).
+    Everywhere curve-like: the first step merges as LCWR does, up to the share cap."""
+    points = make_shape("torus", 3000, seed=0).points
+    params = GLSKELETON.replace(max_iterations=2)
+    monkeypatch.setattr(glskeleton, "curve_like_points", lambda points, radius: np.zeros(len(points), bool))
+    nowhere = run_contraction(points, params)
+    assert [s.n_points for s in nowhere] == [3000, 3000, 3000]
+    assert not any("reduction stopped" in s.message for s in nowhere)
+    monkeypatch.setattr(glskeleton, "curve_like_points", lambda points, radius: np.ones(len(points), bool))
+    everywhere = run_contraction(points, params)
+    assert 3000 - int(GLSKELETON.gl_merge_share * 3000) <= everywhere[1].n_points < 0.85 * 3000
+    uncapped = run_contraction(points, params.replace(gl_merge_share=1.0, max_iterations=1))
+    assert uncapped[1].n_points < 0.65 * 3000 < everywhere[1].n_points
+
+
+def test_the_share_cap_ranks_before_the_curve_test(monkeypatch):
+    """Of the points the share cap lets through (best merge scores first), the curve-like ones merge; the cap is
+    not filled up with curve-like points of poorer score (that reduced an animal's legs so fast that they zipped
+    together below its shoulder: two junctions for its one)."""
+    rng = np.random.default_rng(0)
+    n = 1000
+    rings = glskeleton.OneRings(indptr=np.arange(0, 2 * n + 1, 2), indices=np.c_[np.roll(np.arange(n), 1),
+                                np.roll(np.arange(n), -1)].ravel(), triangles=np.zeros((0, 3), np.int64))
+    gamma = rng.normal(size=(n, 3)) * 1e-3
+    sizes0 = np.full(n, 0.01)
+    sizes = sizes0 * rng.uniform(0.2, 0.9, n)
+    moved = rng.normal(size=(n, 3)) * 1e-3
+    eligible = np.arange(n) % 2 == 0
+    plain, admitted = glskeleton.merge_rule(gamma, rings, sizes, sizes0, moved, 0.5, 10.0, 1e5, 0.3)
+    gated, admitted_too = glskeleton.merge_rule(gamma, rings, sizes, sizes0, moved, 0.5, 10.0, 1e5, 0.3, eligible)
+    assert admitted and admitted_too and plain.sum() == 300
+    assert np.array_equal(gated, plain & eligible)
 
 
 @pytest.mark.parametrize("balance_density", [False, True])
@@ -162,16 +190,14 @@ def test_termination_rules():
 
 
 
-def test_a_step_the_covariance_rule_ends_on_is_kept_though_the_rings_stalled(assets_dir):
-    """On the bundled two-hole solid the third step shrinks the rings by less than `termination`, and LCWR's own
-    rule judges its state converged. That state is the one LCWR ends on: the ring safeguard keeps it. Discarded,
-    the run ended on the second state, whose D_theta histogram still has two peaks ("unstable")."""
+def test_the_two_hole_solid_ends_on_lcwrs_rule(assets_dir):
+    """The bundled two-hole solid: LCWR's covariance rule ends the run at step 3, on a state with one D_theta peak
+    ("stable") and both loops. (Ended on its second state, its histogram still had two peaks: "unstable".)"""
     import skelcore
 
     result = skelcore.skeletonize(assets_dir / "two_hole.ply", method="glskeleton")
     final = result.states[-1]
     assert final.iteration == 3 and final.termination == "covariance"
-    assert "the rings had stopped shrinking" in final.message
     assert result.metrics[-1].d_theta_stats["peaks"]["count"] == 1 and result.verdict["label"] == "stable"
     assert result.topology["cycles"] == 2
 
@@ -246,9 +272,11 @@ def test_a_drilled_plate_contracts_past_its_sheet_and_keeps_its_hole():
 
 def test_an_unevenly_sampled_drilled_plate_keeps_its_loops():
     """A plate with three holes, 30% of its points kept on one half (bench-quality's density_30 variant). The
-    sparse half contracts ahead of the dense one, and at the W_L cap a step flings its ring neighbours apart:
-    its loops fold up (1 cycle of 3, 13 nodes, before the torn-step rule). The run now ends before that step.
-    The cloud is the one that showed it: thinned by default_rng(0), as the variant once was."""
+    sparse half contracts ahead of the dense one, and late steps only shorten its curves: once at the W_L cap a
+    step flung its ring neighbours apart and its loops folded up (1 cycle of 3, 13 nodes, before the torn-step
+    rule); with merges only on curve-like points, step 5 shrinks the rings by less than `termination` and the
+    covariance rule would have ended on its state, which has lost a loop. The ring rule discards that step as in
+    LBC, so the run ends on state 4 with all three. The cloud: thinned by default_rng(0), as the variant once was."""
     import skelcore
     from skelcore.perturb import DENSITY_KEPT, thin_half
     from skelcore.solids import solid_shape
@@ -256,24 +284,35 @@ def test_an_unevenly_sampled_drilled_plate_keeps_its_loops():
     shape = solid_shape("block_3_holes", 10_000)  # 6516 points once thinned
     result = skelcore.skeletonize(thin_half(shape.points, DENSITY_KEPT, np.random.default_rng(0)),
                                   method="glskeleton")
-    assert result.states[-1].termination == "torn"
+    assert result.states[-1].termination == "ring_ratio" and result.states[-1].iteration == 4
     assert {key: result.skeleton.topology()[key] for key in ("cycles", "components")} == {"cycles": 3,
                                                                                           "components": 1}
 
 
-@pytest.mark.parametrize("seed", [0, 2])
-def test_a_thick_ring_is_not_pulled_together_across_itself(seed):
-    """A torus whose tube is 0.35 of its ring radius, 10k points: GLSkeleton's state 5 is a thin ring on the axis,
-    then one step pulled the ring together across itself (its second extent fell to 31% and 45%), and the skeleton
-    of that state ran from 0.5 to 1.1 ring radii. The step is rejected as a collapse: the ring stays on the axis."""
+@pytest.mark.parametrize("tube", [0.35, 0.55, 0.65])
+def test_a_thick_ring_stays_on_its_axis(tube):
+    """Tori of ring radius 1, 10k points, draw 0. Merging wherever LCWR's threshold admitted, the thick rings
+    flattened into annuli that later steps shortened: at 0.35 one step pulled the ring together across itself
+    (skeleton from 0.5 to 1.1 ring radii before the collapse guard), at 0.55 and 0.65 the ring shrank to 0.6-0.7
+    of its radius and the skeleton reached 1.8 (Chamfer to the centre circle 2.6% and 6.5%, LBC's 0.25% and
+    0.72%). Merging only curve-like points, GLSkeleton draws the one loop as close to the axis as LBC does."""
     import skelcore
     from skelcore.solids import sample_mesh, solid_arrays, torus
 
-    points, _ = sample_mesh(*solid_arrays(torus(1.0, 0.35)), 10_000, seed)
-    result = skelcore.skeletonize(points, method="glskeleton")
-    assert result.states[-1].termination == "collapse" and "second extent" in result.states[-1].message
-    radius = np.linalg.norm(result.nodes[:, :2], axis=1)
-    assert result.topology["cycles"] == 1 and np.abs(radius - 1.0).max() < 0.05, radius
+    points, _ = sample_mesh(*solid_arrays(torus(1.0, tube)), 10_000, 0)
+    truth = make_graph(*_centre_circle(), "centre circle")
+    chamfer = {}
+    for method in ("lbc", "glskeleton"):
+        result = skelcore.skeletonize(points, method=method)
+        assert result.topology == {"components": 1, "cycles": 1, "junctions": 0, "ends": 0}, method
+        chamfer[method] = evaluate(make_graph(result.nodes, result.edges, method), truth)["chamfer"]
+    assert chamfer["glskeleton"] <= 1.2 * chamfer["lbc"], chamfer
+
+
+def _centre_circle(samples: int = 400):
+    angle = np.linspace(0, 2 * np.pi, samples, endpoint=False)
+    ring = np.arange(samples)
+    return np.c_[np.cos(angle), np.sin(angle), np.zeros(samples)], np.c_[ring, (ring + 1) % samples]
 
 
 def test_principal_extents_ignore_the_frame_and_a_few_strays():
