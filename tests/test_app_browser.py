@@ -904,14 +904,18 @@ def test_every_valid_parameter_is_accepted(fresh, page):
 
 
 def test_method_selector_runs_glskeleton(fresh, page):
+    """GLSkeleton merges points only where the cloud has contracted to a curve: with W_L0 = 20 the module's thin
+    torus is one after its first step, and its second step merges."""
     inspector = fresh
     page.get_by_label("Method").click()
     page.get_by_role("option", name="GLSkeleton").click()
     wait_until(lambda: any("Method GLSkeleton on restart" in line for line in inspector.session.log), "the note")
+    set_value(page, "W_L0", 20)
+    wait_until(lambda: inspector.session.params.wl0 == 20, "W_L0 = 20 in the session")
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.method == "glskeleton", "the GLSkeleton run")
-    click(page, "Step")
-    wait_until(lambda: len(inspector.session.history) == 2 and drawn(page, "plots") == 1, "iteration 1")
+    step(inspector, page, 2)
+    wait_until(lambda: drawn(page, "plots") == 2, "iteration 2")
     state = inspector.session.latest
     assert state.n_points < len(inspector.session.cloud.points)  # GLSkeleton merged points
     assert len(page.viewer.view.drawn_points("contracted")) == state.n_points
@@ -920,8 +924,11 @@ def test_method_selector_runs_glskeleton(fresh, page):
     assert len(page.viewer.view.drawn_points("removed")) == removed  # absorbed points drawn in their own colour
     page.get_by_label("Method").click()
     page.get_by_role("option", name="LBC").click()
+    set_value(page, "W_L0", RUN["wl0"])
+    wait_until(lambda: inspector.session.params.wl0 == RUN["wl0"], "W_L0 restored")
     click(page, "Restart with these parameters")
     wait_until(lambda: inspector.session.start_params.method == "lbc", "back to LBC")
+    wait_until(lambda: inspector.session.start_params.wl0 == RUN["wl0"], "the module's W_L0 again")
 
 
 def test_timeline_goes_back(fresh, page):
