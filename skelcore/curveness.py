@@ -81,18 +81,20 @@ def curve_likeness(points: np.ndarray, radius: float, seed: int = 0, among_all: 
     return probes, ratio, vectors[:, :, 2]
 
 
-def curve_like_points(points: np.ndarray, radius: float, seed: int = 0) -> np.ndarray:
-    """(n,) whether each point is curve-like: the judgement of its nearest probe (the probes are an even
-    random subset, so a point's nearest probe lies within a probe spacing and sees the same neighbourhood)."""
+def curve_like_points(points: np.ndarray, radius: float, seed: int = 0, at: np.ndarray | None = None) -> np.ndarray:
+    """(n,) whether each point is curve-like, or (len(at),) each of the points of ids `at`: the judgement of its
+    nearest probe (the probes are an even random subset, so a point's nearest probe lies within a probe spacing and
+    sees the same neighbourhood)."""
     probes, ratio, _ = curve_likeness(points, radius, seed)
-    return _nearest_probe(points, probes, ratio <= CURVE_RATIO)
+    return _nearest_probe(points, probes, ratio <= CURVE_RATIO, at)
 
 
-def _nearest_probe(points: np.ndarray, probes: np.ndarray, judged: np.ndarray) -> np.ndarray:
-    """(n,) the judgement of each point's nearest probe."""
-    if len(probes) == len(points):
-        return judged
-    _, nearest = cKDTree(points[probes]).query(points, workers=-1)
+def _nearest_probe(points: np.ndarray, probes: np.ndarray, judged: np.ndarray, at: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """The judgement of the nearest probe of each point (of ids `at`; None: all)."""
+    if len(probes) == len(points):  # every point is a probe, in order
+        return judged if at is None else judged[at]
+    _, nearest = cKDTree(points[probes]).query(points if at is None else points[at], workers=-1)
     return judged[nearest]
 
 

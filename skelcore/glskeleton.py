@@ -168,11 +168,11 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
             force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
-            on_curve = curve_like_points(candidate, SkeletonParams.sample_radius * run.diagonal)
-            merging, admitted = merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control, force,
-                                           params.gl_merge, params.gl_merge_share, on_curve)
-            absorbers = np.flatnonzero(merging)
-            if len(absorbers) or not admitted:  # else the admitted points wait for curve-like parts
+            qualified = np.flatnonzero(merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control,
+                                                  force, params.gl_merge, params.gl_merge_share))
+            absorbers = qualified[curve_like_points(candidate, SkeletonParams.sample_radius * run.diagonal,
+                                                    at=qualified)] if len(qualified) else qualified
+            if len(absorbers) or not len(qualified):  # else the qualified points wait for curve-like parts
                 pairs = greedy_matching(absorbers, nearest[absorbers], priority[ids[absorbers]], len(ids))
                 merged = merge_rings(rings, absorbers[pairs], nearest[absorbers[pairs]], gamma, unit[ids])
                 if merged is None:
@@ -217,11 +217,10 @@ def covariance_settled(iteration: int, change: float, points: np.ndarray, params
 
 
 def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np.ndarray, moved: np.ndarray,
-               control: float, force: float, threshold: float, share: float = 1.0,
-               eligible: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
-    """Which points absorb their nearest ring neighbour (module docstring, merge rule); `moved` = p^0 - x^t.
-    At most `share` of the points qualify: those furthest below the threshold; of them, those `eligible` ((n,);
-    None: all) merge. Also returns whether the threshold admitted any point."""
+               control: float, force: float, threshold: float, share: float = 1.0) -> np.ndarray:
+    """Which points qualify to absorb their nearest ring neighbour by LCWR's score (module docstring, merge rule;
+    the curve test is the caller's); `moved` = p^0 - x^t. At most `share` of the points qualify: those furthest
+    below the threshold."""
     rho = np.where(sizes - control * sizes0 > 0, sizes - control * sizes0, S_FLOOR) / sizes0
     counts = np.diff(rings.indptr)
     ring_mean = np.add.reduceat(gamma[rings.indices], rings.indptr[:-1]) / counts[:, None]
@@ -231,12 +230,11 @@ def merge_rule(gamma: np.ndarray, rings: OneRings, sizes: np.ndarray, sizes0: np
                  + SMOOTH * _square(gamma - ring_mean))
         margin = np.where(np.isnan(score), np.inf, score - threshold * sizes**2)
     merging = margin < 0
-    admitted = bool(merging.any())
     most = int(share * len(margin))
     if merging.sum() > most:
         merging[:] = False
         merging[np.argsort(margin, kind="stable")[:most]] = True
-    return merging if eligible is None else merging & eligible, admitted
+    return merging
 
 
 def greedy_matching(source: np.ndarray, target: np.ndarray, priority: np.ndarray, n: int) -> np.ndarray:

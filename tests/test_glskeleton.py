@@ -65,39 +65,37 @@ def test_point_count_falls_and_the_input_comes_first(runs):
 
 
 def test_points_merge_only_where_the_cloud_is_curve_like(monkeypatch):
-    """In the run's frame LCWR's threshold admits nearly every point from step 1 on; only those the curve test
-    passes merge. Nowhere curve-like: nothing merges, and the admitted points wait (the reduction goes on).
-    Everywhere curve-like: the first step merges as LCWR does, up to the share cap."""
+    """In the run's frame LCWR's threshold admits nearly every point from step 1 on; the share cap keeps the best
+    scores, and of those only the ones the curve test passes merge (the test judges no other point). Nowhere
+    curve-like: nothing merges, and the qualified points wait (the reduction goes on). Everywhere curve-like:
+    the first step merges as LCWR does, up to the share cap."""
     points = make_shape("torus", 3000, seed=0).points
     params = GLSKELETON.replace(max_iterations=2)
-    monkeypatch.setattr(glskeleton, "curve_like_points", lambda points, radius: np.zeros(len(points), bool))
-    nowhere = run_contraction(points, params)
-    assert [s.n_points for s in nowhere] == [3000, 3000, 3000]
-    assert not any("reduction stopped" in s.message for s in nowhere)
-    monkeypatch.setattr(glskeleton, "curve_like_points", lambda points, radius: np.ones(len(points), bool))
+    judged = []
+
+    def nowhere(points, radius, at):
+        judged.append(len(at))
+        return np.zeros(len(at), bool)
+
+    monkeypatch.setattr(glskeleton, "curve_like_points", nowhere)
+    states = run_contraction(points, params)
+    assert [s.n_points for s in states] == [3000, 3000, 3000]
+    assert not any("reduction stopped" in s.message for s in states)
+    assert judged == [int(GLSKELETON.gl_merge_share * 3000)] * 2
+    monkeypatch.setattr(glskeleton, "curve_like_points", lambda points, radius, at: np.ones(len(at), bool))
     everywhere = run_contraction(points, params)
     assert 3000 - int(GLSKELETON.gl_merge_share * 3000) <= everywhere[1].n_points < 0.85 * 3000
     uncapped = run_contraction(points, params.replace(gl_merge_share=1.0, max_iterations=1))
     assert uncapped[1].n_points < 0.65 * 3000 < everywhere[1].n_points
 
 
-def test_the_share_cap_ranks_before_the_curve_test(monkeypatch):
-    """Of the points the share cap lets through (best merge scores first), the curve-like ones merge; the cap is
-    not filled up with curve-like points of poorer score (that reduced an animal's legs so fast that they zipped
-    together below its shoulder: two junctions for its one)."""
-    rng = np.random.default_rng(0)
-    n = 1000
-    rings = glskeleton.OneRings(indptr=np.arange(0, 2 * n + 1, 2), indices=np.c_[np.roll(np.arange(n), 1),
-                                np.roll(np.arange(n), -1)].ravel(), triangles=np.zeros((0, 3), np.int64))
-    gamma = rng.normal(size=(n, 3)) * 1e-3
-    sizes0 = np.full(n, 0.01)
-    sizes = sizes0 * rng.uniform(0.2, 0.9, n)
-    moved = rng.normal(size=(n, 3)) * 1e-3
-    eligible = np.arange(n) % 2 == 0
-    plain, admitted = glskeleton.merge_rule(gamma, rings, sizes, sizes0, moved, 0.5, 10.0, 1e5, 0.3)
-    gated, admitted_too = glskeleton.merge_rule(gamma, rings, sizes, sizes0, moved, 0.5, 10.0, 1e5, 0.3, eligible)
-    assert admitted and admitted_too and plain.sum() == 300
-    assert np.array_equal(gated, plain & eligible)
+def test_curve_test_of_some_points_is_theirs_of_all():
+    from skelcore.curveness import PROBES, curve_like_points
+
+    for n in (PROBES // 2, 3 * PROBES):  # every point a probe; a subset of probes
+        points = make_shape("y_branch", n, seed=0).points
+        at = np.random.default_rng(0).choice(n, n // 3, replace=False)
+        assert np.array_equal(curve_like_points(points, 0.05, at=at), curve_like_points(points, 0.05)[at])
 
 
 @pytest.mark.parametrize("balance_density", [False, True])
