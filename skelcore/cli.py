@@ -61,8 +61,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="glskeleton: stop when the cloud's covariance score changes by less than this "
                             "(default: %(default)s)")
     group.add_argument("--gl-merge-share", type=float, default=defaults.gl_merge_share,
-                       help="glskeleton: the largest share of points that may be absorbed in one step (1: the "
-                            "authors' unlimited rule) (default: %(default)s)")
+                       help="glskeleton: the largest share of points that may qualify to absorb a neighbour in one "
+                            "step, the best merge scores; of them the curve-like ones merge (1: no cap) "
+                            "(default: %(default)s)")
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
                        help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
                             "left out (default: %(default)s)")

@@ -55,9 +55,10 @@ class ContractionParams:
     # of the longest, below this share (not in cloudcontr)
     normalise: bool = True  # centre the bounding box and scale its largest extent to 1.6
     # GLSkeleton only (skelcore.glskeleton; defaults from the authors' MATLAB):
-    gl_merge: float = 1e5  # a point absorbs its nearest ring neighbour when its merge score < gl_merge * s_i^2
+    # a point absorbs its nearest ring neighbour when its merge score < gl_merge * s_i^2 and the cloud is curve-like there
+    gl_merge: float = 1e5
     gl_covariance: float = 0.02  # stop when the covariance score changes by less than this (from iteration 3)
-    gl_merge_share: float = 0.3  # at most this share of the points may absorb a neighbour per step (1: no cap, as LCWR)
+    gl_merge_share: float = 0.3  # at most this share of the points qualify per step, the best scores (1: no cap)
 
     def validated(self) -> "ContractionParams":
         """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
