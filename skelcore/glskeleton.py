@@ -12,11 +12,11 @@ Merge rule, after solve t (LCWR lines 96-104 for t = 1, 158-166 after; Remove_po
   score_i = |s_L^(t+1) W_L0 rho_i G_i|^2 - |c s_i^0 / (s_i^0 - s_i^t) / rho_i d_i|^2 + SMOOTH |G_i - mean_ring G|^2
   and point i absorbs its nearest ring neighbour j when score_i < gl_merge (s_i^t)^2 (a NaN score never
   merges, as in MATLAB) and point i is curve-like (below). MATLAB's smoothness term reads G of row 1 instead
-  of G_i, an evident slip: we use G_i. A point takes part in at most one merge per step; the MATLAB pairs them greedily in
-  index order, we pair them greedily in a fixed random order of the input ids (parallel rounds; index
-  order makes long chains, hence many rounds, on spatially sorted files).
-Curve-like points only (not in LCWR): in this frame the threshold admits every point at every step (the force
-  and smoothness terms are ~1e-3 against gl_merge s^2 ~ 4), so LCWR merges points whether or not their
+  of G_i, an evident slip: we use G_i. A point takes part in at most one merge per step; the MATLAB pairs
+  them greedily in index order, we pair them greedily in a fixed random order of the input ids (parallel
+  rounds; index order makes long chains, hence many rounds, on spatially sorted files).
+Curve-like points only (not in LCWR): in this frame the threshold admits nearly every point at every step (the
+  force and smoothness terms are ~1e-3 against gl_merge s^2 ~ 4), so LCWR merges points whether or not their
   contraction has converged. Merged early, a bulky part contracts as a coarser cloud whose merges re-form
   longer rings at every step: a thick torus flattens into an annulus that the next solves shorten instead of
   thinning (its ring shrank to 0.6 of its radius, skeleton 8x LBC's Chamfer distance). A point may merge only
