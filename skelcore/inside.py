@@ -79,7 +79,7 @@ class InsideTest:
         test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing)
         centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
         voters = ~shell & dilated(shell)
-        votes = test._side(centres(voters)) <= 0
+        votes = test.side_of(centres(voters)) <= 0
         inside_share = (np.bincount(regions[voters], votes, count + 1)
                         / np.maximum(np.bincount(regions[voters], minlength=count + 1), 1))
         border = np.unique(np.concatenate([regions[[0, -1]].ravel(), regions[:, [0, -1]].ravel(),
@@ -123,14 +123,14 @@ class InsideTest:
         if len(split):  # their cells judged by their centres, and remembered
             cell, back = np.unique(np.ravel_multi_index(tuple(index[split].T), self.cells.shape), return_inverse=True)
             centres = self.origin + (np.column_stack(np.unravel_index(cell, self.cells.shape)) + 0.5) * self.size
-            sides = (self._side(centres) <= 0).astype(np.int8)
+            sides = (self.side_of(centres) <= 0).astype(np.int8)
             np.put(self.cells, cell, sides)
             verdict[split] = sides[back.ravel()]
         near = verdict < 0
-        verdict[near] = self._side(points[near]) <= self.band
+        verdict[near] = self.side_of(points[near]) <= self.band
         return verdict.astype(bool)
 
-    def _side(self, points: np.ndarray) -> np.ndarray:
+    def side_of(self, points: np.ndarray) -> np.ndarray:
         """Signed offset along the nearest sample's outward normal (eq.: (p - s) . n_s)."""
         _, nearest = self.tree.query(points, k=1, workers=-1)
         return np.einsum("ij,ij->i", points - self.samples[nearest], self.normals[nearest])

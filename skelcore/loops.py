@@ -24,6 +24,17 @@ into its cycle as they are cut), so measured shares of real loops run down to 5%
 separates disks that do not reach outside at all. Where a scan is open (a single view), the space behind
 its surface joins the outside, so disks there mostly count as outside and the crossings decide.
 
+Only outside space that goes through counts. A real loop links with the outside: a curve through its hole
+closes up outside the object. A false cycle bounds some disk within the solid, and no curve outside crosses
+any disk spanning it an odd number of times; where its fan disk reads as outside, the space on one side is a
+pocket that the disk and the surface close (the lid of a bowl whose rim the cycle follows), or the reading is
+wrong (on a noisy scan of a bulky part, cells deep inside whose nearest sample's normal points the wrong way).
+So a disk point outside counts only when the open space past the disk along its normal reaches the inside
+test's grid border without crossing the disk (the disk a wall of grid cells) on one side, and on the other
+too, or meets the solid there where the inside test only guesses: behind an open scan, whose far side was
+never seen, the space reads as solid. On a duck scan with 0.5% noise that took a false cycle's outside share
+from 7.5% to 0.4%.
+
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
 original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
 ends lie more than r from that middle too): it is a jump across a gap of the scan, where the k-nearest
@@ -45,16 +56,18 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .inside import InsideTest
+from .inside import SPLIT, InsideTest
 from .neighbours import pca_frames
 from .normalise import object_diagonal
 from .normals import COLLAPSED
+from .regions import dilated, label_regions
 
 CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
 CROSSING_POINTS = 4  # crossing points a loop needs
 NORMAL_K = 16  # neighbours for a point's PCA normal
 OPEN_SHARE = 0.02  # share of a loop's disk that lies outside the solid, at least
 DISK_LATTICE = 8  # each fan triangle of a disk is sampled at the centres of DISK_LATTICE^2 equal triangles
+THROUGH_REACH = 3  # cells along the normal on each side of an outside disk sample searched for the open space past it
 # cycle rank x nodes up to this get networkx's minimum cycle basis, one false cycle cut at a time (about a second
 # here at most); above it short_cycle_basis, as networkx's takes minutes (rank 141 of 574 nodes: 64 s per basis)
 MINIMUM_BASIS_WORK = 2000
@@ -72,6 +85,8 @@ class SurfaceProbe:
         self._scale = float(np.abs(original).max(initial=0.0)) + spacing  # of the rounding in crossings
         self._normals: dict[int, np.ndarray] = {}
         self._inside: InsideTest | None = None
+        self._exterior: np.ndarray | None = None
+        self._uncertain: np.ndarray | None = None  # the inside test's cells judged by their centres
         self._shared = shared
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
@@ -125,20 +140,87 @@ class SurfaceProbe:
             else:
                 self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
                                                    self.tree)
+            self._uncertain = self._inside.cells == SPLIT  # before points resolve them
         return self._inside
 
     def open_share(self, corners: np.ndarray) -> float:
-        """The share of the area of the fan disk over the closed polygon `corners` outside the solid the
-        original points bound (within one spacing of the surface counts as inside)."""
+        """The share of the area of the fan disk over the closed polygon `corners` that lies outside the solid the
+        original points bound (within one spacing of the surface counts as inside) and goes through: open space
+        on both of its sides reaches beyond the object without crossing the disk (`_through`)."""
         centre = corners.mean(axis=0)
         spokes = corners - centre
         spokes_next = np.roll(spokes, -1, axis=0)
-        areas = np.linalg.norm(np.cross(spokes, spokes_next), axis=1)
+        planes = np.cross(spokes, spokes_next)
+        areas = np.linalg.norm(planes, axis=1)
         if areas.sum() == 0:
             return 0.0
         samples = centre + _LATTICE[:, :1, None] * spokes + _LATTICE[:, 1:, None] * spokes_next  # (m^2, k, 3)
         outside = ~self.inside().contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
+        if outside.mean(axis=0) @ areas >= OPEN_SHARE * areas.sum():  # else no point of it can make it a loop
+            where = np.nonzero(outside)
+            outside[where] = self._through(samples[where], planes[where[1]], centre, spokes, spokes_next)
         return float(outside.mean(axis=0) @ areas / areas.sum())
+
+    def exterior(self) -> np.ndarray:
+        """The inside test's grid cells that lie outside the solid, each as its centre is judged (the cells near
+        the surface, which the grid leaves to its points, too)."""
+        if self._exterior is None:
+            test = self.inside()
+            centres = np.indices(test.cells.shape).reshape(3, -1).T
+            self._exterior = ~test.contains(test.origin + (centres + 0.5) * test.size).reshape(test.cells.shape)
+        return self._exterior
+
+    def _through(self, points: np.ndarray, planes: np.ndarray, centre: np.ndarray, spokes: np.ndarray,
+                 spokes_next: np.ndarray) -> np.ndarray:
+        """Which of `points` (outside samples of the fan disk, each with its fan triangle's normal in `planes`)
+        have open space on both sides, past the disk, that reaches the grid's border without crossing the disk:
+        a curve through such a point from one side to the other closes up outside the object, so it links the
+        cycle (see the module's rules)."""
+        test = self.inside()
+        shape = np.array(test.cells.shape)
+        wall = _disk_wall(test, centre, spokes, spokes_next)
+        open_space = self.exterior() & ~wall
+        regions, _ = label_regions(open_space)
+        faces = [regions[[0, -1]], regions[:, [0, -1]], regions[:, :, [0, -1]]]
+        far = np.zeros(regions.max() + 1, bool)
+        far[np.unique(np.concatenate([face.ravel() for face in faces]))] = True
+        far[0] = False  # label 0: the solid and the wall
+        # Each side's open space is that next to the first cell past the wall along the disk's normal (its 27
+        # cells: the open space of a narrow hole, a few cells across, lies beside a point near its wall).
+        normals = planes / np.linalg.norm(planes, axis=1, keepdims=True)
+        steps = np.arange(2 * THROUGH_REACH + 1) * 0.5 * test.size
+        around = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+        reaches_far, closed = np.zeros(len(points), bool), np.zeros(len(points), bool)
+        for sign in (1.0, -1.0):
+            cells = np.floor((points[:, None] + sign * steps[:, None] * normals[:, None] - test.origin)
+                             / test.size).astype(np.int64)  # (m, steps, 3)
+            cells = np.clip(cells, 0, shape - 1)
+            past = ~wall[tuple(cells.transpose(2, 0, 1))]
+            first = cells[np.arange(len(points)), past.argmax(axis=1)]
+            beside = regions[tuple(np.clip(first[:, None] + around, 0, shape - 1).transpose(2, 0, 1))]  # (m, 27)
+            side_far = far[beside].any(axis=1)
+            reaches_far |= side_far
+            # else the side is closed, unless its first cell is solid where the inside test only guesses (an open
+            # scan's far side, read by centres)
+            guessed = (regions[tuple(first.T)] == 0) & self._uncertain[tuple(first.T)]
+            closed |= ~past.any(axis=1) | ~(side_far | guessed)
+        return reaches_far & ~closed
+
+
+def _disk_wall(test: InsideTest, centre: np.ndarray, spokes: np.ndarray, spokes_next: np.ndarray) -> np.ndarray:
+    """The fan disk as a wall of the inside test's grid cells: samples closer than a cell, the cells holding them
+    grown by one, so that no face-connected path of cells crosses it (a path crossing the disk passes within a
+    cell of a sample)."""
+    shape = np.array(test.cells.shape)
+    lengths = np.linalg.norm(np.stack([spokes, spokes_next, spokes_next - spokes]), axis=2).max(axis=0)
+    wall = np.zeros(test.cells.shape, bool)
+    for spoke, spoke_next, length in zip(spokes, spokes_next, lengths):
+        steps = int(np.ceil(2.0 * length / test.size)) + 1
+        i, j = np.nonzero(np.add.outer(np.arange(steps + 1), np.arange(steps + 1)) <= steps)
+        cells = np.floor((centre + np.outer(i / steps, spoke) + np.outer(j / steps, spoke_next) - test.origin)
+                         / test.size).astype(np.int64)
+        wall[tuple(np.clip(cells, 0, shape - 1).T)] = True
+    return dilated(wall)
 
 
 def _lattice(m: int) -> np.ndarray:

@@ -214,9 +214,9 @@ def test_a_split_region_is_judged_by_its_cells_centres_only_where_points_fall():
     cell = split[rng.choice(len(split), 300, replace=False)]
     queries = test.origin + (cell + rng.uniform(0.05, 0.95, cell.shape)) * test.size  # anywhere in those cells
     centres = test.origin + (cell + 0.5) * test.size
-    assert np.array_equal(test.contains(queries), test._side(centres) <= 0)
+    assert np.array_equal(test.contains(queries), test.side_of(centres) <= 0)
     assert (test.cells == SPLIT).sum() == len(split) - 300  # judged once, remembered
-    assert np.array_equal(test.contains(queries), test._side(centres) <= 0)
+    assert np.array_equal(test.contains(queries), test.side_of(centres) <= 0)
 
 
 @pytest.mark.parametrize("apart", [30.0, 100.0])

@@ -338,3 +338,27 @@ def test_the_partial_tree_scan_has_no_loop_where_a_twig_jumps_a_gap(partial_tree
 
     outcome = run_case(partial_tree, method, name="tree")
     assert outcome["topology"]["cycles"] == 0 and outcome["topology"]["components"] == 1
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_the_duck_scans_body_closes_no_loop(reference_dir, method):
+    """The duck scan (draw 1, as the benchmark samples it) barely contracts and leaves shards whose gaps close a
+    cycle through its body; that cycle's fan disk reads a few percent outside (cells deep inside the body whose
+    nearest sample's normal points the wrong way), but no open space goes through it, so it is cut."""
+    from skelcore.quality_bench import run_case
+
+    duck = solids.benchmark_shapes(reference_dir, seed=1, names=["duck"])[0]
+    outcome = run_case(duck.points, method, name="duck", seed=1)
+    assert outcome["topology"]["cycles"] == 0 and outcome["topology"]["components"] == 1
+
+
+def test_the_noisy_gears_narrow_holes_stay_loops():
+    """The gear with 1% noise (draw 0): noise narrows its four holes to a few grid cells across, so the open
+    space through them lies beside most disk points rather than straight along the disk's normal; all five
+    loops stay."""
+    from skelcore.quality_bench import run_case
+
+    gear = solids.benchmark_shapes(seed=0, names=["gear"])[0]
+    cloud = perturbations.perturb(gear.points, "noise_1", seed=0, normals=gear.normals, loops=True)
+    outcome = run_case(cloud, "lbc", name="gear", seed=0)
+    assert outcome["topology"]["cycles"] == 5 and outcome["topology"]["components"] == 1

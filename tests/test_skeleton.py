@@ -211,6 +211,35 @@ def test_a_cycle_inside_a_bulky_part_is_no_loop_though_walls_cross_its_disk(monk
     assert cuts(ball, 0.99 * circle) == 0
 
 
+def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monkeypatch):
+    """A cycle along the rim of a thick bowl (a curved plate whose contraction left an outline): its flat disk,
+    the bowl's lid, lies outside the solid and the bowl's wall crosses it all round, but the space under the
+    lid is a pocket that the lid and the bowl close, so no curve outside the bowl links the cycle, and it is
+    cut. Taking every outside point of the disk as open on both sides keeps it."""
+    rng = np.random.default_rng(1)
+
+    def hemisphere(radius, n):
+        p = rng.normal(size=(n, 3))
+        p[:, 2] = -np.abs(p[:, 2])
+        return radius * p / np.linalg.norm(p, axis=1, keepdims=True)
+
+    turn = rng.uniform(0, 2 * np.pi, 600)
+    rim = np.sqrt(rng.uniform(0.85 ** 2, 1.0, 600))
+    bowl = np.concatenate([hemisphere(1.0, 5000), hemisphere(0.85, 3600),
+                           np.c_[rim * np.cos(turn), rim * np.sin(turn), np.zeros(600)]])
+    angle = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    ring = np.c_[0.925 * np.cos(angle), 0.925 * np.sin(angle), np.full(12, -0.05)]
+
+    def cuts():
+        adj = {i: {(i - 1) % 12, (i + 1) % 12} for i in range(12)}
+        probe = loops.SurfaceProbe(bowl, float(np.median(cKDTree(bowl).query(bowl, 2)[0][:, 1])))
+        return loops.cut_false_loops(adj, list(ring), cKDTree(ring).query(bowl)[1], knn_edges(bowl), probe)
+
+    assert cuts() == 1
+    monkeypatch.setattr(loops.SurfaceProbe, "_through", lambda self, points, *rest: np.ones(len(points), bool))
+    assert cuts() == 0
+
+
 def test_ball_cover_sampling_covers_and_maps_to_the_nearest_sample():
     points = np.random.default_rng(0).uniform(-1, 1, (2000, 3))
     samples, owner = ball_cover_sampling(points, 0.3)
