@@ -29,10 +29,10 @@ closes up outside the object. A false cycle bounds some disk within the solid, a
 any disk spanning it an odd number of times; where its fan disk reads as outside, the space on one side is a
 pocket that the disk and the surface close (the lid of a bowl whose rim the cycle follows), or the reading is
 wrong (on a noisy scan of a bulky part, cells deep inside whose nearest sample's normal points the wrong way).
-So a disk point outside counts only when the open space past the disk along its normal reaches the inside
-test's grid border without crossing the disk (the disk a wall of grid cells) on one side, and on the other
-too, or meets the solid there where the inside test only guesses: behind an open scan, whose far side was
-never seen, the space reads as solid. On a duck scan with 0.5% noise that took a false cycle's outside share
+So a disk point outside counts only when the open space next to the first grid cell past the disk along its
+normal reaches the inside test's grid border without crossing the disk (the disk a wall of grid cells) on one
+side, and on the other too, or that cell is solid where the inside test only guesses: behind an open scan,
+whose far side was never seen, the space reads as solid. On a duck scan with 0.5% noise that took a false cycle's outside share
 from 7.5% to 0.4%.
 
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
@@ -146,7 +146,7 @@ class SurfaceProbe:
     def open_share(self, corners: np.ndarray) -> float:
         """The share of the area of the fan disk over the closed polygon `corners` that lies outside the solid the
         original points bound (within one spacing of the surface counts as inside) and goes through: open space
-        on both of its sides reaches beyond the object without crossing the disk (`_through`)."""
+        past the disk reaches beyond the object without crossing it (`_through`)."""
         centre = corners.mean(axis=0)
         spokes = corners - centre
         spokes_next = np.roll(spokes, -1, axis=0)
@@ -173,9 +173,10 @@ class SurfaceProbe:
     def _through(self, points: np.ndarray, planes: np.ndarray, centre: np.ndarray, spokes: np.ndarray,
                  spokes_next: np.ndarray) -> np.ndarray:
         """Which of `points` (outside samples of the fan disk, each with its fan triangle's normal in `planes`)
-        have open space on both sides, past the disk, that reaches the grid's border without crossing the disk:
-        a curve through such a point from one side to the other closes up outside the object, so it links the
-        cycle (see the module's rules)."""
+        go through: past the disk, open space reaches the grid's border without crossing the disk on both sides
+        (a curve through such a point from one side to the other closes up outside the object, so it links the
+        cycle), or on one side while the other meets solid that the inside test only guesses (an open scan's
+        far side). See the module's rules."""
         test = self.inside()
         shape = np.array(test.cells.shape)
         wall = _disk_wall(test, centre, spokes, spokes_next)
