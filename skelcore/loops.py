@@ -156,6 +156,7 @@ class SurfaceProbe:
             return 0.0
         samples = centre + _LATTICE[:, :1, None] * spokes + _LATTICE[:, 1:, None] * spokes_next  # (m^2, k, 3)
         outside = ~self.inside().contains(samples.reshape(-1, 3)).reshape(len(_LATTICE), len(corners))
+        outside &= areas > 0  # a flat fan triangle weighs nothing and has no normal to look along
         if outside.mean(axis=0) @ areas >= OPEN_SHARE * areas.sum():  # else no point of it can make it a loop
             where = np.nonzero(outside)
             outside[where] = self._through(samples[where], planes[where[1]], centre, spokes, spokes_next)

@@ -240,6 +240,22 @@ def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monke
     assert cuts() == 0
 
 
+def test_a_disk_with_a_flat_fan_triangle_is_judged_quietly():
+    """A cycle through the same place twice (a repeated corner) has a fan triangle of no area, and so no normal
+    to look along for open space: it weighs nothing, and judging the disk warns of nothing (it divided by zero)."""
+    import warnings
+
+    sphere = np.random.default_rng(0).normal(size=(3000, 3))
+    sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
+    angle = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    ring = 1.3 * np.c_[np.cos(angle), np.sin(angle), np.zeros(12)]
+    probe = loops.SurfaceProbe(sphere, float(np.median(cKDTree(sphere).query(sphere, 2)[0][:, 1])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        repeated = probe.open_share(np.vstack([ring[:6], ring[5:6], ring[6:]]))
+    assert repeated == pytest.approx(probe.open_share(ring), abs=0.02)  # the centroid moves a little
+
+
 def test_ball_cover_sampling_covers_and_maps_to_the_nearest_sample():
     points = np.random.default_rng(0).uniform(-1, 1, (2000, 3))
     samples, owner = ball_cover_sampling(points, 0.3)
