@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from .errors import InputError
 from .neighbours import knn
 from .normals import orient_outward, pca_features
-from .regions import dilated, label_regions
+from .regions import border_labels, dilated, label_regions
 
 SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
 MAX_CELLS = 2_000_000  # cells of an inside test's grid, about at most (a run's take a few hundred thousand)
@@ -82,8 +82,7 @@ class InsideTest:
         votes = test.side_of(centres(voters)) <= 0
         inside_share = (np.bincount(regions[voters], votes, count + 1)
                         / np.maximum(np.bincount(regions[voters], minlength=count + 1), 1))
-        border = np.unique(np.concatenate([regions[[0, -1]].ravel(), regions[:, [0, -1]].ravel(),
-                                           regions[:, :, [0, -1]].ravel()]))
+        border = border_labels(regions)
         side = (inside_share > 0.5).astype(np.int8)
         side[border] = 0
         side[0] = -1  # label 0 is the shell

@@ -32,8 +32,8 @@ wrong (on a noisy scan of a bulky part, cells deep inside whose nearest sample's
 So a disk point outside counts only when the open space next to the first grid cell past the disk along its
 normal reaches the inside test's grid border without crossing the disk (the disk a wall of grid cells) on one
 side, and on the other too, or that cell is solid where the inside test only guesses: behind an open scan,
-whose far side was never seen, the space reads as solid. On a duck scan with 0.5% noise that took a false cycle's outside share
-from 7.5% to 0.4%.
+whose far side was never seen, the space reads as solid. On a duck scan with 0.5% noise that took a false
+cycle's outside share from 7.5% to 0.4%.
 
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
 original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
@@ -60,7 +60,7 @@ from .inside import SPLIT, InsideTest
 from .neighbours import pca_frames
 from .normalise import object_diagonal
 from .normals import COLLAPSED
-from .regions import dilated, label_regions
+from .regions import border_labels, dilated, label_regions
 
 CROSSING_ANGLE = 60.0  # degrees between a crossing point's normal and the disk's normal, at least
 CROSSING_POINTS = 4  # crossing points a loop needs
@@ -183,9 +183,8 @@ class SurfaceProbe:
         wall = _disk_wall(test, centre, spokes, spokes_next)
         open_space = self.exterior() & ~wall
         regions, _ = label_regions(open_space)
-        faces = [regions[[0, -1]], regions[:, [0, -1]], regions[:, :, [0, -1]]]
         far = np.zeros(regions.max() + 1, bool)
-        far[np.unique(np.concatenate([face.ravel() for face in faces]))] = True
+        far[border_labels(regions)] = True
         far[0] = False  # label 0: the solid and the wall
         # Each side's open space is that next to the first cell past the wall along the disk's normal (its 27
         # cells: the open space of a narrow hole, a few cells across, lies beside a point near its wall).

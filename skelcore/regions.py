@@ -1,5 +1,6 @@
-"""Regions of boolean voxel grids: dilation by a cell and face-connected labelling, for the inside test's shell
-and regions (skelcore.inside) and the coarse grid that finds pieces far apart (skelcore.normalise)."""
+"""Regions of boolean voxel grids: dilation by a cell, face-connected labelling and the labels on the grid's
+border, for the inside test's shell and regions (skelcore.inside), the open space the loop rule looks through
+(skelcore.loops) and the coarse grid that finds pieces far apart (skelcore.normalise)."""
 from __future__ import annotations
 
 import numpy as np
@@ -43,3 +44,9 @@ def label_regions(cells: np.ndarray) -> tuple[np.ndarray, int]:
     labels = np.zeros(cells.shape, np.int32)
     labels.ravel()[members] = piece + 1
     return labels, count
+
+
+def border_labels(labels: np.ndarray) -> np.ndarray:
+    """The distinct labels on the six faces of a 3D grid of labels (0 among them where a face holds it)."""
+    return np.unique(np.concatenate([labels[[0, -1]].ravel(), labels[:, [0, -1]].ravel(),
+                                     labels[:, :, [0, -1]].ravel()]))
