@@ -8,6 +8,7 @@ spacing of the nearest surface point, whose normal gives the exact side.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +52,7 @@ class InsideTest:
     tree: cKDTree
     band: float
     spacing: np.ndarray  # each sample's distance to its nearest other sample
+    undecided: np.ndarray  # (nx,ny,nz) bool: the cells made SPLIT, whether or not a point has resolved them since
 
     @classmethod
     def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float, tree: cKDTree | None = None,
@@ -66,17 +68,15 @@ class InsideTest:
             tree = cKDTree(samples)
             spacing = tree.query(samples, k=2, workers=-1)[0][:, 1]
         extent = np.ptp(samples, axis=0)
-        # Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis and about
-        # MAX_CELLS in all (a small piece far from the rest would otherwise span 17M mostly empty cells)
-        size = max(band, 2.0 * float(np.quantile(spacing, 0.9)), float(extent.max()) / 256,
-                   (float(np.prod(extent + 1e-12 * extent.max())) / MAX_CELLS) ** (1 / 3), 1e-12)
+        size = _cell_size(extent, spacing, band)
         origin = samples.min(axis=0) - 2.5 * size
         shape = tuple(np.ceil(extent / size).astype(int) + 6)
         occupied = np.zeros(shape, bool)
         occupied[tuple(np.floor((samples - origin) / size).astype(int).T)] = True
         shell = dilated(occupied)
         regions, count = label_regions(~shell)
-        test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing)
+        test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing,
+                   np.zeros(shape, bool))
         centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
         voters = ~shell & dilated(shell)
         votes = test.side_of(centres(voters)) <= 0
@@ -92,6 +92,7 @@ class InsideTest:
         cells = side[regions]
         cells[mixed[regions]] = SPLIT
         test.cells[...] = cells
+        test.undecided[...] = cells == SPLIT
         return test
 
     @classmethod
@@ -108,9 +109,14 @@ class InsideTest:
         return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1])
 
     def with_band(self, band: float) -> "InsideTest":
-        """The same surface (samples, oriented normals, tree) tested with another band: only the grid is made
-        again, which the band sizes."""
-        return InsideTest.from_samples(self.samples, self.normals, band, self.tree, self.spacing)
+        """The same surface (samples, oriented normals, tree) tested with another band. The grid is made again
+        only when the band sizes its cells (a band wider than twice the samples' spacing); else it is this one's
+        as made (the cells points have resolved since made undecided again, so both tests answer alike)."""
+        if _cell_size(np.ptp(self.samples, axis=0), self.spacing, band) != self.size:
+            return InsideTest.from_samples(self.samples, self.normals, band, self.tree, self.spacing)
+        cells = self.cells.copy()  # another thread may be resolving this test's undecided cells meanwhile
+        cells[self.undecided] = SPLIT
+        return dataclasses.replace(self, cells=cells, band=band)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """Boolean mask: inside the surface, or within `band` of it."""
@@ -133,6 +139,14 @@ class InsideTest:
         """Signed offset along the nearest sample's outward normal (eq.: (p - s) . n_s)."""
         _, nearest = self.tree.query(points, k=1, workers=-1)
         return np.einsum("ij,ij->i", points - self.samples[nearest], self.normals[nearest])
+
+
+def _cell_size(extent: np.ndarray, spacing: np.ndarray, band: float) -> float:
+    """The grid's cell edge for samples spanning `extent` (3,) at `spacing` (each one's distance to its nearest).
+    Cells at least twice the sample spacing keep the dilated shell closed; at most 256 per axis and about
+    MAX_CELLS in all (a small piece far from the rest would otherwise span 17M mostly empty cells)."""
+    return max(band, 2.0 * float(np.quantile(spacing, 0.9)), float(extent.max()) / 256,
+               (float(np.prod(extent + 1e-12 * extent.max())) / MAX_CELLS) ** (1 / 3), 1e-12)
 
 
 def mesh_surface(vertices: np.ndarray, faces, spacing: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

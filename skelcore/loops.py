@@ -56,7 +56,7 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .inside import SPLIT, InsideTest
+from .inside import InsideTest
 from .neighbours import pca_frames
 from .normalise import object_diagonal
 from .normals import COLLAPSED
@@ -73,12 +73,19 @@ THROUGH_REACH = 3  # cells along the normal on each side of an outside disk samp
 MINIMUM_BASIS_WORK = 2000
 
 
+def cloud_inside(points: np.ndarray, band: float, tree: cKDTree | None = None) -> InsideTest:
+    """The inside test a SurfaceProbe over `points` reads, within `band` of the surface counting as inside: the
+    points as their own surface sample. A run can make it ahead on its second core and hand it to the probe as
+    `shared` (the probe then makes only the grid again, to its own band). tree: a cKDTree over `points`."""
+    return InsideTest.of_cloud(points, band, COLLAPSED * object_diagonal(points), tree)
+
+
 class SurfaceProbe:
     """The original surface, for asking whether it crosses a disk."""
 
     def __init__(self, original: np.ndarray, spacing: float, shared: InsideTest | None = None) -> None:
-        """shared: the run's metrics' inside test (InsideTest.of_cloud), whose oriented normals `inside` takes when
-        it samples these very points."""
+        """shared: an inside test made ahead (the run's metrics', or cloud_inside of `original`), whose oriented
+        normals `inside` takes when it samples these very points."""
         self.points = original
         self.tree = cKDTree(original)
         self.spacing = spacing
@@ -86,7 +93,6 @@ class SurfaceProbe:
         self._normals: dict[int, np.ndarray] = {}
         self._inside: InsideTest | None = None
         self._exterior: np.ndarray | None = None
-        self._uncertain: np.ndarray | None = None  # the inside test's cells judged by their centres
         self._shared = shared
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
@@ -138,9 +144,7 @@ class SurfaceProbe:
             if self._shared is not None and np.array_equal(self._shared.samples, self.points):
                 self._inside = self._shared.with_band(self.spacing)
             else:
-                self._inside = InsideTest.of_cloud(self.points, self.spacing, COLLAPSED * object_diagonal(self.points),
-                                                   self.tree)
-            self._uncertain = self._inside.cells == SPLIT  # before points resolve them
+                self._inside = cloud_inside(self.points, self.spacing, self.tree)
         return self._inside
 
     def open_share(self, corners: np.ndarray) -> float:
@@ -203,7 +207,7 @@ class SurfaceProbe:
             reaches_far |= side_far
             # else the side is closed, unless its first cell is solid where the inside test only guesses (an open
             # scan's far side, read by centres)
-            guessed = (regions[tuple(first.T)] == 0) & self._uncertain[tuple(first.T)]
+            guessed = (regions[tuple(first.T)] == 0) & test.undecided[tuple(first.T)]
             closed |= ~past.any(axis=1) | ~(side_far | guessed)
         return reaches_far & ~closed
 

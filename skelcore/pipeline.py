@@ -22,6 +22,7 @@ from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
 from .labels import check_weights
+from .loops import cloud_inside
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .options import METRICS_K, RunOptions
 from .params import ContractionParams
@@ -102,8 +103,8 @@ def original_surface(state: IterationState, original: np.ndarray, inside: Inside
                      ) -> OriginalSurface:
     """What a state's skeleton reads of the original points and surface (skelcore.surface): the same for every
     state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run).
-    inside: the run's metrics' inside test (MetricsReference.inside), whose oriented normals the false-loop
-    probe takes when it samples the same points."""
+    inside: an inside test made ahead (the run's metrics', MetricsReference.inside, or loops.cloud_inside),
+    whose oriented normals the false-loop probe takes when it samples the same points."""
     return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside)
 
 
@@ -269,13 +270,18 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 clock.mark("skeleton")
             else:
                 _say(progress, f"{cloud.name}: {reduction.note()}")
+                # the metrics' inside test samples the centroids before denoising: the false-loop probe's own, of
+                # the contracted points, is made on the second core while the contraction runs
+                probe_inside = helpers.judging(cloud_inside, reduction.points, 0.0)
                 clock.mark("reduce")
                 reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
                                      None if weights is None else reduction.mean(weights))
                 clock.mark("contract")
                 lifted = helpers.measuring(_lift, reduction, reduced)
                 helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
-                surface = original_surface(reduced[-1], reduction.points, cache.result().reference.inside)
+                # a failure there is the probe's to report, if it ever needs that test
+                surface = original_surface(reduced[-1], reduction.points,
+                                           None if probe_inside.exception() else probe_inside.result())
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
                 evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
                 skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)

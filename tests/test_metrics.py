@@ -219,6 +219,33 @@ def test_a_split_region_is_judged_by_its_cells_centres_only_where_points_fall():
     assert np.array_equal(test.contains(queries), test.side_of(centres) <= 0)
 
 
+def test_another_band_reuses_the_grid_as_it_was_made(monkeypatch):
+    """A band that does not size the cells keeps the grid: the cells queries have resolved since are undecided
+    again, so the test answers as one made afresh, and the first keeps what it resolved. A band wider than the
+    cells makes a new grid."""
+    from skelcore.inside import SPLIT, InsideTest
+
+    rng = np.random.default_rng(0)
+    u, v = rng.uniform(-1, 1, (2, 6000))
+    test = InsideTest.of_cloud(np.c_[u, v, 0.4 * u**2], 0.01, 0.005)  # an open sheet: many split cells
+    made = lambda band: InsideTest.from_samples(test.samples, test.normals, band, test.tree, test.spacing)
+    fresh, wide = made(0.02), made(3 * test.size)
+    split = np.argwhere(test.cells == SPLIT)
+    test.contains(test.origin + (split[:300] + 0.5) * test.size)
+    with monkeypatch.context() as patched:
+        patched.setattr(InsideTest, "from_samples", None)  # no grid made again
+        again = test.with_band(0.02)
+    assert again.band == 0.02 and again.size == fresh.size == test.size
+    np.testing.assert_array_equal(again.cells, fresh.cells)
+    np.testing.assert_array_equal(again.undecided, fresh.undecided)
+    assert (test.cells == SPLIT).sum() == len(split) - 300
+    rng_points = test.origin + rng.uniform(0, 1, (2000, 3)) * np.array(test.cells.shape) * test.size
+    np.testing.assert_array_equal(again.contains(rng_points), fresh.contains(rng_points))
+    widened = test.with_band(3 * test.size)
+    assert widened.size == wide.size == 3 * test.size
+    np.testing.assert_array_equal(widened.cells, wide.cells)
+
+
 @pytest.mark.parametrize("apart", [30.0, 100.0])
 def test_two_tori_far_apart_are_each_turned_outward(apart):
     """Each part's normals are turned outward by the sign of sum n.(p - c), which carries c times the sum of its

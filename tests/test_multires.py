@@ -192,6 +192,38 @@ def test_an_error_on_the_helper_thread_is_the_runs_one_line_error(monkeypatch):
         compute(cloud, RunOptions())
 
 
+def test_a_reduced_runs_loop_probe_reads_the_inside_test_made_during_the_contraction(monkeypatch):
+    """A reduced run's false-loop probe judges its loops on an inside test of the reduced points made on the
+    second core while the contraction runs: it makes none itself, and the skeleton is the one it makes alone."""
+    import skelcore.loops as loops
+    import skelcore.pipeline as pipeline
+
+    cloud = validate(make_shape("two_hole", 4000, seed=0).points, name="two_hole.xyz")
+    monkeypatch.setattr(pipeline, "cloud_inside", lambda *args: None)  # none made ahead: the probe makes its own
+    alone = pipeline.compute(cloud, RunOptions(point_budget=2000)).skeleton
+    monkeypatch.undo()
+    monkeypatch.setattr(loops, "cloud_inside", None)  # the probe's own would be made by this
+    run = pipeline.compute(cloud, RunOptions(point_budget=2000))
+    assert run.reduction is not None and run.skeleton.topology() == alone.topology()
+    assert alone.topology()["cycles"] == 2  # loops were judged
+    np.testing.assert_array_equal(run.skeleton.nodes_array(), alone.nodes_array())
+
+
+def test_a_reduced_run_whose_inside_test_made_ahead_fails_judges_its_loops_alone(monkeypatch):
+    """An error in the inside test made ahead is left to the probe to meet, if it ever needs the test: here
+    it makes its own and the run ends as usual."""
+    import skelcore.pipeline as pipeline
+    from skelcore.errors import InputError
+
+    def broken(*args):
+        raise InputError("no part of the cloud is large enough")
+
+    monkeypatch.setattr(pipeline, "cloud_inside", broken)
+    run = pipeline.compute(validate(make_shape("torus", 4000, seed=0).points, name="torus.xyz"),
+                           RunOptions(point_budget=2000))
+    assert run.reduction is not None and run.skeleton.topology()["cycles"] == 1
+
+
 def test_a_negative_point_budget_is_refused():
     from skelcore.errors import ParameterError
 
