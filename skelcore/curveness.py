@@ -248,8 +248,12 @@ def _closing_loops(axis: np.ndarray, piece: np.ndarray, points: np.ndarray, edge
 
 
 def _far_ends(graph) -> tuple[int, int]:
-    """The ends of a connected graph's longest shortest path, found by two sweeps of Dijkstra."""
-    start = int(np.argmax(np.nan_to_num(dijkstra(graph, indices=0), posinf=-1)))
+    """The ends of the longest shortest path of the graph's largest connected piece, found by two sweeps of
+    Dijkstra. An axis position can stray from the rest of its piece's (a member's probe near a handle's root
+    takes an axis tilted into the body); swept from there, both ends were that one position."""
+    _, piece = connected_components(graph, directed=False)
+    first = int(np.argmax(piece == np.argmax(np.bincount(piece))))
+    start = int(np.argmax(np.nan_to_num(dijkstra(graph, indices=first), posinf=-1)))
     return start, int(np.argmax(np.nan_to_num(dijkstra(graph, indices=start), posinf=-1)))
 
 

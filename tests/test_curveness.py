@@ -126,3 +126,24 @@ def test_thin_handles_of_a_sparse_cloud_are_anchored_beside_the_body():
         anchors, _ = _thin_tubes(points)
         anchored, handle = np.isfinite(anchors[:, 0]), _handle_of(points)
         assert all(anchored[handle == h].mean() > 0.5 for h in (1, 2, 3)) and not anchored[handle == 0].any()
+
+
+def test_a_handles_ends_are_those_of_its_axis_not_of_a_stray_position():
+    """Cleaned, at 5,000 points (the benchmark's clean ball with thin handles, draw 0), a point near a handle's
+    root projects onto its probe's axis, tilted into the ball, more than a sample radius from the rest of the
+    handle's axis. Swept from that stray position, both of the handle's ends were it, so the handle touched the
+    rest at one end only, closed no loop and went unanchored (as did its loop in the run). The ends are now those
+    of the axis's largest connected piece, and every handle is anchored."""
+    import scipy.sparse as sp
+
+    from skelcore.clean import cleaned
+    from skelcore.curveness import _far_ends
+    from skelcore.io import validate
+    from skelcore.solids import solid_shape
+
+    path = sp.coo_matrix((np.ones(3), ([1, 2, 3], [2, 3, 4])), shape=(5, 5)).tocsr()
+    assert sorted(_far_ends(path + path.T)) == [1, 4]  # node 0 stands alone
+    points = cleaned(validate(solid_shape("thin_handled_ball", 5_000, seed=0).points, name="handles.xyz")).points
+    anchors, _ = _thin_tubes(points)
+    anchored, handle = np.isfinite(anchors[:, 0]), _handle_of(points)
+    assert all(anchored[handle == h].mean() > 0.5 for h in (1, 2, 3)) and not anchored[handle == 0].any()
