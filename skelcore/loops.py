@@ -76,7 +76,8 @@ MINIMUM_BASIS_WORK = 2000
 def cloud_inside(points: np.ndarray, band: float, tree: cKDTree | None = None) -> InsideTest:
     """The inside test a SurfaceProbe over `points` reads, within `band` of the surface counting as inside: the
     points as their own surface sample. A run can make it ahead on its second core and hand it to the probe as
-    `shared` (the probe then makes only the grid again, to its own band). tree: a cKDTree over `points`."""
+    `shared` (the probe takes its oriented normals, and its grid unless its own band sizes the cells: made with
+    band 0, it sizes them by the samples' spacing alone). tree: a cKDTree over `points`."""
     return InsideTest.of_cloud(points, band, COLLAPSED * object_diagonal(points), tree)
 
 
