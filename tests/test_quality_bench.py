@@ -362,3 +362,17 @@ def test_the_noisy_gears_narrow_holes_stay_loops():
     cloud = perturbations.perturb(gear.points, "noise_1", seed=0, normals=gear.normals, loops=True)
     outcome = run_case(cloud, "lbc", name="gear", seed=0)
     assert outcome["topology"]["cycles"] == 5 and outcome["topology"]["components"] == 1
+
+
+def test_a_chairs_back_rail_closes_no_loop_of_its_own(monkeypatch):
+    """The clean chair at 5,000 points (draw 0): the flat middle rail of its back contracts into two strands that
+    bulge into the openings above and below it, a sliver cycle whose disk reads 2.8% outside, nearly all of it
+    along the cycle itself. Outside space next to the rim is no hole, so only the back's two openings stay loops;
+    counting it, the sliver was a third."""
+    from skelcore import loops
+    from skelcore.quality_bench import run_case
+
+    chair = solids.benchmark_shapes(points=5000, seed=0, names=["chair"])[0]
+    assert run_case(chair.points, "lbc", name="chair", seed=0)["topology"]["cycles"] == 2
+    monkeypatch.setattr(loops, "_AWAY_FROM_RIM", np.ones_like(loops._AWAY_FROM_RIM))
+    assert run_case(chair.points, "lbc", name="chair", seed=0)["topology"]["cycles"] == 3
