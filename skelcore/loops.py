@@ -41,7 +41,8 @@ means the cycle wanders out of the solid past an opening it does not go round (a
 contracts into two strands that bulge into the openings above and below it, a sliver cycle whose disk read
 2.8% outside, 15 of its 18 outside samples in the outer band). The disk's outermost band, the outer row of
 each fan triangle's lattice (an eighth of the way in from the rim), does not count; the loops of the ball
-with thin handles, the mug and the chair read the same share or nearly (the mug's 25% -> 20%) without it.
+with thin handles, the mug and the chair read the same share with the band left out, or nearly (the mug's
+25% -> 20%).
 
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
 original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
