@@ -239,8 +239,8 @@ def test_another_band_reuses_the_grid_as_it_was_made(monkeypatch):
     np.testing.assert_array_equal(again.cells, fresh.cells)
     np.testing.assert_array_equal(again.undecided, fresh.undecided)
     assert (test.cells == SPLIT).sum() == len(split) - 300
-    rng_points = test.origin + rng.uniform(0, 1, (2000, 3)) * np.array(test.cells.shape) * test.size
-    np.testing.assert_array_equal(again.contains(rng_points), fresh.contains(rng_points))
+    queries = test.origin + rng.uniform(0, 1, (2000, 3)) * np.array(test.cells.shape) * test.size
+    np.testing.assert_array_equal(again.contains(queries), fresh.contains(queries))
     widened = test.with_band(3 * test.size)
     assert widened.size == wide.size == 3 * test.size
     np.testing.assert_array_equal(widened.cells, wide.cells)
