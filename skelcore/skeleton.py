@@ -1,6 +1,7 @@
 """Curve skeleton: the contracted points (a surface skeleton) to a graph that keeps the shape's loops.
 
 After cloudcontr's `rosa_lineextract` (Cao et al. 2010, section 4), with a topological core:
+0. contracted points a degenerate ring flung out of the shape take their neighbours' place (skelcore.flung);
 1. ball-cover farthest point sampling of the contracted points, radius r = sample_radius * diagonal of the
    ORIGINAL points' object box (skelcore.normalise.object_box: far strays left out), within each connected
    piece of the original surface; every point maps to its nearest sample of its piece (skelcore.sampling);
@@ -29,6 +30,7 @@ import numpy as np
 from .clean import CleaningParams
 from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
+from .flung import put_back
 from .loops import cut_false_loops
 from .params import check_flags, is_real
 from .recentre import recentre
@@ -46,6 +48,8 @@ MIN_SAMPLE_RADIUS = 1e-3
 class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
     sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
+    # contracted points flung out of the shape take their neighbours' place first (skelcore.flung)
+    put_back_flung: bool = True
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
     # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
     # within the sample radius of its middle (skelcore.loops)
@@ -132,6 +136,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     contracted = known.checked(contracted)
     original, edges, triangles = known.points, known.edges, known.triangles
     radius = params.sample_radius * known.diagonal
+    if params.put_back_flung:
+        contracted = put_back(contracted, known, radius)
 
     samples, owner = ball_cover_by_piece(contracted, radius, edges, known.pieces)
     xyz = [tuple(p) for p in contracted[samples].tolist()]
