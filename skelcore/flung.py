@@ -8,14 +8,13 @@ through, as they should (they read the middle 98% of the cloud, and a handful of
 the skeleton drew them: a spur out of the shape, or a small false loop between the spur and the curve (on that
 torus LBC had four spurs, GLSkeleton two false loops and two spurs).
 
-A contracted point is flung when it lies beyond the convex hull of the original points, where no part of any
-shape is, and so no part of its skeleton. Inside the hull a skeleton can run through space outside the solid
-(the axis of a cup, of a pipe), so nothing there is flung. The point must lie too in space the original cloud's
-inside test (skelcore.inside) holds outside for certain, a region of empty cells judged outside as a whole (off
-its grid: the region round the object): a region whose votes split is judged cell by cell, a guess where the
-surface is open, as through a single-view scan's open side the space behind it joins the outside, and the axis
-of a part seen from one side can lie beyond the scan's hull. And it must lie more than the skeleton's sample
-radius from every original point: nearer, the skeleton does not resolve where it is.
+A contracted point is flung when it lies beyond the convex hull of a closed original surface, more than a point
+spacing off it: no part of the shape is there, and so no part of its skeleton. Inside the hull a skeleton can run
+through space outside the solid (the axis of a cup, of a pipe), so nothing there is flung. The surface is closed
+when the original cloud's inside test (skelcore.inside) decides the region of empty cells round the object as a
+whole: outside. Through an open surface (a single-view scan) the space behind it joins that region and splits
+its votes; the object then goes on beyond what was seen, a part seen from one side has its axis beyond the
+scan's hull, and no point is flung.
 
 A flung point takes the harmonic interpolation of its surface neighbours' contracted positions: the discrete
 Laplace equation over the original surface's edges, the points not flung held where they are. A flung group
@@ -27,49 +26,45 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull, Delaunay, QhullError
 
 from .errors import InputError
 from .surface import OriginalSurface
 
 
-def flung_points(contracted: np.ndarray, surface: OriginalSurface, radius: float) -> np.ndarray:
-    """(n,) which contracted points lie more than `radius` from every original point, in space their inside test
-    holds outside for certain, beyond the original points' convex hull (each test on the points the last left)."""
-    flung = np.isinf(surface.probe.tree.query(contracted, distance_upper_bound=radius, workers=-1)[0])
-    if not flung.any():
-        return flung
+def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
+    """(n,) which contracted points lie beyond the convex hull of a closed original surface, more than its
+    point spacing from every original point (none when the surface is open)."""
+    probe = surface.probe
     try:
-        test = surface.probe.inside()
+        test = probe.inside()
     except InputError:  # no part with a surface normal: no side of it is certain
         return np.zeros(len(contracted), bool)
-    # off the grid: as its border's cells, which the region round the object holds (guessed round an open scan)
-    cell = np.clip(np.floor((contracted[flung] - test.origin) / test.size).astype(np.int64), 0,
-                   np.array(test.cells.shape) - 1)
-    where = tuple(cell.T)
-    # a cell resolved by its centre since reads 0 too: only those the test decided with their region count
-    flung[flung] = (test.cells[where] == 0) & ~test.undecided[where]
+    # the region round the object, which the grid's corner cell lies in: decided outside as a whole, or split
+    if test.cells[0, 0, 0] != 0 or test.undecided[0, 0, 0]:
+        return np.zeros(len(contracted), bool)
+    flung = np.isinf(probe.tree.query(contracted, distance_upper_bound=probe.spacing, workers=-1)[0])
     if flung.any():
         flung[flung] = _beyond_hull(contracted[flung], surface.points)
     return flung
 
 
 def _beyond_hull(points: np.ndarray, original: np.ndarray) -> np.ndarray:
-    """Which of `points` lie outside the convex hull of `original` (none when it spans no volume)."""
+    """Which of `points` lie outside the convex hull of `original` (none when it spans no volume): outside every
+    tetrahedron of its corners' Delaunay triangulation, a point location per point."""
     try:
-        planes = ConvexHull(original).equations  # rows (n, d): n.x + d <= 0 inside, n a unit normal
+        corners = original[ConvexHull(original).vertices]
+        return Delaunay(corners).find_simplex(points) < 0
     except QhullError:  # flat, or too few points
         return np.zeros(len(points), bool)
-    slack = 1e-9 * (float(np.abs(original).max()) + 1.0)
-    return (points @ planes[:, :3].T + planes[:, 3]).max(axis=1) > slack
 
 
-def put_back(contracted: np.ndarray, surface: OriginalSurface, radius: float) -> np.ndarray:
+def put_back(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
     """`contracted` with its flung points (flung_points) at the harmonic interpolation of their neighbours' places
     over the original surface's edges; the array itself when none is flung."""
     if not len(surface.edges):  # no neighbours to go with
         return contracted
-    flung = flung_points(contracted, surface, radius)
+    flung = flung_points(contracted, surface)
     if not flung.any():
         return contracted
     n = len(contracted)

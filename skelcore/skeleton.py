@@ -137,7 +137,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     original, edges, triangles = known.points, known.edges, known.triangles
     radius = params.sample_radius * known.diagonal
     if params.put_back_flung:
-        contracted = put_back(contracted, known, radius)
+        contracted = put_back(contracted, known)
 
     samples, owner = ball_cover_by_piece(contracted, radius, edges, known.pieces)
     xyz = [tuple(p) for p in contracted[samples].tolist()]
