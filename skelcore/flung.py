@@ -8,13 +8,13 @@ through, as they should (they read the middle 98% of the cloud, and a handful of
 the skeleton drew them: a spur out of the shape, or a small false loop between the spur and the curve (on that
 torus LBC had four spurs, GLSkeleton two false loops and two spurs).
 
-A contracted point is flung when it lies beyond the convex hull of a closed original surface, more than a point
-spacing off it: no part of the shape is there, and so no part of its skeleton. Inside the hull a skeleton can run
-through space outside the solid (the axis of a cup, of a pipe), so nothing there is flung. The surface is closed
-when the original cloud's inside test (skelcore.inside) decides the region of empty cells round the object as a
-whole: outside. Through an open surface (a single-view scan) the space behind it joins that region and splits
-its votes; the object then goes on beyond what was seen, a part seen from one side has its axis beyond the
-scan's hull, and no point is flung.
+A contracted point is flung when it lies beyond the convex hull of a closed original surface, by more than a
+point spacing and as far from every original point (nearer, noise can put it there): no part of the shape is
+there, and so no part of its skeleton. Inside the hull a skeleton can run through space outside the solid (the
+axis of a cup, of a pipe), so nothing there is flung. The surface is closed when the original cloud's inside
+test (skelcore.inside) decides the region of empty cells round the object as a whole: outside. Through an open
+surface (a single-view scan) the space behind it joins that region and splits its votes; the object then goes on
+beyond what was seen, a part seen from one side has its axis beyond the scan's hull, and no point is flung.
 
 A flung point takes the harmonic interpolation of its surface neighbours' contracted positions: the discrete
 Laplace equation over the original surface's edges, the points not flung held where they are. A flung group
@@ -33,8 +33,8 @@ from .surface import OriginalSurface
 
 
 def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
-    """(n,) which contracted points lie beyond the convex hull of a closed original surface, more than its
-    point spacing from every original point (none when the surface is open)."""
+    """(n,) which contracted points lie more than a point spacing beyond the convex hull of a closed original
+    surface and from every original point (none when the surface is open)."""
     probe = surface.probe
     try:
         test = probe.inside()
@@ -45,18 +45,22 @@ def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray
         return np.zeros(len(contracted), bool)
     flung = np.isinf(probe.tree.query(contracted, distance_upper_bound=probe.spacing, workers=-1)[0])
     if flung.any():
-        flung[flung] = _beyond_hull(contracted[flung], surface.points)
+        flung[flung] = _beyond_hull(contracted[flung], surface.points, probe.spacing)
     return flung
 
 
-def _beyond_hull(points: np.ndarray, original: np.ndarray) -> np.ndarray:
-    """Which of `points` lie outside the convex hull of `original` (none when it spans no volume): outside every
-    tetrahedron of its corners' Delaunay triangulation, a point location per point."""
+def _beyond_hull(points: np.ndarray, original: np.ndarray, margin: float) -> np.ndarray:
+    """Which of `points` lie more than `margin` outside the convex hull of `original` (none when it spans no
+    volume). Those outside every tetrahedron of the hull corners' Delaunay triangulation (a point location each)
+    are measured against its faces' planes."""
     try:
-        corners = original[ConvexHull(original).vertices]
-        return Delaunay(corners).find_simplex(points) < 0
+        hull = ConvexHull(original)
+        outside = Delaunay(original[hull.vertices]).find_simplex(points) < 0
     except QhullError:  # flat, or too few points
         return np.zeros(len(points), bool)
+    planes = hull.equations  # rows (n, d): n.x + d <= 0 inside, n a unit normal
+    outside[outside] = (points[outside] @ planes[:, :3].T + planes[:, 3]).max(axis=1) > margin
+    return outside
 
 
 def put_back(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
