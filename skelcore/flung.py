@@ -26,41 +26,64 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
-from scipy.spatial import ConvexHull, Delaunay, QhullError
+from scipy.spatial import ConvexHull, QhullError
 
 from .errors import InputError
 from .surface import OriginalSurface
+
+HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (_beyond_hull)
 
 
 def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
     """(n,) which contracted points lie more than a point spacing beyond the convex hull of a closed original
     surface and from every original point (none when the surface is open)."""
     probe = surface.probe
-    try:
-        test = probe.inside()
-    except InputError:  # no part with a surface normal: no side of it is certain
-        return np.zeros(len(contracted), bool)
+    # the run's own test of the object when it made one (its metrics', of the input before cleaning or of a mesh's
+    # faces), else the probe's: only cells decided with their region are read, which another thread resolving
+    # split cells of the shared one leaves alone
+    test = surface.shared_inside
+    if test is None:
+        try:
+            test = probe.inside()
+        except InputError:  # no part with a surface normal: no side of it is certain
+            return np.zeros(len(contracted), bool)
     # the region round the object, which the grid's corner cell lies in: decided outside as a whole, or split
     if test.cells[0, 0, 0] != 0 or test.undecided[0, 0, 0]:
         return np.zeros(len(contracted), bool)
     flung = np.isinf(probe.tree.query(contracted, distance_upper_bound=probe.spacing, workers=-1)[0])
+    if flung.any():  # a cell decided inside is within the hull: most points, passed over at one lookup each
+        cell = tuple(np.clip(np.floor((contracted[flung] - test.origin) / test.size).astype(np.int64), 0,
+                             np.array(test.cells.shape) - 1).T)
+        flung[flung] = (test.cells[cell] != 1) | test.undecided[cell]
     if flung.any():
         flung[flung] = _beyond_hull(contracted[flung], surface.points, probe.spacing)
     return flung
 
 
 def _beyond_hull(points: np.ndarray, original: np.ndarray, margin: float) -> np.ndarray:
-    """Which of `points` lie more than `margin` outside the convex hull of `original` (none when it spans no
-    volume). Those outside every tetrahedron of the hull corners' Delaunay triangulation (a point location each)
-    are measured against its faces' planes."""
+    """Which of `points` lie more than `margin` beyond a face plane of the convex hull of `original` (none when
+    it spans no volume). The hull of the original points extreme along HULL_DIRECTIONS directions lies within
+    it: the points inside that small hull, most of them, are passed over, and only the others meet every face."""
     try:
-        hull = ConvexHull(original)
-        outside = Delaunay(original[hull.vertices]).find_simplex(points) < 0
+        inner = ConvexHull(original[np.unique((original @ _DIRECTIONS.T).argmax(axis=0))]).equations
+        beyond = (points @ inner[:, :3].T + inner[:, 3]).max(axis=1) > 0
+        if beyond.any():
+            planes = ConvexHull(original).equations  # rows (n, d): n.x + d <= 0 inside, n a unit normal
+            beyond[beyond] = (points[beyond] @ planes[:, :3].T + planes[:, 3]).max(axis=1) > margin
+        return beyond
     except QhullError:  # flat, or too few points
         return np.zeros(len(points), bool)
-    planes = hull.equations  # rows (n, d): n.x + d <= 0 inside, n a unit normal
-    outside[outside] = (points[outside] @ planes[:, :3].T + planes[:, 3]).max(axis=1) > margin
-    return outside
+
+
+def _fibonacci_sphere(count: int) -> np.ndarray:
+    """(count, 3) unit vectors spread evenly over the sphere."""
+    z = 1.0 - (2.0 * np.arange(count) + 1.0) / count
+    angle = np.pi * (3.0 - np.sqrt(5.0)) * np.arange(count)
+    ring = np.sqrt(1.0 - z * z)
+    return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
+
+
+_DIRECTIONS = _fibonacci_sphere(HULL_DIRECTIONS)
 
 
 def put_back(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
