@@ -26,12 +26,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
-from scipy.spatial import ConvexHull, QhullError
 
 from .errors import InputError
 from .surface import OriginalSurface
-
-HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (_beyond_hull)
 
 
 def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
@@ -56,34 +53,22 @@ def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray
                              np.array(test.cells.shape) - 1).T)
         flung[flung] = (test.cells[cell] != 1) | test.undecided[cell]
     if flung.any():
-        flung[flung] = _beyond_hull(contracted[flung], surface.points, probe.spacing)
+        flung[flung] = _beyond_hull(contracted[flung], surface, probe.spacing)
     return flung
 
 
-def _beyond_hull(points: np.ndarray, original: np.ndarray, margin: float) -> np.ndarray:
-    """Which of `points` lie more than `margin` beyond a face plane of the convex hull of `original` (none when
-    it spans no volume). The hull of the original points extreme along HULL_DIRECTIONS directions lies within
-    it: the points inside that small hull, most of them, are passed over, and only the others meet every face."""
-    try:
-        inner = ConvexHull(original[np.unique((original @ _DIRECTIONS.T).argmax(axis=0))]).equations
-        beyond = (points @ inner[:, :3].T + inner[:, 3]).max(axis=1) > 0
-        if beyond.any():
-            planes = ConvexHull(original).equations  # rows (n, d): n.x + d <= 0 inside, n a unit normal
-            beyond[beyond] = (points[beyond] @ planes[:, :3].T + planes[:, 3]).max(axis=1) > margin
-        return beyond
-    except QhullError:  # flat, or too few points
+def _beyond_hull(points: np.ndarray, surface: OriginalSurface, margin: float) -> np.ndarray:
+    """Which of `points` lie more than `margin` beyond a face plane of the convex hull of the original points (none
+    when they span no volume). The points inside the small hull within it (OriginalSurface.hull_planes), most of
+    them, are passed over, and only the others meet every face."""
+    inner = surface.hull_planes(inner=True)
+    if inner is None:
         return np.zeros(len(points), bool)
-
-
-def _fibonacci_sphere(count: int) -> np.ndarray:
-    """(count, 3) unit vectors spread evenly over the sphere."""
-    z = 1.0 - (2.0 * np.arange(count) + 1.0) / count
-    angle = np.pi * (3.0 - np.sqrt(5.0)) * np.arange(count)
-    ring = np.sqrt(1.0 - z * z)
-    return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
-
-
-_DIRECTIONS = _fibonacci_sphere(HULL_DIRECTIONS)
+    beyond = (points @ inner[:, :3].T + inner[:, 3]).max(axis=1) > 0
+    if beyond.any():
+        planes = surface.hull_planes()
+        beyond[beyond] = (points[beyond] @ planes[:, :3].T + planes[:, 3]).max(axis=1) > margin
+    return beyond
 
 
 def put_back(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
@@ -94,10 +79,7 @@ def put_back(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray:
     flung = flung_points(contracted, surface)
     if not flung.any():
         return contracted
-    n = len(contracted)
-    edges = surface.edges
-    adjacency = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
-    adjacency = ((adjacency + adjacency.T) > 0).astype(float).tocsr()
+    adjacency = surface.adjacency
     group = np.flatnonzero(flung)
     rows = adjacency[group]
     count, label = connected_components(rows[:, group], directed=False)

@@ -4,8 +4,8 @@ Everything here depends on the input and its one-rings only, not on where the co
 points: for a run on one set of rings (LBC's, or GLSkeleton's between two reductions) it is the same at every
 iteration. Made once with `OriginalSurface.of` and passed to extract_skeleton, it is not worked out again for
 each iteration's skeleton (the inspector draws one per step): the validated edges and triangles, the surface's
-connected pieces, the object diagonal, the median edge length and the probe of false loops with the normals it
-has computed.
+connected pieces, the object diagonal, the median edge length, the probe of false loops with the normals it
+has computed, and the convex hull and symmetric adjacency that finding flung points reads (skelcore.flung).
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import ConvexHull, QhullError
 
 from .collapse import surface_triangles
 from .errors import InputError
@@ -21,6 +22,8 @@ from .inside import InsideTest
 from .io import as_points
 from .loops import SurfaceProbe
 from .normalise import object_diagonal
+
+HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (hull_planes)
 
 
 @dataclass(eq=False)
@@ -33,6 +36,8 @@ class OriginalSurface:
     pieces: tuple[int, np.ndarray]  # connected pieces of the graph of `edges`: (count, piece of every point)
     shared_inside: InsideTest | None = field(default=None, repr=False)  # for the probe (SurfaceProbe's `shared`)
     _probe: SurfaceProbe | None = field(default=None, repr=False)
+    _hulls: dict = field(default_factory=dict, repr=False)  # "inner", "whole": face planes (None: flat)
+    _adjacency: sp.csr_matrix | None = field(default=None, repr=False)
 
     @classmethod
     def of(cls, original, surface, shared_inside: InsideTest | None = None) -> "OriginalSurface":
@@ -75,3 +80,37 @@ class OriginalSurface:
                                                      axis=1)))
             self._probe = SurfaceProbe(self.points, spacing, self.shared_inside)
         return self._probe
+
+    def hull_planes(self, inner: bool = False) -> np.ndarray | None:
+        """(f, 4) face planes of the convex hull of the original points, rows (n, d) with n.x + d <= 0 inside and n a
+        unit normal (None: the points span no volume); with `inner`, of the hull of the points extreme along
+        HULL_DIRECTIONS directions, which lies within it and has few faces. Each made once."""
+        key = "inner" if inner else "whole"
+        if key not in self._hulls:
+            points = self.points[np.unique((self.points @ _DIRECTIONS.T).argmax(axis=0))] if inner else self.points
+            try:
+                self._hulls[key] = ConvexHull(points).equations
+            except QhullError:  # flat, or too few points
+                self._hulls[key] = None
+        return self._hulls[key]
+
+    @property
+    def adjacency(self) -> sp.csr_matrix:
+        """(n, n) symmetric 0/1 adjacency of the original points along the surface's edges, made once."""
+        if self._adjacency is None:
+            n = len(self.points)
+            edges = self.edges
+            graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
+            self._adjacency = ((graph + graph.T) > 0).astype(float).tocsr()
+        return self._adjacency
+
+
+def _fibonacci_sphere(count: int) -> np.ndarray:
+    """(count, 3) unit vectors spread evenly over the sphere."""
+    z = 1.0 - (2.0 * np.arange(count) + 1.0) / count
+    angle = np.pi * (3.0 - np.sqrt(5.0)) * np.arange(count)
+    ring = np.sqrt(1.0 - z * z)
+    return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
+
+
+_DIRECTIONS = _fibonacci_sphere(HULL_DIRECTIONS)
