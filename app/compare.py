@@ -7,9 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from skelcore import pipeline, report
+from skelcore.params import ContractionParams
 
 from .layout import CARD
-from .words import METHOD_LABELS
+from .words import METHOD_LABELS, PARAMETER_LABELS, assignments
 
 RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
 
@@ -24,8 +25,13 @@ class Pinned:
 
 
 def describe(state, role: str) -> str:
+    """"pinned: LBC, W_H0 1, s_L 3, Termination 0.001, iteration 4": the method, W_H0 and s_L, and every other
+    panel parameter the run set away from its default, so that two runs that differ are named apart."""
     p = state.params
-    return f"{role}: {METHOD_LABELS[p.method]}, W_H0 {p.wh0:g}, s_L {p.sl:g}, iteration {state.iteration}"
+    default = ContractionParams(method=p.method)
+    changed = [name for name in PARAMETER_LABELS
+               if name not in ("method", "wh0", "sl") and getattr(p, name) != getattr(default, name)]
+    return f"{role}: {METHOD_LABELS[p.method]}, {assignments(p, ['wh0', 'sl', *changed])}, iteration {state.iteration}"
 
 
 def pin(session) -> Pinned:

@@ -32,7 +32,7 @@ from skelcore import report
 from skelcore.io import FORMATS as INPUT_FORMATS
 from skelcore.params import LIMITS, ContractionParams
 
-from .words import METHOD_LABELS, label
+from .words import METHOD_LABELS, box_label, label
 
 # px, fixed: viser sizes a docked panel in px only and tells the server no window size (its camera reports the
 # canvas in device pixels). 470 is about the widest at which both histograms, under iteration 0's two-line
@@ -226,13 +226,13 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
     with tabs.add_tab("Parameters"):
         method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()),
                                   initial_value=METHOD_LABELS[params.method], hint="applies on Restart")
-        wl0 = gui.add_number(f"{label('wl0')} (0 = auto)", initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
+        wl0 = gui.add_number(box_label("wl0"), initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
         wh0 = _number(gui, "wh0", params.wh0, 0.1)
         sl = _number(gui, "sl", params.sl, 0.1)
         restart = gui.add_button("Restart with these parameters")
     with tabs.add_tab("More"):
         wl_max = _number(gui, "wl_max", params.wl_max, 1.0)
-        k = gui.add_number(f"{label('k')} (0 = auto)", initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
+        k = gui.add_number(box_label("k"), initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
                            hint="applies on Restart")
         max_iterations = _number(gui, "max_iterations", params.max_iterations, 1)
         termination = _number(gui, "termination", params.termination, 0.0001,

@@ -7,9 +7,11 @@ import re
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves"}
 SKELETON_LABELS = {"sample_radius": "Sample radius"}  # the skeleton's parameter in the More tab
+AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic value (None)
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
 _ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
+_RANGE = re.compile(r"^parameter (\w+)=(.*?): must be ")  # ... and says what it must be
 
 
 def label(name: str) -> str:
@@ -33,6 +35,15 @@ def assignments(params, names) -> str:
     return ", ".join(f"{label(name)} {value_text(name, getattr(params, name))}" for name in names)
 
 
+def box_label(name: str) -> str:
+    """The label of a parameter's box: a field with an automatic value says that 0 asks for it."""
+    return f"{label(name)} (0 = auto)" if name in AUTOMATIC else label(name)
+
+
 def refused(message: str) -> str:
-    """A ParameterError's message with the engine's field names replaced by the panel's labels."""
+    """A ParameterError's message with the engine's field names replaced by the panel's labels; for a box that
+    takes 0 for automatic, the range says so too (the engine's own range leaves 0 out)."""
+    automatic = _RANGE.match(message)
+    if automatic and automatic.group(1) in AUTOMATIC:
+        message = message[:automatic.end()] + "0 (auto) or " + message[automatic.end():]
     return _ENGINE_NAMING.sub(lambda match: f"{label(match.group(1))} = ", message)

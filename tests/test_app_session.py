@@ -747,6 +747,25 @@ def test_the_panels_words_name_every_method_and_a_refused_value():
     with pytest.raises(ParameterError) as error:
         ContractionParams(sl=0.5).validated()
     assert refused(str(error.value)).startswith("s_L = 0.5: must be")
+    # the W_L0 and k boxes take 0 for automatic: the refusal of a negative value says so, as their labels do
+    for changes, said in ((dict(wl0=-5.0), "W_L0 = -5.0: must be 0 (auto) or a finite number > 0"),
+                          (dict(k=2), "k = 2: must be 0 (auto) or ")):
+        with pytest.raises(ParameterError) as error:
+            ContractionParams(**changes).validated()
+        assert refused(str(error.value)).startswith(said)
+
+
+def test_compared_runs_are_named_by_every_parameter_set_away_from_its_default():
+    from types import SimpleNamespace
+
+    from app.compare import describe
+
+    default = SimpleNamespace(params=ContractionParams(), iteration=4)
+    assert describe(default, "pinned") == "pinned: LBC, W_H0 1, s_L 3, iteration 4"
+    changed = SimpleNamespace(params=ContractionParams(method="glskeleton", termination=0.001, hold_curves=False),
+                              iteration=2)
+    assert describe(changed, "current") == "current: GLSkeleton, W_H0 1, s_L 3, Termination 0.001, Hold curves off, " \
+                                           "iteration 2"
 
 
 def test_a_repeated_notice_replaces_the_one_still_up():
