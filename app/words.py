@@ -11,7 +11,7 @@ AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic 
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
 _ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
-_RANGE = re.compile(r"^parameter (\w+)=(.*?): must be ")  # ... and says what it must be
+_RANGE = re.compile(r"^parameter (\w+)=.*?: must be ")  # ... and says what it must be
 
 
 def label(name: str) -> str:
