@@ -49,8 +49,7 @@ def flung_points(contracted: np.ndarray, surface: OriginalSurface) -> np.ndarray
         return np.zeros(len(contracted), bool)
     flung = np.isinf(probe.tree.query(contracted, distance_upper_bound=probe.spacing, workers=-1)[0])
     if flung.any():  # a cell decided inside is within the hull: most points, passed over at one lookup each
-        cell = tuple(np.clip(np.floor((contracted[flung] - test.origin) / test.size).astype(np.int64), 0,
-                             np.array(test.cells.shape) - 1).T)
+        cell = tuple(test.cell_of(contracted[flung]).T)
         flung[flung] = (test.cells[cell] != 1) | test.undecided[cell]
     if flung.any():
         flung[flung] = _beyond_hull(contracted[flung], surface, probe.spacing)

@@ -118,6 +118,11 @@ class InsideTest:
         cells[self.undecided] = SPLIT
         return dataclasses.replace(self, cells=cells, band=band)
 
+    def cell_of(self, points: np.ndarray) -> np.ndarray:
+        """(..., 3) the grid index of the cell holding each of `points` (..., 3), those off the grid clipped to it."""
+        index = np.floor((points - self.origin) / self.size).astype(np.int64)
+        return np.clip(index, 0, np.array(self.cells.shape) - 1)
+
     def contains(self, points: np.ndarray) -> np.ndarray:
         """Boolean mask: inside the surface, or within `band` of it."""
         index = np.floor((points - self.origin) / self.size).astype(np.int64)

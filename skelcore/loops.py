@@ -208,9 +208,7 @@ class SurfaceProbe:
         around = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
         reaches_far, closed = np.zeros(len(points), bool), np.zeros(len(points), bool)
         for sign in (1.0, -1.0):
-            cells = np.floor((points[:, None] + sign * steps[:, None] * normals[:, None] - test.origin)
-                             / test.size).astype(np.int64)  # (m, steps, 3)
-            cells = np.clip(cells, 0, shape - 1)
+            cells = test.cell_of(points[:, None] + sign * steps[:, None] * normals[:, None])  # (m, steps, 3)
             past = ~wall[tuple(cells.transpose(2, 0, 1))]
             first = cells[np.arange(len(points)), past.argmax(axis=1)]
             beside = regions[tuple(np.clip(first[:, None] + around, 0, shape - 1).transpose(2, 0, 1))]  # (m, 27)
@@ -227,15 +225,12 @@ def _disk_wall(test: InsideTest, centre: np.ndarray, spokes: np.ndarray, spokes_
     """The fan disk as a wall of the inside test's grid cells: samples closer than a cell, the cells holding them
     grown by one, so that no face-connected path of cells crosses it (a path crossing the disk passes within a
     cell of a sample)."""
-    shape = np.array(test.cells.shape)
     lengths = np.linalg.norm(np.stack([spokes, spokes_next, spokes_next - spokes]), axis=2).max(axis=0)
     wall = np.zeros(test.cells.shape, bool)
     for spoke, spoke_next, length in zip(spokes, spokes_next, lengths):
         steps = int(np.ceil(2.0 * length / test.size)) + 1
         i, j = np.nonzero(np.add.outer(np.arange(steps + 1), np.arange(steps + 1)) <= steps)
-        cells = np.floor((centre + np.outer(i / steps, spoke) + np.outer(j / steps, spoke_next) - test.origin)
-                         / test.size).astype(np.int64)
-        wall[tuple(np.clip(cells, 0, shape - 1).T)] = True
+        wall[tuple(test.cell_of(centre + np.outer(i / steps, spoke) + np.outer(j / steps, spoke_next)).T)] = True
     return dilated(wall)
 
 
