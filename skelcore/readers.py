@@ -8,8 +8,9 @@ takes longer. OBJ files without faces are point clouds, read here (trimesh finds
 here too, a header-less one of bare vertex rows as a text cloud.
 
 Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
-(`#`, `//`), one line of column names (`x y z`) or a .pts point count, values separated by blanks, commas or
-semicolons (between semicolons, a comma is a decimal comma). Files of equal lines are parsed at once, others
+(`#`, `//`), one line of column names or a .pts point count, values separated by blanks, commas or
+semicolons (between semicolons, a comma is a decimal comma). x, y and z are the first three columns unless the
+names line names them elsewhere (`id x y z`, or pandas' `,x,y,z` with its index column first). Files of equal lines are parsed at once, others
 line by line. Blank-separated decimal commas (`-0,845 -0,983`) are refused: they cannot be told from commas
 between numbers.
 """
@@ -35,6 +36,7 @@ HEADER_LIMIT = 1 << 16  # a PLY header longer than this is not a common file
 BOM = b"\xef\xbb\xbf"  # UTF-8's byte order mark, which some Windows programs write first
 COMMENTS = (b"#", b"//")
 WORDS = re.compile(rb"[\s,;]+")  # what separates the words of a text line, before its separators are known
+XYZ_FIRST = (0, 1, 2)  # the columns of x, y and z in a text cloud whose names line does not name them
 OBJ_FACE = re.compile(rb"^[ \t]*f[ \t]", re.MULTILINE)
 OBJ_VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)  # x y z [w | r g b]
 
@@ -83,10 +85,10 @@ def read_text(path: Path) -> np.ndarray:
 
 def text_points(data: bytes, path) -> np.ndarray:
     """The points of a text cloud's bytes `data`, read from `path` (which messages name)."""
-    start, skipped = _header(data)
+    start, skipped, columns = _header(data)
     body = _separated(data[start:], path)
-    points = _equal_rows(body)
-    return points if points is not None else _rows(body, skipped, data, path)
+    points = _equal_rows(body, columns)
+    return points if points is not None else _rows(body, skipped, data, path, columns)
 
 
 def read_off(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
@@ -211,21 +213,32 @@ READERS = {  # suffix -> reader of (points, faces or None)
 }
 
 
-def _header(data: bytes) -> tuple[int, int]:
+def _header(data: bytes) -> tuple[int, int, tuple[int, int, int]]:
     """(bytes, lines) before a text cloud's values: a byte order mark, blank and comment lines, and one line
-    of column names (none of its words a number) or a .pts point count."""
+    of column names (none of its words a number) or a .pts point count; and the columns of x, y and z."""
     start = len(BOM) if data.startswith(BOM) else 0
-    lines, named = 0, False
+    lines, named, columns = 0, False, XYZ_FIRST
     while start < len(data):
         end = data.find(b"\n", start) + 1 or len(data)
         line = data[start:end].strip()
         if line and not line.startswith(COMMENTS):
-            names_or_count = line.isdigit() or not any(map(is_number, WORDS.split(line)))
+            words = WORDS.split(line)
+            names_or_count = line.isdigit() or not any(map(is_number, words))
             if named or not names_or_count:
                 break
-            named = True
+            named, columns = True, _xyz_columns(words)
         start, lines = end, lines + 1
-    return start, lines
+    return start, lines, columns
+
+
+
+def _xyz_columns(names: list[bytes]) -> tuple[int, int, int]:
+    """The columns a names line gives x, y and z (any case, quoted or not); the first three unless it names all
+    three. An empty name counts as a column: pandas writes its index column's name so (`,x,y,z`)."""
+    names = [name.strip(b"\"'").lower() for name in names]
+    if not all(axis in names for axis in (b"x", b"y", b"z")):
+        return XYZ_FIRST
+    return names.index(b"x"), names.index(b"y"), names.index(b"z")
 
 
 def _separated(body: bytes, path) -> bytes:
@@ -239,32 +252,35 @@ def _separated(body: bytes, path) -> bytes:
     return body.translate(bytes.maketrans(b";,", b" ." if decimal else b"  "))
 
 
-def _equal_rows(body: bytes) -> np.ndarray | None:
-    """(n,3) float64 from lines that all hold the same number (>= 3) of numbers, parsed at once; None otherwise."""
+def _equal_rows(body: bytes, columns: tuple[int, int, int]) -> np.ndarray | None:
+    """(n,3) float64 from lines that all hold the same number of numbers (x, y and z in `columns` among them),
+    parsed at once; None otherwise."""
     if b"#" in body or b"//" in body:
         return None
     widths = _tokens_per_line(body)
     widths = widths[widths > 0]
-    if not len(widths) or widths[0] < 3 or (widths != widths[0]).any():
+    if not len(widths) or widths[0] <= max(columns) or (widths != widths[0]).any():
         return None
     try:
         values = np.array(body.split(), dtype=np.float64)
     except ValueError:
         return None
-    return values.reshape(len(widths), widths[0])[:, :3].copy()
+    return np.ascontiguousarray(values.reshape(len(widths), widths[0])[:, list(columns)])
 
 
-def _rows(body: bytes, skipped: int, data: bytes, path) -> np.ndarray:
-    """Line by line (lines of unequal length, comments among them): x y z the first three values of each line.
+def _rows(body: bytes, skipped: int, data: bytes, path, columns: tuple[int, int, int]) -> np.ndarray:
+    """Line by line (lines of unequal length, comments among them): x y z the values in `columns` of each line.
     `skipped`: the header's lines, so that messages count lines as the file does."""
     rows, numbers = [], []
     for number, line in enumerate(body.split(b"\n"), start=skipped + 1):
         fields = line.split()
         if not fields or fields[0].startswith(COMMENTS):
             continue
-        if len(fields) < 3:
-            raise InputError(f"{path}: line {number} has fewer than 3 coordinates")
-        rows.append(fields[:3])
+        if len(fields) <= max(columns):
+            raise InputError(f"{path}: line {number} has fewer than 3 coordinates" if columns == XYZ_FIRST else
+                             f"{path}: line {number} has {len(fields)} values; x, y and z are its columns "
+                             f"{', '.join(str(column + 1) for column in columns)} by the names line")
+        rows.append([fields[column] for column in columns])
         numbers.append(number)
     if not rows:
         raise InputError(f"{path}: the file holds no points")

@@ -39,6 +39,23 @@ def test_pts_count_header_and_comma_separated(tmp_path):
     np.testing.assert_allclose(io.load(path).points, points)
 
 
+
+def test_a_names_line_says_which_columns_are_x_y_z(tmp_path):
+    """pandas' to_csv writes its index first (`,x,y,z`); taking the first three columns read (index, x, y)."""
+    points = sphere(50)
+    rows = "\n".join(f"{i},{x},{y},{z}" for i, (x, y, z) in enumerate(points))
+    (tmp_path / "pandas.txt").write_text(",x,y,z\n" + rows)
+    np.testing.assert_allclose(io.load(tmp_path / "pandas.txt").points, points)
+    ragged = "\n".join(f"{i} {z} {y} {x}" + (" 7" if i % 2 else "") for i, (x, y, z) in enumerate(points))
+    (tmp_path / "ragged.xyz").write_text('"id" "Z" "Y" "X"\n' + ragged)  # unequal lines: read line by line
+    np.testing.assert_allclose(io.load(tmp_path / "ragged.xyz").points, points)
+    (tmp_path / "colours.txt").write_text("x y z red\n" + "\n".join(" ".join(map(str, [*p, 9])) for p in points))
+    np.testing.assert_allclose(io.load(tmp_path / "colours.txt").points, points)
+    (tmp_path / "short.txt").write_text("id x y z\n0 1 2 3\n1 4 5\n")
+    with pytest.raises(InputError) as error:
+        io.load(tmp_path / "short.txt")
+    assert_one_line(error, "short.txt", "line 3 has 3 values", "columns 2, 3, 4")
+
 def test_off_headers(tmp_path):
     points = sphere(30)
     body = "\n".join(" ".join(map(str, p)) for p in points)
