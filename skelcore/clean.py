@@ -30,8 +30,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .errors import ParameterError
-from .io import Cloud
+from .errors import InputError, ParameterError
+from .io import Cloud, on_one_line
 from .neighbours import CHUNK, knn, leaf_knn, local_frames
 from .normalise import far_pieces
 from .params import check_flags, is_integer, is_real
@@ -152,6 +152,9 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
     mesh faces that lose a corner are dropped and the rest renumbered."""
     report = report or clean(cloud.points, params)
     kept = report.kept
+    if len(kept) < len(cloud.points) and on_one_line(cloud.points[kept]):
+        raise InputError(f"{cloud.name}: without the {len(cloud.points) - len(kept)} points cleaning removed "
+                         f"(outliers and stray pieces), all points lie on one line; a surface is needed")
     faces = cloud.faces
     if faces is not None and len(kept) < len(cloud.points):
         new_id = np.full(len(cloud.points), -1, dtype=np.int64)

@@ -65,6 +65,8 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
     the file is sized before it is parsed, and the cloud's points are checked against it.
     """
     check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)  # before reading
+    if not str(path).strip():  # Path("") is the working folder
+        raise InputError("input: give a file name (the path is empty)")
     path = Path(path)
     budget = memory.budget_bytes() if budget is None else budget
     suffix = path.suffix.lower()
@@ -151,13 +153,18 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
 
 
 def writable_folder(folder, what: str) -> Path:
-    """`folder` as a Path, or an OutputError naming `what` when it is blank, a file, or under a file (checked
-    before any work, so that no result is lost to a path that cannot hold it)."""
+    """`folder` as a Path, or an OutputError naming `what` when it is blank, a file, under a file, or where no
+    folder can be made (checked before any work, so that no result is lost to a path that cannot hold it)."""
     if not str(folder).strip():
         raise OutputError(f"{what}: give a folder name")
     folder = Path(folder)
     if any(part.is_file() for part in (folder, *folder.parents)):
         raise OutputError(f"{what} {folder}: is a file, or under one, not a folder")
+    existing = next(part for part in (folder, *folder.parents, Path(".")) if part.exists())
+    try:  # a folder made and removed at once: permissions alone do not tell (root may not write in /proc)
+        tempfile.TemporaryDirectory(dir=existing, prefix=".skelcore-probe-").cleanup()
+    except OSError as error:
+        raise OutputError(f"{what} {folder}: cannot be written ({error.strerror or error} in {existing})") from None
     return folder
 
 
@@ -274,6 +281,10 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
         raise InputError(f"{name}: the cloud's extent is too small: it spans {2 * half:.3g} at coordinates of "
                          f"magnitude {place:.3g}, which float64 resolves in only {steps:,.0f} steps "
                          f"(at least {MIN_STEPS:,} are needed)")
+    resolution = float(np.spacing(place))
+    if _float32_values(core):  # stored as float32 (a PLY's `float`, every STL): rounded to float32's steps
+        resolution = float(np.spacing(np.float32(place)))
+        _check_float32_steps(name, resolution, place, object_diagonal(core), (low / 2 + high / 2))
     if inside is not None:  # strays: how far from the core (in halves, as the extent)
         strays = points[~inside]
         reach = np.abs(strays / 2 - (low / 2 + high / 2) / 2).max(axis=1)
@@ -288,10 +299,36 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
     if half < 0.5 / EXTREME or magnitude >= EXTREME:
         scale = binary_unit(half)
         points, core = points / scale, core / scale  # exact: a power of two
-    singular = np.linalg.svd(core[:: max(1, len(core) // 100_000)] - core.mean(axis=0), compute_uv=False)
-    if singular[1] <= 1e-9 * singular[0]:
+    if on_one_line(core, resolution / scale):
         raise InputError(f"{name}: all points lie on one line; a surface is needed")
     return points, scale
+
+
+def on_one_line(points: np.ndarray, resolution: float = 0.0) -> bool:
+    """Whether the points lie on one line: across it they spread less than a billionth of their length, or no
+    more (RMS) than `resolution`, the rounding of their coordinates (float32's rounds a line off it)."""
+    sample = points[:: max(1, len(points) // 100_000)]
+    singular = np.linalg.svd(sample - sample.mean(axis=0), compute_uv=False)
+    return bool(singular[1] <= 1e-9 * singular[0] or singular[1] / np.sqrt(len(sample)) <= resolution)
+
+
+def _float32_values(points: np.ndarray) -> bool:
+    """Whether every coordinate is a float32 value: the cloud was stored (or made) in float32."""
+    with np.errstate(over="ignore"):
+        return bool(np.array_equal(points.astype(np.float32), points))
+
+
+def _check_float32_steps(name: str, step: float, place: float, diagonal: float, centre: np.ndarray) -> None:
+    """An InputError when float32's rounding at the coordinates is coarser than a skeleton ball (its diameter, twice
+    SkeletonParams.sample_radius of the diagonal): a georeferenced scan stored as float32 is then a few slabs of
+    points, and balls that fall between two slabs break the skeleton apart."""
+    from .skeleton import SkeletonParams  # networkx: imported only for a float32 cloud
+
+    ball = 2 * SkeletonParams.sample_radius * diagonal
+    if step > ball:
+        raise InputError(f"{name}: the coordinates are float32 values, which at magnitude {place:.3g} are rounded "
+                         f"to steps of {step:g}, coarser than a skeleton ball ({ball:.3g} across); store them as "
+                         f"float64, or subtract an offset such as ({', '.join(str(round(value)) for value in centre)})")
 
 
 def as_points(value, name: str) -> np.ndarray:

@@ -2,7 +2,7 @@
 for the rest.
 
 `read_ply` covers the PLY files that need no general parser: a first element `vertex` with scalar x, y, z
-properties (any others are skipped), followed by nothing or by a `face` element of triangles; anything else
+properties (in any case; any others are skipped), followed by nothing or by a `face` element of triangles; anything else
 falls back to trimesh. Reading a million-point binary PLY this way takes milliseconds; importing trimesh alone
 takes longer. OBJ files without faces are point clouds, read here (trimesh finds no mesh in them); OFF files
 here too, a header-less one of bare vertex rows as a text cloud.
@@ -57,11 +57,11 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
     if not names or names[0] != "vertex" or names[1:] not in ([], ["face"]):
         return None
     _, n_vertices, vertex_properties = elements[0]
-    names = {name for name, _ in vertex_properties}
-    if any(isinstance(kind, tuple) for _, kind in vertex_properties) or not {"x", "y", "z"} <= names:
+    axes = _ply_axes([name for name, _ in vertex_properties])
+    if any(isinstance(kind, tuple) for _, kind in vertex_properties) or axes is None:
         return None
     if fmt == "ascii":
-        return _ascii_ply(path, body_start, n_vertices, vertex_properties, elements[1:])
+        return _ascii_ply(path, body_start, n_vertices, vertex_properties, elements[1:], axes)
     order = PLY_ENDIAN[fmt]
     vertex_type = np.dtype([(name, order + kind) for name, kind in vertex_properties])
     faces = None
@@ -74,8 +74,18 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
             faces = _binary_triangles(handle, order, *elements[1][1:])
             if faces is None:
                 return None
-    points = np.column_stack([vertices[axis].astype(np.float64) for axis in "xyz"])
+    points = np.column_stack([vertices[axis].astype(np.float64) for axis in axes])
     return points, faces
+
+
+def _ply_axes(names: list[str]) -> tuple[str, str, str] | None:
+    """The vertex properties that hold x, y and z: named so, or else in another case (`X Y Z`, as some scanners
+    write them; the general readers find only lower-case ones); None without all three."""
+    lower = {}
+    for name in names:
+        lower.setdefault(name.lower(), name)
+    axes = tuple(axis if axis in names else lower.get(axis) for axis in "xyz")
+    return None if None in axes else axes
 
 
 def read_text(path: Path) -> np.ndarray:
@@ -85,16 +95,22 @@ def read_text(path: Path) -> np.ndarray:
 
 def text_points(data: bytes, path) -> np.ndarray:
     """The points of a text cloud's bytes `data`, read from `path` (which messages name)."""
+    data = lf_lines(data)
     start, skipped, columns = _header(data)
     body = _separated(data[start:], path)
     points = _equal_rows(body, columns)
     return points if points is not None else _rows(body, skipped, data, path, columns)
 
 
+def lf_lines(data: bytes) -> bytes:
+    """`data` with its lines ending in LF: a file whose lines end in CR alone (classic Mac OS) has no LF."""
+    return data.replace(b"\r", b"\n") if b"\n" not in data else data
+
+
 def read_off(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Vertices (n,3) and triangles (m,3, polygons fanned) or None of an OFF file. The first line tells the
     layout (sizing.off_layout): a file of bare vertex rows is read as a text cloud, in the same single pass."""
-    data = Path(path).read_bytes()
+    data = lf_lines(Path(path).read_bytes())
     first = _first_words(data)
     if not first:
         raise InputError(f"{path}: the file holds no points")
@@ -353,7 +369,7 @@ def _binary_triangles(handle, order: str, count: int, properties) -> np.ndarray 
     return faces["index"].astype(np.int64)
 
 
-def _ascii_ply(path: Path, body_start: int, n_vertices: int, vertex_properties, rest) -> tuple | None:
+def _ascii_ply(path: Path, body_start: int, n_vertices: int, vertex_properties, rest, axes) -> tuple | None:
     if rest:  # ASCII faces: the general reader
         return None
     with open(path, "rb") as handle:
@@ -369,4 +385,4 @@ def _ascii_ply(path: Path, body_start: int, n_vertices: int, vertex_properties, 
                          f"holds {len(values):,} values ({len(values) / width:,.4g} vertices)")
     table = values.reshape(n_vertices, width)
     columns = [name for name, _ in vertex_properties]
-    return table[:, [columns.index(axis) for axis in "xyz"]].copy(), None
+    return table[:, [columns.index(axis) for axis in axes]].copy(), None

@@ -24,6 +24,7 @@ PARSE_BYTES_PER_POINT = {".xyz": 400, ".pts": 400, ".txt": 400, ".off": 400, ".o
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
               "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
               "double": 8, "float64": 8}
+_PLY_FORMATS = ("ascii", "binary_little_endian", "binary_big_endian")
 
 
 def points_in(path: Path, suffix: str) -> int:
@@ -47,13 +48,18 @@ def points_in(path: Path, suffix: str) -> int:
 
 
 def text_lines(path: Path) -> int:
-    """Lines of a text file, streamed: a NUL byte or an overlong line refuses it (binary data)."""
-    lines, run = 0, 0
+    """Lines of a text file, streamed: a NUL byte or an overlong line refuses it (binary data). Lines end in LF
+    (or CR LF), or in CR alone where the file has no LF (classic Mac OS)."""
+    lines, run, end = 0, 0, None
     with open(path, "rb") as handle:
         while chunk := handle.read(CHUNK_BYTES):
             if b"\0" in chunk:
+                if chunk.startswith((b"\xff\xfe", b"\xfe\xff")) or chunk[1::2].count(0) > len(chunk) // 4:
+                    raise InputError(f"{path}: is UTF-16 text (as Windows PowerShell writes it); save it as UTF-8 "
+                                     f"or ASCII")
                 raise InputError(f"{path}: holds binary data (NUL bytes), not the text its format needs")
-            breaks = np.flatnonzero(np.frombuffer(chunk, np.uint8) == 10)
+            end = end or (13 if b"\r" in chunk and b"\n" not in chunk else 10)
+            breaks = np.flatnonzero(np.frombuffer(chunk, np.uint8) == end)
             if len(breaks) == 0:
                 run += len(chunk)
             else:
@@ -100,6 +106,8 @@ def _ply(path: Path, size: int) -> int:
         if not fields:
             continue
         if fields[0] == "format" and len(fields) > 1:
+            if fields[1] not in _PLY_FORMATS:
+                raise InputError(f"{path}: format {fields[1][:30]!r} is not one of PLY's ({', '.join(_PLY_FORMATS)})")
             binary = fields[1].startswith("binary")
         elif fields[0] == "element" and len(fields) == 3:
             count = _count(path, fields[2], f"element {fields[1]} count")
@@ -107,9 +115,14 @@ def _ply(path: Path, size: int) -> int:
             if fields[1] == "vertex":
                 vertices = count
             least += count * (0 if binary else 2)  # ascii: at least one digit and a line break
-        elif fields[0] == "property" and element is not None and binary:
-            kind = fields[2] if fields[1] == "list" and len(fields) > 2 else fields[1]
-            least += element[1] * _PLY_SIZES.get(kind, 1)  # a list needs at least its count
+        elif fields[0] == "property" and element is not None:
+            kinds = fields[2:4] if fields[1] == "list" else fields[1:2]
+            unknown = next((kind for kind in kinds if kind not in _PLY_SIZES), None)
+            if unknown is not None:
+                raise InputError(f"{path}: property {fields[-1][:30]!r} has type {unknown[:30]!r}, which PLY does "
+                                 f"not define ({' '.join(_PLY_SIZES)})")
+            if binary:
+                least += element[1] * _PLY_SIZES[kinds[0]]  # a list needs at least its count
     if vertices is None:
         raise InputError(f"{path}: PLY file has no vertex element")
     if least > size - header:

@@ -263,6 +263,11 @@ def test_label_files_and_bad_labels(tmp_path):
         skelcore.load(tmp_path / "p.ply", labels=tmp_path / "short.txt")
     with pytest.raises(InputError, match="no vertex property 'class'"):
         skelcore.load(tmp_path / "p.ply", labels="class")
+    (tmp_path / "l.dat").write_text("0\n")
+    for path, problem in (("gone.txt", "no such file"), (tmp_path / "gone", "no such file"),
+                          (tmp_path, "is a folder"), (tmp_path / "l.dat", "not a label file")):
+        with pytest.raises(InputError, match=f"labels {re.escape(str(path))}: {problem}"):  # not "no vertex property"
+            skelcore.load(tmp_path / "p.ply", labels=path)
     np.savetxt(tmp_path / "half.txt", np.arange(40) / 2)
     with pytest.raises(InputError, match="integers"):
         skelcore.load(tmp_path / "p.ply", labels=tmp_path / "half.txt")

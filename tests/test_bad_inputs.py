@@ -56,6 +56,10 @@ def corpus() -> dict[str, bytes | None]:
         "ply_ascii_short.ply": b"ply\nformat ascii 1.0\nelement vertex 300\nproperty float x\nproperty float y\n"
                                b"property float z\nend_header\n" + _rows(points[:10]).encode(),
         "ply_huge_count.ply": _ply_binary(10**12, b"\x00" * 64),
+        "ply_float16.ply": _ply_binary(200, bytes(200 * 14), props=("x", "y", "z")).replace(
+            b"end_header", b"property float16 w\nend_header"),
+        "ply_middle_endian.ply": _ply_binary(200, bytes(200 * 12)).replace(b"little", b"middle"),
+        "utf16.xyz": _rows(points).encode("utf-16"),  # what Windows PowerShell's > writes
         # OFF
         "off_negative.off": b"OFF\n-3 -1 0\n" + _rows(points[:3]).encode(),
         "off_two_index_face.off": b"OFF\n200 1 0\n" + _rows(points).encode() + b"2 0 1\n",
@@ -126,9 +130,11 @@ def test_bad_input_gives_one_line_naming_the_file(name, tmp_path, capsys):
         assert "loop" in err and "not found" not in err
 
 
-def test_malformed_off_messages_say_what_is_wrong(tmp_path, capsys):
+def test_malformed_files_messages_say_what_is_wrong(tmp_path, capsys):
     expectations = {"off_negative.off": "negative", "off_two_index_face.off": "at least 3",
-                    "off_promised_faces.off": "promises"}
+                    "off_promised_faces.off": "promises", "ply_float16.ply": "type 'float16', which PLY does not",
+                    "ply_middle_endian.ply": "'binary_middle_endian' is not one of PLY's",
+                    "utf16.xyz": "is UTF-16 text"}
     for name, words in expectations.items():
         (tmp_path / name).write_bytes(CORPUS[name])
         assert main(["run", str(tmp_path / name), "--out", str(tmp_path / "out")]) != 0

@@ -4,6 +4,7 @@ import pytest
 
 from skelcore import io
 from skelcore.errors import InputError, ParameterError
+from skelcore.shapes import make_shape
 
 
 def sphere(n=200, seed=0):
@@ -38,6 +39,13 @@ def test_pts_count_header_and_comma_separated(tmp_path):
     path.write_text("50\n" + "\n".join(",".join(map(str, p)) for p in points))
     np.testing.assert_allclose(io.load(path).points, points)
 
+
+
+def test_lines_ending_in_cr_alone_are_lines(tmp_path):
+    """Classic Mac OS ends lines in CR alone: read as lines, not as one line of every value."""
+    points = sphere(50)
+    (tmp_path / "mac.xyz").write_bytes(b"x y z\r" + "\r".join(" ".join(map(str, p)) for p in points).encode())
+    np.testing.assert_allclose(io.load(tmp_path / "mac.xyz").points, points)
 
 
 def test_a_names_line_says_which_columns_are_x_y_z(tmp_path):
@@ -87,6 +95,16 @@ def test_off_variants_of_cloudcontr_and_geomview(tmp_path):
     (tmp_path / "words.off").write_text(f"hello there\n{body}\n")
     with pytest.raises(InputError, match="not an OFF file"):
         io.load(tmp_path / "words.off")
+
+
+def test_ply_coordinates_named_in_capitals(tmp_path):
+    """Some scanners write `X Y Z`; the general readers know only lower-case names."""
+    points = sphere(60)
+    header = "ply\nformat {}\nelement vertex 60\nproperty float X\nproperty float Y\nproperty float Z\nend_header\n"
+    (tmp_path / "b.ply").write_bytes(header.format("binary_little_endian 1.0").encode() + points.astype("<f4").tobytes())
+    (tmp_path / "a.ply").write_text(header.format("ascii 1.0") + "\n".join(" ".join(map(str, p)) for p in points))
+    for name in ("a.ply", "b.ply"):
+        np.testing.assert_allclose(io.load(tmp_path / name).points, points, rtol=1e-6)
 
 
 def test_ply_pcd_and_meshes(tmp_path):
@@ -197,6 +215,33 @@ def test_collinear_points(tmp_path):
     with pytest.raises(InputError) as error:
         io.load(write_xyz(tmp_path / "line.xyz", t * [[1.0, 2.0, -1.0]] + [[0.5, 0, 0]]))
     assert_one_line(error, "line.xyz", "one line")
+    rounded = (t * [[1.0, 2.0, -1.0]] + [[0.5, 0, 0]]).astype(np.float32)  # float32 rounds points off the line
+    with pytest.raises(InputError) as error:
+        io.validate(rounded, name="line32")
+    assert_one_line(error, "line32", "one line")
+
+
+def test_a_line_left_by_cleaning_is_refused():
+    """Strays beside a line make the input a volume; once cleaning removes them, a line is left: refused, not a
+    skeleton of one node."""
+    from skelcore.clean import cleaned
+
+    t = np.linspace(0, 1, 400)[:, None]
+    points = np.concatenate([t * [[1.0, 2.0, -1.0]], [[0.3, 0.9, 0.2], [0.6, 0.4, -0.8], [0.1, 1.5, 0.4]]])
+    with pytest.raises(InputError) as error:
+        cleaned(io.validate(points, name="wire"))
+    assert_one_line(error, "wire", "cleaning removed", "one line")
+
+
+def test_float32_coordinates_coarser_than_a_skeleton_ball_are_refused():
+    """A georeferenced scan stored as float32 (a PLY's `float`): at 3e6 float32 rounds to steps of 0.25, and a
+    torus 2.6 across becomes slabs that break its skeleton apart; at 1e5 (steps of 1/128) it is read as it is."""
+    torus = make_shape("torus", 2000, seed=0).points
+    with pytest.raises(InputError) as error:
+        io.validate((torus + [3e6, 0, 0]).astype(np.float32), name="utm")
+    assert_one_line(error, "utm", "float32", "steps of 0.25", "subtract an offset such as (3000000, 0, 0)")
+    near = (torus + [1e5, 0, 0]).astype(np.float32)
+    np.testing.assert_array_equal(io.validate(near, name="near").points, near)
 
 
 def test_duplicates_removed_and_reported(tmp_path):
@@ -255,3 +300,10 @@ def test_duplicate_check_by_hash_agrees_with_unique():
     signed = np.concatenate([points, [[0.0, 2.0, 3.0], [-0.0, 2.0, 3.0]]])
     assert io._may_repeat(signed)
     assert len(io.validate(signed).points) == len(np.unique(signed, axis=0))
+
+
+def test_an_empty_path_is_not_the_working_folder():
+    for path in ("", "  "):
+        with pytest.raises(InputError) as error:
+            io.load(path)
+        assert_one_line(error, "give a file name")

@@ -165,6 +165,20 @@ def test_an_output_path_that_is_a_file_or_empty_is_refused_before_the_work(tmp_p
     assert taken.read_text() == "mine" and not (tmp_path / "metrics.json").exists()
 
 
+def test_an_output_folder_that_cannot_be_made_is_refused_before_the_work(tmp_path, capsys, monkeypatch):
+    """Where no folder can be made (here: /proc, where even root cannot), the run is refused before it starts, not
+    after the contraction; the probe leaves nothing behind where it can write."""
+    import skelcore.api
+
+    monkeypatch.setattr(skelcore.api, "run", lambda *args, **kwargs: pytest.fail("the run started"))
+    assert main(["run", str(small_cloud(tmp_path)), "--out", "/proc/skelcore-test/out", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "/proc/skelcore-test/out: cannot be written" in err, err
+    before = sorted(tmp_path.iterdir())
+    io.writable_folder(tmp_path / "new" / "folder", "--out")
+    assert sorted(tmp_path.iterdir()) == before
+
+
 def full_disk_after(monkeypatch, module, target_name: str):
     """os.replace fails with ENOSPC when it would put `target_name` in place."""
     real = os.replace
