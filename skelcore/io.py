@@ -243,16 +243,18 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         points = points[order]
         labels = None if labels is None else labels[order]
     if len(points) < MIN_POINTS:
-        raise _too_few(name, len(points), dropped)
+        raise _too_few(name, len(points), dropped, voxel_size)
     points, scale = _scaled(points, name)
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale)
 
 
-def _too_few(name: str, distinct: int, dropped: int) -> InputError:
-    """Too few distinct points to contract, and whether dropping the NaN or Inf rows left so few."""
-    left = f" remain after dropping the {dropped} with NaN or Inf coordinates" if dropped else ""
+def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = None) -> InputError:
+    """Too few distinct points to contract, and whether dropping the NaN or Inf rows or the voxels left so few."""
+    why = ([f"after dropping the {dropped} with NaN or Inf coordinates"] if dropped else []) + (
+        [f"in voxels of {voxel_size:g} (a smaller voxel size keeps more)"] if voxel_size is not None else [])
+    left = f" remain {' and '.join(why)}" if why else ""
     return InputError(f"{name}: only {distinct} distinct points{left}, at least {MIN_POINTS} are needed")
 
 

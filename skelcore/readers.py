@@ -192,10 +192,12 @@ def _read_ply(path: Path):
 def _read_pcd(path: Path):
     import open3d as o3d
 
-    cloud = o3d.io.read_point_cloud(str(path), format="pcd")
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):  # its warning is ours to word
+        cloud = o3d.io.read_point_cloud(str(path), format="pcd")
     points = np.asarray(cloud.points)
     if len(points) == 0 and path.stat().st_size > 0:
-        raise InputError(f"{path}: cannot parse as PCD or it holds no points")
+        raise InputError(f"{path}: cannot parse as PCD (damaged, or its data is not ascii, binary or "
+                         f"binary_compressed) or it holds no points")
     return points, None
 
 

@@ -134,6 +134,9 @@ def _ply(path: Path, size: int) -> int:
 def _pcd(path: Path, size: int) -> int:
     lines, header = _header(path, b"DATA")
     fields = {line.split()[0].upper(): line.split()[1:] for line in lines if line.split() and line[0] != "#"}
+    names = [name.lower() for name in fields.get("FIELDS", [])]
+    if names and not {"x", "y", "z"} <= set(names):
+        raise InputError(f"{path}: the PCD fields ({' '.join(names)[:60]}) hold no x, y and z")
     if fields.get("POINTS"):
         count = _count(path, fields["POINTS"][0], "POINTS")
     else:

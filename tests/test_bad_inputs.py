@@ -85,6 +85,8 @@ def corpus() -> dict[str, bytes | None]:
         "pcd_short.pcd": b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
                          b"WIDTH 1000\nHEIGHT 1\nPOINTS 1000\nDATA binary\n" + b"\x00" * 100,
         "pcd_no_data.pcd": b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nPOINTS 10\n",
+        "pcd_no_xyz.pcd": b"# .PCD v0.7\nVERSION 0.7\nFIELDS a b c\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                          b"WIDTH 200\nHEIGHT 1\nPOINTS 200\nDATA ascii\n" + _rows(points).encode(),
         # STL, OBJ, GLB
         "stl_count_mismatch.stl": b"\x00" * 80 + struct.pack("<I", 1000) + b"\x00" * 500,
         "stl_text_truncated.stl": b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\n",
@@ -134,7 +136,7 @@ def test_malformed_files_messages_say_what_is_wrong(tmp_path, capsys):
     expectations = {"off_negative.off": "negative", "off_two_index_face.off": "at least 3",
                     "off_promised_faces.off": "promises", "ply_float16.ply": "type 'float16', which PLY does not",
                     "ply_middle_endian.ply": "'binary_middle_endian' is not one of PLY's",
-                    "utf16.xyz": "is UTF-16 text"}
+                    "utf16.xyz": "is UTF-16 text", "pcd_no_xyz.pcd": "fields (a b c) hold no x, y and z"}
     for name, words in expectations.items():
         (tmp_path / name).write_bytes(CORPUS[name])
         assert main(["run", str(tmp_path / name), "--out", str(tmp_path / "out")]) != 0
@@ -189,6 +191,8 @@ def test_a_voxel_finer_than_the_coordinates_resolve_is_refused_and_huge_voxels_a
         near_the_end = points / np.abs(points).max() * 1.5e308
         centroids = io.voxel_downsample(np.vstack([near_the_end] * 3), 1e307)  # their sums would overflow
     assert np.isfinite(centroids).all() and len(centroids) < len(points)
+    assert main(["run", str(path), "--voxel-size", "1e303", "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    assert "remain in voxels of 1e+303 (a smaller voxel size keeps more)" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("cleaning", [[], ["--no-outlier-removal", "--no-stray-removal"]])
