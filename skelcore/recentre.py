@@ -36,12 +36,18 @@ def recentre(adj: Adjacency, xyz: list, node_of_point: np.ndarray, original: np.
     point = order[np.repeat(starts[slabs], counts) + offset]
     local = original[point] - pos[middle][row]
     x, y = (local * u[row]).sum(axis=1), (local * v[row]).sum(axis=1)
-    z = x * x + y * y
 
     def total(values):
         return np.bincount(row, weights=values, minlength=len(middle))
 
     n = np.bincount(row, minlength=len(middle)).astype(float)
+    # In units of each section's RMS distance: the fit's normal matrix mixes lengths^2, lengths and counts, so
+    # its solvability test below compares like with like only at a size of about 1 (at 2^-20 of the size it
+    # judged every section unsolvable and fell back to the centroid).
+    unit = np.sqrt(total(x * x + y * y) / np.maximum(n, 1))
+    unit = np.where(unit > 0, unit, 1.0)
+    x, y = x / unit[row], y / unit[row]
+    z = x * x + y * y
     sx, sy, sxx, sxy, syy = total(x), total(y), total(x * x), total(x * y), total(y * y)
     # Kasa: x^2 + y^2 = 2 cx x + 2 cy y + c in the least-squares sense, one 3x3 system per node.
     normal = np.stack([np.stack([sxx, sxy, sx], -1), np.stack([sxy, syy, sy], -1), np.stack([sx, sy, n], -1)], -2)
@@ -58,6 +64,7 @@ def recentre(adj: Adjacency, xyz: list, node_of_point: np.ndarray, original: np.
     around = np.hypot(total(dx / np.maximum(distance, 1e-300)), total(dy / np.maximum(distance, 1e-300))) / np.maximum(n, 1)
     round_section = solvable & (n >= 6) & (radius > 0) & (spread < 0.2) & (around < 0.5)
     cx, cy = np.where(round_section, cx, sx / np.maximum(n, 1)), np.where(round_section, cy, sy / np.maximum(n, 1))
+    cx, cy = cx * unit, cy * unit
     moved = pos[middle] + cx[:, None] * u + cy[:, None] * v
     for x_, p in zip(middle.tolist(), moved.tolist()):
         xyz[x_] = tuple(p)
