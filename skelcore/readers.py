@@ -10,9 +10,9 @@ here too, a header-less one of bare vertex rows as a text cloud.
 Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
 (`#`, `//`), one line of column names or a .pts point count, values separated by blanks, commas or
 semicolons (between semicolons, a comma is a decimal comma). x, y and z are the first three columns unless the
-names line names them elsewhere (`id x y z`, or pandas' `,x,y,z` with its index column first). Files of equal lines are parsed at once, others
-line by line. Blank-separated decimal commas (`-0,845 -0,983`) are refused: they cannot be told from commas
-between numbers.
+names line names them elsewhere (`id x y z`, or pandas' `,x,y,z` with its index column first). Files of equal
+lines are parsed at once, others line by line. Blank-separated decimal commas (`-0,845 -0,983`) are refused:
+they cannot be told from commas between numbers. Lines end in LF, CR LF, or CR alone (`lf_lines`).
 """
 from __future__ import annotations
 
@@ -247,7 +247,6 @@ def _header(data: bytes) -> tuple[int, int, tuple[int, int, int]]:
             named, columns = True, _xyz_columns(words)
         start, lines = end, lines + 1
     return start, lines, columns
-
 
 
 def _xyz_columns(names: list[bytes]) -> tuple[int, int, int]:

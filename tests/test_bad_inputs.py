@@ -132,7 +132,7 @@ def test_bad_input_gives_one_line_naming_the_file(name, tmp_path, capsys):
         assert "loop" in err and "not found" not in err
 
 
-def test_malformed_files_messages_say_what_is_wrong(tmp_path, capsys):
+def test_malformed_files_are_refused_saying_what_is_wrong(tmp_path, capsys):
     expectations = {"off_negative.off": "negative", "off_two_index_face.off": "at least 3",
                     "off_promised_faces.off": "promises", "ply_float16.ply": "type 'float16', which PLY does not",
                     "ply_middle_endian.ply": "'binary_middle_endian' is not one of PLY's",

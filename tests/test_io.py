@@ -101,7 +101,8 @@ def test_ply_coordinates_named_in_capitals(tmp_path):
     """Some scanners write `X Y Z`; the general readers know only lower-case names."""
     points = sphere(60)
     header = "ply\nformat {}\nelement vertex 60\nproperty float X\nproperty float Y\nproperty float Z\nend_header\n"
-    (tmp_path / "b.ply").write_bytes(header.format("binary_little_endian 1.0").encode() + points.astype("<f4").tobytes())
+    binary = header.format("binary_little_endian 1.0").encode() + points.astype("<f4").tobytes()
+    (tmp_path / "b.ply").write_bytes(binary)
     (tmp_path / "a.ply").write_text(header.format("ascii 1.0") + "\n".join(" ".join(map(str, p)) for p in points))
     for name in ("a.ply", "b.ply"):
         np.testing.assert_allclose(io.load(tmp_path / name).points, points, rtol=1e-6)
