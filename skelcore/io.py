@@ -17,7 +17,7 @@ import numpy as np
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
-from .normalise import binary_unit, bounds, half_extent, object_core, object_diagonal
+from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
@@ -322,11 +322,9 @@ def _float32_values(points: np.ndarray) -> bool:
 
 def _check_float32_steps(name: str, step: float, place: float, diagonal: float, centre: np.ndarray) -> None:
     """An InputError when float32's rounding at the coordinates is coarser than a skeleton ball (its diameter, twice
-    SkeletonParams.sample_radius of the diagonal): a georeferenced scan stored as float32 is then a few slabs of
+    the default sample radius of the diagonal): a georeferenced scan stored as float32 is then a few slabs of
     points, and balls that fall between two slabs break the skeleton apart."""
-    from .skeleton import SkeletonParams  # networkx: imported only for a float32 cloud
-
-    ball = 2 * SkeletonParams.sample_radius * diagonal
+    ball = 2 * SAMPLE_RADIUS * diagonal
     if step > ball:
         raise InputError(f"{name}: the coordinates are float32 values, which at magnitude {place:.3g} are rounded "
                          f"to steps of {step:g}, coarser than a skeleton ball ({ball:.3g} across); store them as "

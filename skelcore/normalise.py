@@ -154,6 +154,11 @@ def object_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return bounds(points if inside is None else points[inside])
 
 
+# The skeleton's ball radius by default (SkeletonParams.sample_radius), a fraction of `object_diagonal`: owned
+# here, where the object's scale is, so that loading can weigh coordinates against it without the skeleton.
+SAMPLE_RADIUS = 0.02
+
+
 def object_diagonal(points: np.ndarray) -> float:
     """The diagonal of `object_box`: the scale of the skeleton's sample radius and of the metrics."""
     low, high = object_box(points)

@@ -32,6 +32,7 @@ from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
 from .flung import put_back
 from .loops import cut_false_loops
+from .normalise import SAMPLE_RADIUS
 from .params import check_flags, is_real
 from .recentre import recentre
 from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs, split_long_edges
@@ -47,7 +48,7 @@ MIN_SAMPLE_RADIUS = 1e-3
 @dataclass(frozen=True)
 class SkeletonParams:
     """Parameters of the curve skeleton extraction."""
-    sample_radius: float = 0.02  # ball radius, fraction of the ORIGINAL points' object diagonal
+    sample_radius: float = SAMPLE_RADIUS  # ball radius, fraction of the ORIGINAL points' object diagonal
     # contracted points flung out of the shape take their neighbours' place first (skelcore.flung)
     put_back_flung: bool = True
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
