@@ -38,16 +38,18 @@ _PARAM_NAMES = tuple(field.name for field in dataclasses.fields(ContractionParam
 
 
 def load(path, *, labels=None, sample: int | None = None, voxel_size: float | None = None,
-         max_points: int = io.MAX_POINTS, seed: int = 0) -> io.Cloud:
+         max_points: int = io.MAX_POINTS, seed: int = 0, drop_nonfinite: bool = False) -> io.Cloud:
     """Read a point cloud or mesh file (.ply .pcd .xyz .pts .txt .off .obj .stl .glb) into a validated Cloud.
 
     `cloud.points` is an (n,3) float64 array (duplicates removed, noted in `cloud.notes`); `cloud.labels`
     holds per-point integer labels when the file is a PLY with a label property (label, class,
     scalar_label, ...) or when `labels` names a label file, a PLY property or is an array.
     sample: for a mesh, this many points drawn evenly over its surface; voxel_size: one point per voxel.
+    drop_nonfinite: leave out points with NaN or Inf coordinates (noted) instead of refusing the file.
     Bad input raises skelcore.errors.InputError with a one-line message.
     """
-    return io.load(path, labels=labels, sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)
+    return io.load(path, labels=labels, sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed,
+                   drop_nonfinite=drop_nonfinite)
 
 
 @dataclass
@@ -154,7 +156,7 @@ class Result:
 def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=None, label_weights=None,
                 cleaning: CleaningParams | bool = True,
                 sample_radius: float = RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
-                voxel_size: float | None = None, max_points: int = io.MAX_POINTS,
+                voxel_size: float | None = None, max_points: int = io.MAX_POINTS, drop_nonfinite: bool = False,
                 progress: Callable[[str], None] | None = None, **params) -> Result:
     """Contract a cloud into its curve skeleton and judge the contraction; the pipeline of `skelcore run`.
 
@@ -172,6 +174,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       follow those points.
     sample_radius: the skeleton's ball radius, a fraction of the object's bounding-box diagonal
         (points far outside the bulk of the cloud left out).
+    drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing the input.
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.
     progress: called with one line per iteration (e.g. print).
@@ -180,7 +183,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
         voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
-        label_weights=tuple(sorted(check_label_weights(label_weights).items())))
+        label_weights=tuple(sorted(check_label_weights(label_weights).items())), drop_nonfinite=drop_nonfinite)
     if isinstance(labels, (str, Path)) and isinstance(points_or_path, (str, Path)):
         labels = None  # read by the load, through options.labels
     return run(points_or_path, options, progress=progress, labels=labels, weights=weights)
@@ -198,7 +201,7 @@ def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weig
         raise ParameterError(f"parameter progress={progress!r}: must be a function of one line (such as print)")
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
-        points_or_path, labels = as_cloud(points_or_path, labels), None
+        points_or_path, labels = as_cloud(points_or_path, labels, options.drop_nonfinite), None
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
@@ -225,16 +228,17 @@ def contraction_params(method: str, params: dict) -> ContractionParams:
     return ContractionParams(method=method, **params).validated()
 
 
-def as_cloud(points_or_cloud, labels=None) -> io.Cloud:
+def as_cloud(points_or_cloud, labels=None, drop_nonfinite: bool = False) -> io.Cloud:
     """A Cloud from an (n,3) array (checked as a loaded file is) or a Cloud; `labels` replace its labels.
-    An array with repeated points loses the repeats (and their labels), as a file does."""
+    An array with repeated points loses the repeats (and their labels), as a file does; with `drop_nonfinite` its
+    NaN or Inf rows are left out (else refused)."""
     if isinstance(points_or_cloud, io.Cloud):
         if labels is None:
             return points_or_cloud
         return dataclasses.replace(points_or_cloud, labels=as_labels(labels, len(points_or_cloud.points), "labels"))
     if isinstance(labels, (str, Path)):
         raise ParameterError("parameter labels: for an array input, give the labels as an array")
-    return io.validate(points_or_cloud, name="array", labels=labels)
+    return io.validate(points_or_cloud, name="array", labels=labels, drop_nonfinite=drop_nonfinite)
 
 
 def contract(points, method: str | None = None, *, weights=None, params: ContractionParams | None = None,

@@ -11,7 +11,7 @@ import sys
 import traceback
 
 from . import startup
-from .errors import SkelError, TooLargeError
+from .errors import NonFiniteError, SkelError, TooLargeError
 from .params import ContractionParams
 
 EXIT_INPUT = 2
@@ -72,6 +72,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
+    group.add_argument("--drop-nonfinite", action="store_true",
+                       help="leave out points with NaN or Inf coordinates (a depth camera's organised cloud holds them "
+                            "for pixels without depth) instead of refusing the file")
     group.add_argument("--no-denoise", action="store_true",
                        help="keep the points where they are (by default each is projected once onto the PCA plane "
                             "of its neighbours, which removes sampling noise; a large cloud's voxel centroids too)")
@@ -115,7 +118,8 @@ def run_options(args: argparse.Namespace):
     return RunOptions(params=contraction_params(args), sample_radius=args.sample_radius, seed=args.seed,
                       sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
                       labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())),
-                      point_budget=None if args.full_resolution else args.point_budget)
+                      point_budget=None if args.full_resolution else args.point_budget,
+                      drop_nonfinite=args.drop_nonfinite)
 
 
 def _seed(text: str) -> int:
@@ -382,8 +386,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.handler(args)
     except SkelError as error:
-        advice = (f" (--voxel-size {error.voxel_size:g}, or raise --max-points)"
-                  if isinstance(error, TooLargeError) else "")
+        advice = (f" (--voxel-size {error.voxel_size:g}, or raise --max-points)" if isinstance(error, TooLargeError)
+                  else " (--drop-nonfinite leaves them out)" if isinstance(error, NonFiniteError) else "")
         print(f"skelcore {args.command}: error: {error}{advice}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:

@@ -10,7 +10,7 @@ from .clean import CleaningParams
 from .errors import InputError, ParameterError
 from .labels import check_label_weights, weights_from_labels
 from .metrics import NORMAL_CONVENTION
-from .params import LIMITS, ContractionParams, is_integer
+from .params import LIMITS, ContractionParams, check_flags, is_integer
 from .skeleton import SkeletonParams
 
 METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
@@ -31,6 +31,7 @@ class RunOptions:
     labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
     label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
     point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
+    drop_nonfinite: bool = False  # leave out points with NaN or Inf coordinates instead of refusing the input
 
     def validated(self) -> "RunOptions":
         """These options, or a ParameterError naming the first of the wrong type or range (before any work)."""
@@ -49,6 +50,7 @@ class RunOptions:
         if self.labels is not None and not isinstance(self.labels, str):
             raise ParameterError(f"parameter labels={self.labels!r}: must be a label file or a vertex property name")
         check_label_weights(dict(self.label_weights))
+        check_flags(self)
         return self
 
     def weights(self, cloud: io.Cloud) -> np.ndarray | None:

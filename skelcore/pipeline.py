@@ -238,7 +238,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         cloud = source
     else:
         cloud = io.load(source, sample=options.sample, voxel_size=options.voxel_size, max_points=options.max_points,
-                        seed=options.seed, labels=options.labels if labels is None else labels)
+                        seed=options.seed, labels=options.labels if labels is None else labels,
+                        drop_nonfinite=options.drop_nonfinite)
     clock.mark("load")
     weights = None if weights is None else check_weights(weights, len(cloud.points))
     try:

@@ -61,6 +61,7 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "seed": options.seed, "sample": options.sample, "voxel_size": options.voxel_size,
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
         "normal_convention": options.normal_convention, "point_budget": options.point_budget,
+        "drop_nonfinite": options.drop_nonfinite,
         "retuned": [state.message for state in states if "retuned" in state.message],
         "weights": weights_document(weights, options),
         "skelcore_version": __version__, "solver": backend(),

@@ -261,3 +261,22 @@ def test_solver_failures_are_in_our_words(monkeypatch):
             solver.CholeskySolver().solve(sp.identity(3, format="csr"), np.ones((3, 3)))
         message = str(error.value)
         assert "\n" not in message and not any(word in message for word in INTERNAL + (".c",)), message
+
+
+def test_points_with_nan_are_refused_or_left_out_on_request(tmp_path, capsys):
+    """An organised depth-camera cloud holds NaN for pixels without depth: refused with the flag that leaves them
+    out; with it the run goes on and says what it dropped (the Python API's drop_nonfinite does the same)."""
+    import skelcore
+
+    torus = make_shape("torus", 1500, seed=0).points
+    holes = np.vstack([torus, np.full((40, 3), np.nan)])
+    path = tmp_path / "depth.xyz"
+    path.write_text(_rows(holes).replace("nan", "NaN"))
+    assert main(["run", str(path), "--out", str(tmp_path / "refused"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "40 of 1540 points are not finite" in err and "--drop-nonfinite" in err, err
+    out = tmp_path / "kept"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--drop-nonfinite", "--max-iterations", "2"]) == 0
+    assert json.loads((out / "params.json").read_text())["drop_nonfinite"] is True
+    result = skelcore.skeletonize(holes, drop_nonfinite=True, max_iterations=2)
+    assert len(result.cloud.points) <= 1500 and "dropped 40 points with NaN or Inf coordinates" in result.cloud.notes
