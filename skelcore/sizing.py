@@ -116,6 +116,8 @@ def _ply(path: Path, size: int) -> int:
                 vertices = count
             least += count * (0 if binary else 2)  # ascii: at least one digit and a line break
         elif fields[0] == "property" and element is not None:
+            if len(fields) < 3:
+                raise InputError(f"{path}: the header line {line[:40]!r} names no property type and name")
             kinds = fields[2:4] if fields[1] == "list" else fields[1:2]
             unknown = next((kind for kind in kinds if kind not in _PLY_SIZES), None)
             if unknown is not None:

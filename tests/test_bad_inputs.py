@@ -60,6 +60,7 @@ def corpus() -> dict[str, bytes | None]:
             b"end_header", b"property float16 w\nend_header"),
         "ply_middle_endian.ply": _ply_binary(200, bytes(200 * 12)).replace(b"little", b"middle"),
         "utf16.xyz": _rows(points).encode("utf-16"),  # what Windows PowerShell's > writes
+        "ply_bare_property.ply": b"ply\nformat ascii 1.0\nelement vertex 3\nproperty\nend_header\n1 2 3\n",
         # OFF
         "off_negative.off": b"OFF\n-3 -1 0\n" + _rows(points[:3]).encode(),
         "off_two_index_face.off": b"OFF\n200 1 0\n" + _rows(points).encode() + b"2 0 1\n",
