@@ -23,14 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .sizing import is_number, off_layout
+from .sizing import PLY_ENDIAN, PLY_TYPES, is_number, off_layout
 
-PLY_TYPES = {
-    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
-}
-PLY_ENDIAN = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": ""}
 DECIMAL_COMMAS = re.compile(rb"-?\d+,\d+[ \t]+-?\d+,\d+[ \t]+-?\d+,\d+")  # three numbers with decimal commas
 HEADER_LIMIT = 1 << 16  # a PLY header longer than this is not a common file
 BOM = b"\xef\xbb\xbf"  # UTF-8's byte order mark, which some Windows programs write first

@@ -21,10 +21,12 @@ OFF_KEYWORD = re.compile(r"^(ST)?C?N?n?OFF(_\w+)?$", re.IGNORECASE)
 # Bytes the readers take per point while parsing (text: Python rows of strings; binary: arrays).
 PARSE_BYTES_PER_POINT = {".xyz": 400, ".pts": 400, ".txt": 400, ".off": 400, ".obj": 400,
                          ".ply": 120, ".pcd": 120, ".stl": 200, ".glb": 200}
-_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
-              "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
-              "double": 8, "float64": 8}
-_PLY_FORMATS = ("ascii", "binary_little_endian", "binary_big_endian")
+PLY_TYPES = {  # PLY's property types as numpy kinds (skelcore.readers reads them; here their sizes count)
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+PLY_ENDIAN = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": ""}  # PLY's formats
 
 
 def points_in(path: Path, suffix: str) -> int:
@@ -106,8 +108,8 @@ def _ply(path: Path, size: int) -> int:
         if not fields:
             continue
         if fields[0] == "format" and len(fields) > 1:
-            if fields[1] not in _PLY_FORMATS:
-                raise InputError(f"{path}: format {fields[1][:30]!r} is not one of PLY's ({', '.join(_PLY_FORMATS)})")
+            if fields[1] not in PLY_ENDIAN:
+                raise InputError(f"{path}: format {fields[1][:30]!r} is not one of PLY's ({', '.join(PLY_ENDIAN)})")
             binary = fields[1].startswith("binary")
         elif fields[0] == "element" and len(fields) == 3:
             count = _count(path, fields[2], f"element {fields[1]} count")
@@ -119,12 +121,12 @@ def _ply(path: Path, size: int) -> int:
             if len(fields) < 3:
                 raise InputError(f"{path}: the header line {line[:40]!r} names no property type and name")
             kinds = fields[2:4] if fields[1] == "list" else fields[1:2]
-            unknown = next((kind for kind in kinds if kind not in _PLY_SIZES), None)
+            unknown = next((kind for kind in kinds if kind not in PLY_TYPES), None)
             if unknown is not None:
                 raise InputError(f"{path}: property {fields[-1][:30]!r} has type {unknown[:30]!r}, which PLY does "
-                                 f"not define ({' '.join(_PLY_SIZES)})")
+                                 f"not define ({' '.join(PLY_TYPES)})")
             if binary:
-                least += element[1] * _PLY_SIZES[kinds[0]]  # a list needs at least its count
+                least += element[1] * np.dtype(PLY_TYPES[kinds[0]]).itemsize  # a list: at least its count
     if vertices is None:
         raise InputError(f"{path}: PLY file has no vertex element")
     if least > size - header:
