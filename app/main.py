@@ -137,6 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save-dir", type=Path, help="where 'Also save on server' writes screenshots and bundles")
     parser.add_argument("--voxel-size", type=float, help="downsample INPUT to one point per voxel of this size "
                                                          "(for a cloud over the inspector's memory budget)")
+    parser.add_argument("--sample", type=int, help="for a mesh INPUT: draw this many points evenly over its surface; "
+                                                   "0: its vertices (default: its vertices where they cover its "
+                                                   "surface, else points drawn evenly)")
     parser.add_argument("--full-resolution", action="store_true",
                         help="contract every point, even above the point budget (slower on large clouds)")
     parser.add_argument("--no-look-ahead", action="store_true",
@@ -159,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
               + ("anyone who reaches it can drive the session (--no-token)" if token is None else
                  "the page and its websocket require the token in the URL below"), file=sys.stderr, flush=True)
     try:
-        cloud = (load(args.input, voxel_size=args.voxel_size, budget=budget_bytes(INSPECTOR_SHARE)) if args.input
+        cloud = (load(args.input, sample=args.sample, voxel_size=args.voxel_size,
+                      budget=budget_bytes(INSPECTOR_SHARE)) if args.input
                  else default_cloud(bundled_assets()))
         server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir, token=token,
                                   look_ahead=not args.no_look_ahead,

@@ -44,7 +44,9 @@ def load(path, *, labels=None, sample: int | None = None, voxel_size: float | No
     `cloud.points` is an (n,3) float64 array (duplicates removed, noted in `cloud.notes`); `cloud.labels`
     holds per-point integer labels when the file is a PLY with a label property (label, class,
     scalar_label, ...) or when `labels` names a label file, a PLY property or is an array.
-    sample: for a mesh, this many points drawn evenly over its surface; voxel_size: one point per voxel.
+    sample: for a mesh, this many points drawn evenly over its surface; 0: its vertices; None (default): its
+    vertices where they cover its surface, else points drawn evenly, said in `cloud.notes` (a CAD model's flat
+    faces hold no vertex: skelcore.surface_sampling). voxel_size: one point per voxel.
     drop_nonfinite: leave out points with NaN or Inf coordinates (noted) instead of refusing the file.
     Bad input raises skelcore.errors.InputError with a one-line message.
     """
@@ -174,6 +176,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       follow those points.
     sample_radius: the skeleton's ball radius, a fraction of the object's bounding-box diagonal
         (points far outside the bulk of the cloud left out).
+    sample: for a mesh file, as in `load` (default: its vertices where they cover its surface).
     drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing the input.
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.

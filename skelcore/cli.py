@@ -22,6 +22,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     """The contraction and skeleton flags shared by `run`, `batch` and `bench`."""
     from .clean import CleaningParams  # here, not at the top: `skelcore run` loads scipy after startup.begin
     from .skeleton import SkeletonParams
+    from .surface_sampling import SURFACE_POINTS
 
     defaults = ContractionParams()
     group = parser.add_argument_group("contraction parameters")
@@ -69,7 +70,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                             "left out (default: %(default)s)")
     group.add_argument("--seed", type=_seed, default=0, help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
-                       help="for a mesh input: sample this many points evenly over its surface instead of its vertices")
+                       help="for a mesh input: sample this many points evenly over its surface instead of its vertices; 0: "
+                            "its vertices (default: its vertices where they cover its surface, else as many points "
+                            f"as it has vertices, at least {SURFACE_POINTS}, drawn evenly)")
     group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
     group.add_argument("--max-points", type=int, default=2_000_000, help="largest cloud accepted (default: %(default)s)")
     group.add_argument("--drop-nonfinite", action="store_true",

@@ -19,6 +19,7 @@ from .errors import InputError, NonFiniteError, OutputError, ParameterError, Too
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
+from .surface_sampling import points_to_draw, sample_surface
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
 MESH_FORMATS = (".obj", ".stl", ".glb")
@@ -56,7 +57,8 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
          drop_nonfinite: bool = False) -> Cloud:
     """Read a file into a validated Cloud.
 
-    sample: for a mesh, draw this many points evenly over its surface instead of using its vertices.
+    sample: for a mesh, draw this many points evenly over its surface instead of using its vertices; 0: its
+    vertices; None: its vertices where they cover its surface, else points drawn evenly (skelcore.surface_sampling).
     voxel_size: downsample to one point per voxel (the way to bring a huge cloud under max_points).
     labels: per-point labels (skelcore.labels.read_labels): a label file, a PLY vertex property name or an
     array in the file's vertex order; None: a PLY file's label property (LABEL_PROPERTIES) when it has one.
@@ -170,8 +172,9 @@ def writable_folder(folder, what: str) -> Path:
 
 def check_sampling(*, sample=None, voxel_size=None, max_points=MAX_POINTS, seed=0) -> None:
     """The loading options (see `load`), or a ParameterError naming the first of the wrong type or range."""
-    if sample is not None and (not is_integer(sample) or sample < MIN_POINTS):
-        raise ParameterError(f"parameter sample={sample!r}: must be a whole number of points, at least {MIN_POINTS}")
+    if sample is not None and (not is_integer(sample) or 0 < sample < MIN_POINTS or sample < 0):
+        raise ParameterError(f"parameter sample={sample!r}: must be a whole number of points, at least {MIN_POINTS} "
+                             f"(or 0: a mesh's vertices as they are)")
     if voxel_size is not None and (not is_real(voxel_size) or not 0 < voxel_size < np.inf):
         raise ParameterError(f"parameter voxel_size={voxel_size!r}: must be a positive finite number")
     if not is_integer(max_points) or max_points < MIN_POINTS:
@@ -196,11 +199,6 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         if dropped and len(points) < MIN_POINTS:  # said before as_points calls a file of NaN rows empty
             raise _too_few(name, len(np.unique(points, axis=0)), dropped)
     points = as_points(points, name)
-    if labels is not None:
-        labels = as_labels(labels, len(points), name)
-        if sample is not None or voxel_size is not None:
-            labels = None
-            notes.append(LABELS_DROPPED)
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         if len(faces) == 0:
@@ -209,14 +207,25 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             raise InputError(f"{name}: faces refer to vertices that do not exist")
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
-    if sample is not None:
+    if sample is None and faces is not None:
+        sample, note = points_to_draw(points, faces, labels is not None, cap, seed)
+        notes += [note] if note else []
+    else:
+        note = None
+    if labels is not None:
+        labels = as_labels(labels, len(points), name)
+        if sample or voxel_size is not None:
+            labels = None
+            notes.append(LABELS_DROPPED)
+    if sample:
         if faces is None:
             raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
         if sample > cap:  # refused before drawing them: a huge sample would exhaust the memory first
             raise ParameterError(f"parameter sample={sample:,}: more points than the cap of {cap:,}")
-        points = _sample_surface(points, faces, int(sample), seed, name)
+        points = sample_surface(points, faces, int(sample), seed, name)[0]
         faces = None
-        notes.append(f"sampled {len(points)} points evenly over the mesh surface")
+        if note is None:  # the choice's own note says it
+            notes.append(f"sampled {len(points)} points evenly over the mesh surface")
     if voxel_size is not None:
         before = len(points)
         points = voxel_downsample(points, voxel_size, name)
@@ -382,16 +391,6 @@ def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud")
     centroids = np.zeros((len(counts), 3))
     np.add.at(centroids, inverse, points / counts[inverse, None])  # each point's share: no sum of huge coordinates
     return centroids
-
-
-def _sample_surface(vertices, faces, count: int, seed: int, name: str) -> np.ndarray:
-    trimesh = readers.quiet_trimesh()
-    unit = binary_unit(half_extent(vertices))  # sampled at an extent of about 1: areas neither overflow nor vanish
-    mesh = trimesh.Trimesh(vertices=vertices / unit, faces=faces, process=False)
-    if not mesh.area > 0:
-        raise InputError(f"{name}: the mesh has no surface to sample (its triangles have no area)")
-    points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=seed)
-    return np.asarray(points, dtype=np.float64) * unit
 
 
 def _one_line(error: Exception) -> str:

@@ -15,8 +15,9 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
+from .surface_sampling import SURFACE_POINTS, sample_surface
 
-DEFAULT_POINTS = 10_000
+DEFAULT_POINTS = SURFACE_POINTS
 SEGMENTS = 64  # facets around every circle of a solid: fine enough that sampling sees no facets
 
 
@@ -266,18 +267,15 @@ def mesh_topology(vertices: np.ndarray, faces: np.ndarray) -> dict:
 
 
 def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """n points spread evenly over a mesh surface (Poisson-disk rejection, topped up uniformly by area if
-    the rejection leaves fewer), and the outward face normal at each."""
+    """n points spread evenly over a mesh surface (skelcore.surface_sampling.sample_surface), and the outward face
+    normal at each."""
     import trimesh
 
+    points, face_index = sample_surface(vertices, faces, n, seed)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
-    points, face_index = trimesh.sample.sample_surface_even(mesh, n, seed=seed)
-    if len(points) < n:
-        extra, extra_faces = trimesh.sample.sample_surface(mesh, n - len(points), seed=seed + 1)
-        points, face_index = np.vstack([points, extra]), np.concatenate([face_index, extra_faces])
     # Outward normals: a mesh wound inside out (negative signed volume) has its face normals flipped.
     outward = -1.0 if mesh.volume < 0 else 1.0
-    return np.asarray(points[:n], dtype=np.float64), outward * np.asarray(mesh.face_normals[face_index[:n]])
+    return points, outward * np.asarray(mesh.face_normals[face_index])
 
 
 def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
@@ -328,7 +326,7 @@ def reference_shape(name: str, reference_dir, points: int = DEFAULT_POINTS, seed
 
     reference = REFERENCES[name]
     path = Path(reference_dir) / reference.file
-    cloud = io.load(path)
+    cloud = io.load(path, sample=0)  # the mesh itself: sampled here, with its normals
     normals = None
     if cloud.faces is not None:
         samples, normals = sample_mesh(cloud.points, cloud.faces, points, seed)

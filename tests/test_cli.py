@@ -145,3 +145,20 @@ def test_outputs_under_a_file_or_over_earlier_shapes_are_refused_before_the_work
     assert (tmp_path / "shapes" / "torus.ply").read_bytes() == first
     assert main([*shapes, "--seed", "1", "--force"]) == 0
     assert (tmp_path / "shapes" / "torus.ply").read_bytes() != first
+
+
+@pytest.mark.parametrize("solid", ["block_2_holes", "chair"])
+def test_a_cad_mesh_keeps_its_loops(tmp_path, capsys, solid):
+    """An STL of a CAD solid has vertices only at its corners and the rims of its holes; contracted as they are,
+    the drilled block lost both loops (a 4-node skeleton) and the chair its two. Its surface is drawn from instead."""
+    import trimesh
+
+    from skelcore.solids import mesh_topology, solid_mesh
+
+    vertices, faces = solid_mesh(solid)
+    trimesh.Trimesh(vertices, faces).export(tmp_path / f"{solid}.stl")
+    assert main(["run", str(tmp_path / f"{solid}.stl"), "--out", str(tmp_path / "out")]) == 0
+    assert "points are drawn evenly over it instead" in capsys.readouterr().out
+    topology = json.loads((tmp_path / "out" / "skeleton.json").read_text())["topology"]
+    assert (topology["cycles"], topology["components"]) == (mesh_topology(vertices, faces)["genus"], 1)
+    assert json.loads((tmp_path / "out" / "params.json").read_text())["sample"] is None  # chosen again on a re-run

@@ -121,7 +121,7 @@ def test_ply_pcd_and_meshes(tmp_path):
     mesh = trimesh.creation.icosphere(subdivisions=2)
     for suffix in (".obj", ".stl", ".glb", ".ply"):
         mesh.export(tmp_path / f"m{suffix}")
-        loaded = io.load(tmp_path / f"m{suffix}")
+        loaded = io.load(tmp_path / f"m{suffix}", sample=0)  # its 162 vertices, though they leave it uncovered
         assert loaded.faces is not None and len(loaded.points) == len(mesh.vertices)
     sampled = io.load(tmp_path / "m.obj", sample=500)
     assert sampled.faces is None and 400 <= len(sampled.points) <= 500
@@ -130,6 +130,38 @@ def test_ply_pcd_and_meshes(tmp_path):
         io.load(tmp_path / "m.obj", sample=10**9)
     with pytest.raises(ParameterError, match="max_points"):
         io.load(tmp_path / "m.obj", max_points=0)
+
+
+def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tmp_path):
+    """A CAD model's flat faces have no vertices inside them: its surface is drawn from evenly instead, said in a
+    note; a remeshed model's vertices, a labelled mesh's and a cloud with a few faces are kept."""
+    import trimesh
+
+    from skelcore.solids import solid_mesh
+    from skelcore.surface_sampling import SURFACE_POINTS
+
+    vertices, faces = solid_mesh("block_2_holes")  # 264 vertices: corners and the holes' rims
+    trimesh.Trimesh(vertices, faces).export(tmp_path / "block.stl")  # STL repeats each vertex for every face
+    cloud = io.load(tmp_path / "block.stl")
+    assert cloud.faces is None and len(cloud.points) == SURFACE_POINTS
+    assert len(cloud.notes) == 1 and "its 264 vertices leave 9" in cloud.notes[0] and "--sample 0" in cloud.notes[0]
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    assert np.all(cloud.points >= low - 1e-9) and np.all(cloud.points <= high + 1e-9)
+    on_faces = np.isclose(cloud.points[:, 2], low[2]) | np.isclose(cloud.points[:, 2], high[2])  # top and bottom
+    assert 0.3 < on_faces.mean() < 0.6  # 43% of its area; the sides and the holes' walls the rest
+    kept = io.load(tmp_path / "block.stl", sample=0)
+    assert kept.faces is not None and len(kept.points) == 264 and not any("mesh:" in n for n in kept.notes)
+    assert io.load(tmp_path / "block.stl", seed=3).points.tolist() != cloud.points.tolist()  # the run's seed draws
+
+    fine = trimesh.creation.icosphere(subdivisions=5)  # 10,242 evenly spread vertices
+    fine.export(tmp_path / "ball.ply")
+    cloud = io.load(tmp_path / "ball.ply")
+    assert cloud.faces is not None and len(cloud.points) == len(fine.vertices) and not cloud.notes
+
+    labelled = io.validate(vertices, faces, name="block", labels=np.arange(len(vertices)) % 2)
+    assert labelled.faces is not None and labelled.labels is not None and "kept for their labels" in labelled.notes[0]
+    few_faces = io.validate(np.vstack([vertices, sphere(500) * 3]), faces, name="cloud with a block")
+    assert few_faces.faces is not None and not few_faces.notes
 
 
 def test_load_bytes_names_the_upload_not_the_temp_path():

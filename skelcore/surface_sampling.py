@@ -1,0 +1,86 @@
+"""Whether a mesh's vertices stand for its surface, and drawing points evenly over it when they do not.
+
+Everything downstream reads a cloud of points, and a mesh file gives its vertices. A remeshed scan's vertices
+spread evenly over its surface, but a CAD model's or a modelling primitive's do not: a plate's flat face is two
+triangles whose four corners are all the points it has, and trimesh's default torus has its rings of 32
+vertices 2.6 skeleton sample radii apart. Contracted as they are, such vertices leave holes the size of their
+faces: a block with two drilled holes (264 vertices) came out as a 4-node skeleton without its loops, a chair
+without its loops, and the torus's rings contracted to 32 separate clusters.
+
+So a mesh is judged by the share of its surface that lies farther than the skeleton's default sample radius
+(skelcore.normalise.SAMPLE_RADIUS of its diagonal) from every vertex, estimated at COVERAGE_PROBES random
+points of the surface. Up to MAX_UNCOVERED, the vertices are the cloud (Cao's cloudcontr contracts a mesh's
+vertices, and its remeshed models are what it was made for); above, the surface is sampled evenly instead,
+with as many points as it has vertices and at least SURFACE_POINTS. Measured: every remeshed model at hand
+lies within the radius of a vertex but 0.55% or less of its surface (11 of cloudcontr's 12 meshes, the
+reference folder's elephant, hand, bunny and horse), while CAD solids (manifold3d's blocks, gear, chair, mug,
+stool), trimesh's primitives (torus, capsule, icosphere, annulus, box) and cloudcontr's 919-vertex test figure
+leave 22-99% of it farther. A file whose faces leave more than MAX_UNCOVERED of its vertices out is a cloud
+with a few faces among its points: its vertices are kept.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+from .normalise import SAMPLE_RADIUS, binary_unit, half_extent, object_diagonal
+from .readers import quiet_trimesh
+
+COVERAGE_PROBES = 10_000  # random surface points that measure the uncovered share (its standard error at 1%: 0.1%)
+MAX_UNCOVERED = 0.01  # share of the surface farther than the sample radius from every vertex, at most
+SURFACE_POINTS = 10_000  # points drawn over a surface its vertices do not cover, at least (the real-shape
+# benchmark samples its solids at this density: skelcore.solids)
+
+
+def _unit_mesh(vertices: np.ndarray, faces: np.ndarray):
+    """(trimesh mesh of the vertices over `unit`, unit): at an extent of about 1, areas neither overflow nor vanish."""
+    unit = binary_unit(half_extent(vertices))
+    return quiet_trimesh().Trimesh(vertices=vertices / unit, faces=faces, process=False), unit
+
+
+def uncovered_share(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> float:
+    """The share of the mesh's surface (by area) farther than SAMPLE_RADIUS of the diagonal from every vertex;
+    0 for a mesh without area (its vertices are all there is)."""
+    from scipy.spatial import cKDTree
+
+    mesh, unit = _unit_mesh(vertices, faces)
+    if not mesh.area > 0:
+        return 0.0
+    probes, _ = quiet_trimesh().sample.sample_surface(mesh, COVERAGE_PROBES, seed=seed)
+    radius = SAMPLE_RADIUS * object_diagonal(vertices) / unit
+    distance, _ = cKDTree(mesh.vertices).query(probes, workers=-1)
+    return float(np.mean(distance > radius))
+
+
+def sample_surface(vertices: np.ndarray, faces: np.ndarray, count: int, seed: int, name: str = "mesh"
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(`count` points spread evenly over the mesh's surface, in its coordinates; the face of each). Poisson-disk
+    rejection, topped up uniformly by area where it leaves fewer (a surface of long slivers)."""
+    mesh, unit = _unit_mesh(vertices, faces)
+    if not mesh.area > 0:
+        raise InputError(f"{name}: the mesh has no surface to sample (its triangles have no area)")
+    sample = quiet_trimesh().sample
+    points, face_index = sample.sample_surface_even(mesh, count, seed=seed)
+    if len(points) < count:
+        extra, extra_faces = sample.sample_surface(mesh, count - len(points), seed=seed + 1)
+        points, face_index = np.vstack([points, extra]), np.concatenate([face_index, extra_faces])
+    return np.asarray(points[:count], dtype=np.float64) * unit, np.asarray(face_index[:count])
+
+
+def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap: int, seed: int = 0
+                   ) -> tuple[int | None, str | None]:
+    """(how many points to draw over the mesh instead of taking its vertices, or None to take them; a note saying
+    why, or None where the vertices cover the surface). Labelled vertices are kept: their labels belong to them.
+    cap: the most points the run may hold."""
+    if np.unique(faces).size < (1 - MAX_UNCOVERED) * len(vertices):
+        return None, None  # a cloud with a few faces among its points: they are not its surface
+    uncovered = uncovered_share(vertices, faces, seed)
+    if uncovered <= MAX_UNCOVERED:
+        return None, None
+    distinct = len(np.unique(vertices, axis=0))  # an STL file repeats each vertex for every face it has
+    gap = (f"mesh: its {distinct:,} vertices leave {uncovered:.0%} of its surface farther than the skeleton's "
+           f"sample radius from any vertex")
+    if labelled:
+        return None, f"{gap}; they are kept for their labels (--sample N draws N points over it instead)"
+    count = min(max(SURFACE_POINTS, distinct), cap)
+    return count, f"{gap}, so {count:,} points are drawn evenly over it instead (--sample 0 keeps the vertices)"
