@@ -19,57 +19,18 @@ Both rules compare each point with the cloud's own typical spacing, so they foll
 """
 from __future__ import annotations
 
-import dataclasses
-import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .errors import InputError, ParameterError
+from .errors import InputError
 from .io import Cloud, on_one_line
-from .neighbours import CHUNK, knn, leaf_knn, local_frames
+from .neighbours import CHUNK, knn, leaf_knn, local_frames, stray_pieces
 from .normalise import far_pieces
-from .params import check_flags, is_integer, is_real
-
-
-@dataclass(frozen=True)
-class CleaningParams:
-    """Parameters of the cleaning before contraction (the module docstring gives the rules)."""
-    remove_outliers: bool = True
-    neighbours: int = 16  # for the spacing of each point
-    outlier_ratio: float = 1.5  # times the spacing of its own neighbours
-    outlier_spread: float = 3.0  # robust standard deviations above the cloud's median spacing (the 3-sigma rule)
-    remove_stray: bool = True
-    denoise: bool = True  # project every point onto the PCA plane of its neighbours, once
-    piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
-    min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
-
-    @property
-    def denoise_neighbours(self) -> int:
-        """The neighbours of the denoising projection, 0 when it is off."""
-        return self.neighbours if self.denoise else 0
-
-    def validated(self) -> "CleaningParams":
-        """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
-        check_flags(self)
-        if not is_integer(self.neighbours) or not 2 <= self.neighbours <= 200:
-            raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
-        for name in ("outlier_ratio", "outlier_spread", "piece_gap"):
-            value = getattr(self, name)
-            if not is_real(value) or not math.isfinite(value) or value <= 0:
-                raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
-        if not is_real(self.min_piece_share) or not 0 <= self.min_piece_share < 0.5:
-            raise ParameterError(f"parameter min_piece_share={self.min_piece_share!r}: must be a number in [0, 0.5)")
-        return self
-
-    def to_dict(self) -> dict:
-        """The parameters as a plain dict (for params.json)."""
-        return dataclasses.asdict(self)
+from .params import CleaningParams
 
 
 @dataclass
@@ -129,16 +90,7 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
         keep &= ~(apart & (spacing > median + params.outlier_spread * max(mad, 1e-12 * median)))
     stray = np.zeros(n, dtype=bool)
     if params.remove_stray:
-        gap = params.piece_gap * np.median(spacing[keep])
-        near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
-        # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);
-        # float64 weights and 32-bit ids are what connected_components works on, so it copies nothing first
-        ids = np.int32 if n < np.iinfo(np.int32).max else np.int64
-        indptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))]).astype(ids)
-        graph = sp.csr_matrix((np.ones(indptr[-1]), index[:, 1:][near].astype(ids), indptr), shape=(n, n))
-        _, piece = connected_components(graph, directed=False)
-        sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
-        stray = keep & (sizes[piece] < params.min_piece_share * keep.sum())
+        stray = stray_pieces(distance, index, keep, params.piece_gap, params.min_piece_share)
         keep &= ~stray
     if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
         return CleaningReport(n, neighbours=index, tree=tree)

@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .ring_jumps import jump_masks, sampling_reach
@@ -74,6 +76,26 @@ def leaf_knn(tree: cKDTree, k: int) -> tuple[np.ndarray, np.ndarray]:
     leaf = np.empty(tree.n, dtype=np.int64)
     leaf[tree.indices] = np.arange(tree.n)
     return distances.reshape(tree.n, k), leaf[indices.reshape(tree.n, k)]
+
+
+def stray_pieces(distance: np.ndarray, index: np.ndarray, keep: np.ndarray, piece_gap: float, min_piece_share: float
+                 ) -> np.ndarray:
+    """(n,) which of the `keep` points lie in pieces holding less than `min_piece_share` of them, the pieces being
+    those points joined by chains of nearest-neighbour steps of at most `piece_gap` times their median spacing
+    (a point's mean distance to its neighbours): skelcore.clean's stray rule. distance, index: (n, k) each
+    point's nearest neighbours, itself first."""
+    n = len(distance)
+    spacing = distance[:, 1:].mean(axis=1)
+    gap = piece_gap * np.median(spacing[keep])
+    near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
+    # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);
+    # float64 weights and 32-bit ids are what connected_components works on, so it copies nothing first
+    ids = np.int32 if n < np.iinfo(np.int32).max else np.int64
+    indptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))]).astype(ids)
+    graph = csr_matrix((np.ones(indptr[-1]), index[:, 1:][near].astype(ids), indptr), shape=(n, n))
+    _, piece = connected_components(graph, directed=False)
+    sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
+    return keep & (sizes[piece] < min_piece_share * keep.sum())
 
 
 def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

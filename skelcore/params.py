@@ -118,3 +118,38 @@ def _describe_range(low: float, high: float, closed: bool) -> str:
     if math.isinf(high):
         return f"a finite number {'>=' if closed else '>'} {low:g}"
     return f"a number in {'[' if closed else '('}{low:g}, {high:g}]"
+
+
+@dataclass(frozen=True)
+class CleaningParams:
+    """Parameters of the cleaning before contraction (skelcore.clean's docstring gives the rules)."""
+    remove_outliers: bool = True
+    neighbours: int = 16  # for the spacing of each point
+    outlier_ratio: float = 1.5  # times the spacing of its own neighbours
+    outlier_spread: float = 3.0  # robust standard deviations above the cloud's median spacing (the 3-sigma rule)
+    remove_stray: bool = True
+    denoise: bool = True  # project every point onto the PCA plane of its neighbours, once
+    piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
+    min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
+
+    @property
+    def denoise_neighbours(self) -> int:
+        """The neighbours of the denoising projection, 0 when it is off."""
+        return self.neighbours if self.denoise else 0
+
+    def validated(self) -> "CleaningParams":
+        """These parameters, or a ParameterError naming the first that is out of range or of the wrong type."""
+        check_flags(self)
+        if not is_integer(self.neighbours) or not 2 <= self.neighbours <= 200:
+            raise ParameterError(f"parameter neighbours={self.neighbours!r}: must be an integer between 2 and 200")
+        for name in ("outlier_ratio", "outlier_spread", "piece_gap"):
+            value = getattr(self, name)
+            if not is_real(value) or not math.isfinite(value) or value <= 0:
+                raise ParameterError(f"parameter {name}={value!r}: must be a positive finite number")
+        if not is_real(self.min_piece_share) or not 0 <= self.min_piece_share < 0.5:
+            raise ParameterError(f"parameter min_piece_share={self.min_piece_share!r}: must be a number in [0, 0.5)")
+        return self
+
+    def to_dict(self) -> dict:
+        """The parameters as a plain dict (for params.json)."""
+        return dataclasses.asdict(self)

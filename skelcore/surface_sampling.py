@@ -7,16 +7,21 @@ vertices 2.6 skeleton sample radii apart. Contracted as they are, such vertices 
 faces: a block with two drilled holes (264 vertices) came out as a 4-node skeleton without its loops, a chair
 without its loops, and the torus's rings contracted to 32 separate clusters.
 
-So a mesh is judged by the share of its surface that lies farther than the skeleton's default sample radius
-(skelcore.normalise.SAMPLE_RADIUS of its diagonal) from every vertex, estimated at COVERAGE_PROBES random
-points of the surface. Up to MAX_UNCOVERED, the vertices are the cloud (Cao's cloudcontr contracts a mesh's
-vertices, and its remeshed models are what it was made for); above, the surface is sampled evenly instead,
-with as many points as it has vertices and at least SURFACE_POINTS. Measured: every remeshed model at hand
-lies within the radius of a vertex but 0.55% or less of its surface (11 of cloudcontr's 12 meshes, the
-reference folder's elephant, hand, bunny and horse), while CAD solids (manifold3d's blocks, gear, chair, mug,
-stool), trimesh's primitives (torus, capsule, icosphere, annulus, box) and cloudcontr's 919-vertex test figure
-leave 22-99% of it farther. A file whose faces leave more than MAX_UNCOVERED of its vertices out is a cloud
-with a few faces among its points: its vertices are kept.
+So a mesh is judged twice. First by the share of its surface that lies farther than the skeleton's default
+sample radius (skelcore.normalise.SAMPLE_RADIUS of its diagonal) from every vertex, estimated at COVERAGE_PROBES
+random points of the surface. Then by the share of its vertices that cleaning's stray rule (skelcore.clean,
+default parameters) would cut away: a CSG union keeps each solid's own tessellation, and a ball of 64 segments
+carrying three finely meshed ring handles has 90% of its vertices on the handles, the ball's 14 times sparser,
+so cleaning cut the ball into stray shards and the skeleton came out in 3 pieces without a loop. Up to
+MAX_UNCOVERED on both, the vertices are the cloud (Cao's cloudcontr contracts a mesh's vertices, and its
+remeshed models are what it was made for); above, the surface is sampled evenly instead, with as many points
+as it has vertices and at least SURFACE_POINTS. Measured: every remeshed model at hand lies within the radius
+of a vertex but 0.55% or less of its surface, and cleaning keeps all but 0.1% of its vertices (11 of
+cloudcontr's 12 meshes, the reference folder's elephant, hand, bunny and horse), while CAD solids (manifold3d's
+blocks, gear, chair, mug, stool), trimesh's primitives (torus, capsule, icosphere, annulus, box) and
+cloudcontr's 919-vertex test figure leave 22-99% of it farther, and the handled balls lose 9% and more of their
+vertices to cleaning. A file whose faces leave more than MAX_UNCOVERED of its vertices out is a cloud with a
+few faces among its points: its vertices are kept.
 """
 from __future__ import annotations
 
@@ -24,10 +29,12 @@ import numpy as np
 
 from .errors import InputError
 from .normalise import SAMPLE_RADIUS, binary_unit, half_extent, object_diagonal
+from .params import CleaningParams
 from .readers import quiet_trimesh
 
 COVERAGE_PROBES = 10_000  # random surface points that measure the uncovered share (its standard error at 1%: 0.1%)
-MAX_UNCOVERED = 0.01  # share of the surface farther than the sample radius from every vertex, at most
+MAX_UNCOVERED = 0.01  # share of the surface farther than the sample radius from every vertex, and of the vertices
+# cleaning would cut away as stray pieces, at most
 SURFACE_POINTS = 10_000  # points drawn over a surface its vertices do not cover, at least (the real-shape
 # benchmark samples its solids at this density: skelcore.solids)
 
@@ -52,6 +59,20 @@ def uncovered_share(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> f
     return float(np.mean(distance > radius))
 
 
+def stray_share(points: np.ndarray) -> float:
+    """The share of `points` (distinct) that cleaning's stray rule, with its default parameters, would cut away."""
+    from scipy.spatial import cKDTree
+
+    from .neighbours import leaf_knn, stray_pieces  # scipy: loaded when a mesh is judged, not when io is imported
+
+    cleaning = CleaningParams()
+    if len(points) <= cleaning.neighbours + 1:
+        return 0.0
+    distance, index = leaf_knn(cKDTree(points), cleaning.neighbours + 1)
+    stray = stray_pieces(distance, index, np.ones(len(points), bool), cleaning.piece_gap, cleaning.min_piece_share)
+    return float(stray.mean())
+
+
 def sample_surface(vertices: np.ndarray, faces: np.ndarray, count: int, seed: int, name: str = "mesh"
                    ) -> tuple[np.ndarray, np.ndarray]:
     """(`count` points spread evenly over the mesh's surface, in its coordinates; the face of each). Poisson-disk
@@ -70,17 +91,22 @@ def sample_surface(vertices: np.ndarray, faces: np.ndarray, count: int, seed: in
 def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap: int, seed: int = 0
                    ) -> tuple[int | None, str | None]:
     """(how many points to draw over the mesh instead of taking its vertices, or None to take them; a note saying
-    why, or None where the vertices cover the surface). Labelled vertices are kept: their labels belong to them.
-    cap: the most points the run may hold."""
+    why, or None where the vertices stand for the surface). Labelled vertices are kept: their labels belong to
+    them. cap: the most points the run may hold."""
     if np.unique(faces).size < (1 - MAX_UNCOVERED) * len(vertices):
         return None, None  # a cloud with a few faces among its points: they are not its surface
-    uncovered = uncovered_share(vertices, faces, seed)
-    if uncovered <= MAX_UNCOVERED:
+    # an STL file repeats each vertex for every face it has
+    distinct, inverse = np.unique(vertices, axis=0, return_inverse=True)
+    uncovered = uncovered_share(distinct, inverse.ravel()[faces], seed)
+    if uncovered > MAX_UNCOVERED:
+        why = f"leave {uncovered:.0%} of its surface farther than the skeleton's sample radius from any vertex"
+    elif (stray := stray_share(distinct)) > MAX_UNCOVERED:
+        why = (f"are so much sparser on {stray:.0%} of them than elsewhere that cleaning would cut those away as "
+               f"stray pieces")
+    else:
         return None, None
-    distinct = len(np.unique(vertices, axis=0))  # an STL file repeats each vertex for every face it has
-    gap = (f"mesh: its {distinct:,} vertices leave {uncovered:.0%} of its surface farther than the skeleton's "
-           f"sample radius from any vertex")
+    gap = f"mesh: its {len(distinct):,} vertices {why}"
     if labelled:
         return None, f"{gap}; they are kept for their labels (--sample N draws N points over it instead)"
-    count = min(max(SURFACE_POINTS, distinct), cap)
+    count = min(max(SURFACE_POINTS, len(distinct)), cap)
     return count, f"{gap}, so {count:,} points are drawn evenly over it instead (--sample 0 keeps the vertices)"

@@ -153,6 +153,10 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     assert kept.faces is not None and len(kept.points) == 264 and not any("mesh:" in n for n in kept.notes)
     assert io.load(tmp_path / "block.stl", seed=3).points.tolist() != cloud.points.tolist()  # the run's seed draws
 
+    vertices_b, faces_b = solid_mesh("handled_ball")  # covered, but 90% of the vertices are on the handles
+    uneven = io.validate(vertices_b, faces_b, name="ball")
+    assert uneven.faces is None and "stray pieces" in uneven.notes[0]
+
     fine = trimesh.creation.icosphere(subdivisions=5)  # 10,242 evenly spread vertices
     fine.export(tmp_path / "ball.ply")
     cloud = io.load(tmp_path / "ball.ply")
