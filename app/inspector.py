@@ -287,6 +287,15 @@ class Inspector:
             self.presenter.update_legend(viewer)
         self.presenter.reanalyse()
 
+    def _offer_colourings(self, labelled: bool) -> None:
+        """Colour by "label" only for a cloud with labels; a view coloured by labels the new cloud lacks turns plain."""
+        colouring = self.ui.view.colouring
+        options = tuple(option for option in layout.COLOUR_BY if labelled or option != "label")
+        if colouring.options != options:
+            colouring.options = options  # viser puts the value on the first option when it is gone
+            if self.presenter.colour_by != colouring.value:
+                self._set_colouring()
+
     def _labels_changed(self) -> None:
         for viewer in self.presenter.all():
             self.presenter.update_legend(viewer)
@@ -321,6 +330,7 @@ class Inspector:
         frame_camera(self.server.initial_camera, cloud.points)
         self.loader.select_loaded()
         self.labels.refresh()
+        self._offer_colourings(cloud.labels is not None)
         self.shown = len(self.session.history) - 1  # iteration 0, or the end of a finished run opened as such
         settings = self.presenter.view_settings()
         for viewer in self.presenter.all():

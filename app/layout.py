@@ -54,6 +54,7 @@ LAYERS = ("original", "contracted", "skeleton", "removed")
 # "removed": the input points a GLSkeleton reduction absorbed, drawn at their input places. After a few steps
 # they are most of the input, and shown they would hide the contraction: on request only
 HIDDEN_AT_START = ("removed",)
+COLOUR_BY = ("plain", "D_theta", "delta_kappa", "label")  # "label" offered only for a cloud with labels
 SHORTCUTS = {"N": "Step", "P": "Play / Pause", "J": "previous iteration", "K": "next iteration",
              "L": "follow the newest iteration", "F": "fit the view"}
 
@@ -257,7 +258,7 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
         provisional = gui.add_checkbox(PROVISIONAL, False, order=show["skeleton"].order + 0.5,
                                        hint="draw the skeleton before the cloud is curve-like (it means little then)")
     with tabs.add_tab("Colour"):
-        colouring = gui.add_dropdown("Colour by", ("plain", "D_theta", "delta_kappa", "label"), initial_value="plain",
+        colouring = gui.add_dropdown("Colour by", COLOUR_BY, initial_value="plain",
                                      hint="per-point metric of the shown iteration, or the cloud's labels")
         colour_original = gui.add_checkbox("Colour original", False,
                                            hint="colour each original point by its metric value")

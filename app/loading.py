@@ -100,9 +100,10 @@ class Loader:
             self.messages.notify(client, f"Loaded {Path(cloud.name).name}", "; ".join(cloud.notes), color="blue")
 
     def _offer_to_drop(self, client, error: NonFiniteError, read, what: str) -> None:
-        """A file with a few NaN/Inf rows, which `read` leaves out: ask whether to load it without them."""
-        self.messages.notify(client, "Points with NaN or Inf", str(error))
+        """A file with a few NaN/Inf rows, which `read` leaves out: ask the person who loaded it whether to load it
+        without them (a question, not an error); with nobody to ask, say why it was not loaded."""
         if client is None:
+            self.messages.notify(client, "Points with NaN or Inf", str(error))
             return
         with client.gui.add_modal("Points with NaN or Inf") as modal:
             client.gui.add_markdown(f"{error}. Load the file without these {error.count:,} points?")

@@ -103,12 +103,12 @@ class ParameterPanel:
             self._take[part](value, client)
 
     def _value(self, part: str, client):
-        """The part's value as shown; None when the engine refuses it, said and put back to the value in force."""
+        """The part's value as shown; None when the engine refuses it, said and put back to the last value taken."""
         try:
             return self._shown[part]()
         except ParameterError as error:
             message = refused(str(error))
-        self._notify(client, "Parameter refused", f"{message}; put back to the value in force")
+        self._notify(client, "Parameter refused", f"{message}; put back to the last value taken")
         if part == "parameters":
             self.show(self.accepted)
         else:

@@ -106,7 +106,7 @@ def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
 
 def test_an_upload_with_nan_rows_is_offered_without_them_only_when_the_rest_can_be_loaded(cloud):
     """A file whose finite rows are too few to load is refused at once, in one line saying so, not after the person
-    agreed to drop the others; with enough of them the drop is offered."""
+    agreed to drop the others; with enough of them the drop is offered, as a question alone."""
     import dataclasses
     import types
 
@@ -129,10 +129,37 @@ def test_an_upload_with_nan_rows_is_offered_without_them_only_when_the_rest_can_
             loader.on_upload(types.SimpleNamespace(client=client))
             assert inspector.wait_idle(120)
             said[finite] = [notice for notice in client.notices if not notice[0].startswith("Reading")]  # no progress
+        offers = [handle.label for handle in server.gui._gui_input_handle_from_uuid.values()
+                  if getattr(handle, "label", "").startswith("Drop ")]
     finally:
         inspector.close()
         server.stop()
     assert said[4] == [("Error", "holes.xyz: only 4 distinct points remain after dropping the 2 with NaN or Inf "
                                  "coordinates, at least 20 are needed")]
-    assert [title for title, _ in said[40]] == ["Points with NaN or Inf"]
+    assert said[40] == [] and offers == ["Drop 2 points and load"]  # a question, not an error as well
     assert inspector.session.cloud.name == cloud.name  # nothing loaded without the person's yes
+
+
+def test_colour_by_label_is_offered_only_for_a_cloud_with_labels(cloud):
+    """An unlabelled cloud has nothing to colour by label: the entry is left out, and a view coloured by the labels
+    of the cloud before turns plain."""
+    import viser
+
+    from app.inspector import Inspector
+
+    labelled = validate(cloud.points, name="labelled.xyz", labels=(cloud.points[:, 0] > 0).astype(np.int64))
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, look_ahead=False))
+    colouring = inspector.ui.view.colouring
+    try:
+        assert inspector.wait_idle(120) and "label" not in colouring.options
+        inspector.open(labelled)
+        assert inspector.wait_idle(120) and colouring.options[-1] == "label"
+        colouring.value = "label"
+        inspector._set_colouring()
+        inspector.open(cloud)
+        assert inspector.wait_idle(120) and "label" not in colouring.options
+        assert colouring.value == "plain" and inspector.presenter.colour_by == "plain"
+    finally:
+        inspector.close()
+        server.stop()

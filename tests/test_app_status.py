@@ -221,7 +221,7 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     pauses[2]()
     assert [(part, value.termination) for part, value in taken] == [("parameters", 0.02)]
     pauses[1]()  # the radius was left at 0
-    assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the value in force"]
+    assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the last value taken"]
     assert boxes.radius.value == 0.02 and not panel.typing and len(taken) == 1
     boxes.wh0.value = 0.0
     assert panel.parameters(None) is None  # Restart: said at once
