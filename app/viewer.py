@@ -28,6 +28,7 @@ class Viewer:
         this viewer starts with."""
         self.client = client
         self.ui = layout.build_viewer(client.gui, order, notes_order)
+        self._zero_mark = self.ui.timeline._marks  # viser's marks are set at creation (a private prop after it)
         self.view = SceneView(client.scene)
         if settings is not None:
             for name in ("visible", "sizes", "opacity"):
@@ -58,6 +59,8 @@ class Viewer:
         timeline.max = max(1, count - 1)
         timeline.value = index
         timeline.disabled = count < 2
+        # with one iteration the slider still spans 0..1 (viser's needs max > min): mark only the 0, not an end at 1
+        timeline._marks = self._zero_mark if count < 2 else None  # None: viser marks both ends
 
     def show_plots(self, plots: Plots, verdict: dict) -> None:
         """The histograms and the convergence plot (serialised once, shared by every viewer), the verdict."""

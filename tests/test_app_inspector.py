@@ -163,3 +163,24 @@ def test_colour_by_label_is_offered_only_for_a_cloud_with_labels(cloud):
     finally:
         inspector.close()
         server.stop()
+
+
+def test_the_iteration_slider_marks_no_end_before_the_first_step():
+    """With iteration 0 alone the slider spans 0..1 (viser needs an end past its start): only the 0 is marked, not
+    an end that reads "1"; from the first step both ends are."""
+    import viser
+
+    from app.viewer import Viewer
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        viewer = Viewer(_Broadcast(server), order=0.0, notes_order=1.0)
+        timeline = viewer.ui.timeline
+        viewer.set_timeline(1, 0)
+        assert [(mark.value, mark.label) for mark in timeline._marks] == [(0, "0")] and timeline.disabled
+        viewer.set_timeline(3, 2)
+        assert timeline._marks is None and timeline.max == 2 and timeline.value == 2 and not timeline.disabled
+        viewer.set_timeline(1, 0)  # a Reset
+        assert [mark.label for mark in timeline._marks] == ["0"]
+    finally:
+        server.stop()
