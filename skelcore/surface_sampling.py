@@ -46,13 +46,11 @@ def _unit_mesh(vertices: np.ndarray, faces: np.ndarray):
 
 
 def uncovered_share(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> float:
-    """The share of the mesh's surface (by area) farther than SAMPLE_RADIUS of the diagonal from every vertex;
-    0 for a mesh without area (its vertices are all there is)."""
+    """The share of the mesh's surface (by area, which must be > 0) farther than SAMPLE_RADIUS of the diagonal
+    from every vertex."""
     from scipy.spatial import cKDTree
 
     mesh, unit = _unit_mesh(vertices, faces)
-    if not mesh.area > 0:
-        return 0.0
     probes, _ = quiet_trimesh().sample.sample_surface(mesh, COVERAGE_PROBES, seed=seed)
     radius = SAMPLE_RADIUS * object_diagonal(vertices) / unit
     distance, _ = cKDTree(mesh.vertices).query(probes, workers=-1)
@@ -97,7 +95,10 @@ def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap:
         return None, None  # a cloud with a few faces among its points: they are not its surface
     # an STL file repeats each vertex for every face it has
     distinct, inverse = np.unique(vertices, axis=0, return_inverse=True)
-    uncovered = uncovered_share(distinct, inverse.ravel()[faces], seed)
+    faces = inverse.ravel()[faces]
+    if not _unit_mesh(distinct, faces)[0].area > 0:
+        return None, None  # faces without area: points stored as a mesh, with no surface to draw from
+    uncovered = uncovered_share(distinct, faces, seed)
     if uncovered > MAX_UNCOVERED:
         why = f"leave {uncovered:.0%} of its surface farther than the skeleton's sample radius from any vertex"
     elif (stray := stray_share(distinct)) > MAX_UNCOVERED:

@@ -137,6 +137,7 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     note; a remeshed model's vertices, a labelled mesh's and a cloud with a few faces are kept."""
     import trimesh
 
+    from skelcore import surface_sampling
     from skelcore.solids import solid_mesh
     from skelcore.surface_sampling import SURFACE_POINTS
 
@@ -166,6 +167,11 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     assert labelled.faces is not None and labelled.labels is not None and "kept for their labels" in labelled.notes[0]
     few_faces = io.validate(np.vstack([vertices, sphere(500) * 3]), faces, name="cloud with a block")
     assert few_faces.faces is not None and not few_faces.notes
+    clumps = np.vstack([sphere(900), *(sphere(5) * 0.01 + 40 * k for k in (1, 2, 3, 4))])  # 2% in stray clumps,
+    line = np.c_[np.arange(918), np.arange(918), np.arange(1, 919)]  # over faces without area
+    assert surface_sampling.stray_share(clumps) > surface_sampling.MAX_UNCOVERED
+    flat = io.validate(clumps, line, name="points as a mesh")
+    assert flat.faces is not None and len(flat.points) == 920 and not flat.notes  # nothing to draw from: kept
 
 
 def test_load_bytes_names_the_upload_not_the_temp_path():
