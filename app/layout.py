@@ -195,9 +195,9 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
 def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerControls:
     """One client's widgets (`gui`: client.gui), the run's ones placed just after `order`, the notes on the run at
     `notes_order`."""
+    # a one-line hint: its tooltip covers the buttons above (Run to end, Reset) while the box has the focus
     timeline = gui.add_slider("Iteration", min=0, max=1, step=1, initial_value=0, disabled=True, marks=((0, "0"),),
-                              hint="the iteration this browser shows (keys J and K; the end follows the newest)",
-                              order=order + 0.2)
+                              hint="keys J and K", order=order + 0.2)
     follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
                               order=order + 0.4)
     status = gui.add_markdown("", order=order + 0.6)
