@@ -18,7 +18,7 @@ __all__ = ["load", "skeletonize", "contract", "inspect", "Result", "Cloud", "Con
            "LABEL_PROPERTIES", "__version__"]
 
 _HOMES = {"load": "api", "skeletonize": "api", "contract": "api", "inspect": "api", "Result": "api",
-          "Cloud": "io", "ContractionParams": "params", "CleaningParams": "clean", "SkeletonParams": "skeleton",
+          "Cloud": "io", "ContractionParams": "params", "CleaningParams": "params", "SkeletonParams": "skeleton",
           "IterationState": "contraction", "Skeleton": "skeleton", "SkelError": "errors",
           "InputError": "errors", "ParameterError": "errors", "LABEL_PROPERTIES": "labels"}
 

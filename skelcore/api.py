@@ -20,7 +20,6 @@ from typing import Callable, Generator
 import numpy as np
 
 from . import io, multires, pipeline
-from .clean import CleaningParams
 from .contraction import IterationState
 from .contraction import contract as _contract
 from .errors import ParameterError, SkelError
@@ -28,7 +27,7 @@ from .evidence import skeleton_evidence
 from .labels import as_labels, check_label_weights, check_weights
 from .metrics import IterationMetrics
 from .options import RunOptions
-from .params import ContractionParams, check_flag
+from .params import CleaningParams, ContractionParams, check_flag
 from .results import prepare_output, write_results
 from .skeleton import Skeleton
 from .verdict import run_verdict

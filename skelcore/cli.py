@@ -12,7 +12,7 @@ import traceback
 
 from . import startup
 from .errors import NonFiniteError, SkelError, TooLargeError
-from .params import ContractionParams
+from .params import CleaningParams, ContractionParams
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
@@ -20,7 +20,6 @@ EXIT_INTERNAL = 3
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     """The contraction and skeleton flags shared by `run`, `batch` and `bench`."""
-    from .clean import CleaningParams  # here, not at the top: `skelcore run` loads scipy after startup.begin
     from .skeleton import SkeletonParams
     from .surface_sampling import SURFACE_POINTS
 
@@ -113,7 +112,6 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
 
 def run_options(args: argparse.Namespace):
     """The RunOptions (contraction, skeleton, sampling, labels) of the parsed flags."""
-    from .clean import CleaningParams
     from .options import RunOptions
 
     cleaning = CleaningParams(remove_outliers=not args.no_outlier_removal, remove_stray=not args.no_stray_removal,

@@ -27,13 +27,12 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .clean import CleaningParams
 from .collapse import SampleComplex, collapse_to_graph
 from .errors import ParameterError
 from .flung import put_back
 from .loops import cut_false_loops
 from .normalise import SAMPLE_RADIUS
-from .params import check_flags, is_real
+from .params import CleaningParams, check_flags, is_real
 from .recentre import recentre
 from .refine import absorb_specks, drop_collinear, merge_junctions, prune_spurs, split_long_edges
 from .sampling import ball_cover_by_piece

@@ -18,11 +18,11 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .clean import CleaningParams, clean
+from .clean import clean
 from . import io
 from .errors import ParameterError
 from .metrics import NORMAL_CONVENTIONS, MetricsReference
-from .params import ContractionParams, is_integer
+from .params import CleaningParams, ContractionParams, is_integer
 
 # name -> (changes to ContractionParams, W_L0 multiplier of the automatic W_L0)
 SETTINGS = {
