@@ -7,7 +7,6 @@ the URL (`?token=...`; the page's response sets it as a cookie, which the websoc
 """
 from __future__ import annotations
 
-import argparse
 import hmac
 import http
 import http.cookies
@@ -19,6 +18,7 @@ import threading
 import urllib.parse
 from pathlib import Path
 
+from skelcore.cli import OneLineParser
 from skelcore.errors import SkelError, TooLargeError
 from skelcore.io import Cloud, load, validate
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
@@ -130,7 +130,7 @@ def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="skel-inspect", description=__doc__.split(":", 1)[1].strip())
+    parser = OneLineParser(prog="skel-inspect", description=__doc__.split(":", 1)[1].strip())
     parser.add_argument("input", nargs="?", help="point cloud or mesh (default: a bundled asset)")
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     parser.add_argument("--port", type=int, default=8080, help="port (the next free one is taken if busy)")

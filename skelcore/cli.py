@@ -156,9 +156,17 @@ def _label_weight(text: str) -> tuple[int, float]:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's parser, whose refusal of the command line is one line (argparse prints its whole usage first)."""
+
+    def error(self, message: str):
+        """Say `message` in one line, pointing at --help, and exit with status 2 (as argparse does)."""
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of every `skelcore` sub-command."""
-    parser = argparse.ArgumentParser(prog="skelcore", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="skelcore", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
     run = commands.add_parser("run", help="contract one cloud and extract its curve skeleton")

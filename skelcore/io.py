@@ -19,6 +19,7 @@ from .errors import InputError, NonFiniteError, OutputError, ParameterError, Too
 from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
+from .repeats import without_repeats
 from .surface_sampling import points_to_draw, sample_surface
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
@@ -205,6 +206,11 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
             faces = None
         elif faces.min() < 0 or faces.max() >= len(points):
             raise InputError(f"{name}: faces refer to vertices that do not exist")
+    if labels is not None:
+        labels = as_labels(labels, len(points), name)
+    had_faces = faces is not None
+    if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
+        points, faces, labels = without_repeats(points, faces, labels, [])
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     if sample is None and faces is not None:
@@ -212,14 +218,13 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         notes += [note] if note else []
     else:
         note = None
-    if labels is not None:
-        labels = as_labels(labels, len(points), name)
-        if sample or voxel_size is not None:
-            labels = None
-            notes.append(LABELS_DROPPED)
+    if labels is not None and (sample or voxel_size is not None):
+        labels = None
+        notes.append(LABELS_DROPPED)
     if sample:
         if faces is None:
-            raise InputError(f"{name}: surface sampling needs a mesh, but the file has no faces")
+            raise InputError(f"{name}: the mesh has no surface to sample (its triangles have no area)" if had_faces
+                             else f"{name}: surface sampling needs a mesh, but the file has no faces")
         if sample > cap:  # refused before drawing them: a huge sample would exhaust the memory first
             raise ParameterError(f"parameter sample={sample:,}: more points than the cap of {cap:,}")
         points = sample_surface(points, faces, int(sample), seed, name)[0]
@@ -237,20 +242,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         voxel = memory.voxel_size_for(points, max(cap, MIN_POINTS))
         raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; a voxel size of {voxel:g} brings "
                             f"them under", len(points), cap, voxel)
-    if _may_repeat(points):
-        unique, first, inverse = np.unique(points, axis=0, return_index=True, return_inverse=True)
-    else:
-        unique = points
-    if len(unique) < len(points):
-        notes.append(f"removed {len(points) - len(unique)} duplicate points")
-        order = np.sort(first)  # keep the original order of first occurrences
-        remap = np.empty(len(unique), dtype=np.int64)
-        remap[np.argsort(first)] = np.arange(len(unique))
-        if faces is not None:
-            faces = remap[inverse.ravel()][faces]
-            faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
-        points = points[order]
-        labels = None if labels is None else labels[order]
+    points, faces, labels = without_repeats(points, faces, labels, notes)
     if len(points) < MIN_POINTS:
         raise _too_few(name, len(points), dropped, voxel_size)
     points, scale = _scaled(points, name)
@@ -265,16 +257,6 @@ def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = 
         [f"in voxels of {voxel_size:g} (a smaller voxel size keeps more)"] if voxel_size is not None else [])
     left = f" remain {' and '.join(why)}" if why else ""
     return InputError(f"{name}: only {distinct} distinct points{left}, at least {MIN_POINTS} are needed")
-
-
-def _may_repeat(points: np.ndarray) -> bool:
-    """False when no two points are equal, found by sorting a hash of each point's bytes (a tenth of the
-    time of np.unique over rows on a million points); True when two hashes match (then np.unique decides)."""
-    bits = np.ascontiguousarray(points, dtype=np.float64).view(np.uint64)
-    bits = np.where(points == 0.0, np.uint64(0), bits)  # -0.0 and 0.0 are the same coordinate
-    hashes = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F) ^ bits[:, 2]
-    hashes.sort()
-    return bool((hashes[1:] == hashes[:-1]).any())
 
 
 def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:

@@ -10,9 +10,11 @@ without its loops, and the torus's rings contracted to 32 separate clusters.
 So a mesh is judged twice. First by the share of its surface that lies farther than the skeleton's default
 sample radius (skelcore.normalise.SAMPLE_RADIUS of its diagonal) from every vertex, estimated at COVERAGE_PROBES
 random points of the surface. Then by the share of its vertices that cleaning's stray rule (skelcore.clean,
-default parameters) would cut away: a CSG union keeps each solid's own tessellation, and a ball of 64 segments
-carrying three finely meshed ring handles has 90% of its vertices on the handles, the ball's 14 times sparser,
-so cleaning cut the ball into stray shards and the skeleton came out in 3 pieces without a loop. Up to
+default parameters) would cut away, where it would keep all but MAX_UNCOVERED of points drawn evenly over the
+surface (else the pieces are small separate parts, which an even sample loses as well): a CSG union keeps each
+solid's own tessellation, and a ball of 64 segments carrying three finely meshed ring handles has 90% of its
+vertices on the handles, the ball's 14 times sparser, so cleaning cut the ball into stray shards and the skeleton
+came out in 3 pieces without a loop. Up to
 MAX_UNCOVERED on both, the vertices are the cloud (Cao's cloudcontr contracts a mesh's vertices, and its
 remeshed models are what it was made for); above, the surface is sampled evenly instead, with as many points
 as it has vertices and at least SURFACE_POINTS. Measured: every remeshed model at hand lies within the radius
@@ -33,6 +35,7 @@ from .params import CleaningParams
 from .readers import quiet_trimesh
 
 COVERAGE_PROBES = 10_000  # random surface points that measure the uncovered share (its standard error at 1%: 0.1%)
+STRAY_PROBES = 200_000  # vertices the stray rule is run on, at most (a million take 3 s)
 MAX_UNCOVERED = 0.01  # share of the surface farther than the sample radius from every vertex, and of the vertices
 # cleaning would cut away as stray pieces, at most
 SURFACE_POINTS = 10_000  # points drawn over a surface its vertices do not cover, at least (the real-shape
@@ -57,12 +60,16 @@ def uncovered_share(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> f
     return float(np.mean(distance > radius))
 
 
-def stray_share(points: np.ndarray) -> float:
-    """The share of `points` (distinct) that cleaning's stray rule, with its default parameters, would cut away."""
+def stray_share(points: np.ndarray, seed: int = 0) -> float:
+    """The share of `points` (distinct) that cleaning's stray rule, with its default parameters, would cut away,
+    judged on STRAY_PROBES of them drawn at random when there are more (thinning every part alike scales every
+    spacing alike, and with them the rule's gap)."""
     from scipy.spatial import cKDTree
 
     from .neighbours import leaf_knn, stray_pieces  # scipy: loaded when a mesh is judged, not when io is imported
 
+    if len(points) > STRAY_PROBES:
+        points = points[np.random.default_rng(seed).choice(len(points), STRAY_PROBES, replace=False)]
     cleaning = CleaningParams()
     if len(points) <= cleaning.neighbours + 1:
         return 0.0
@@ -89,25 +96,24 @@ def sample_surface(vertices: np.ndarray, faces: np.ndarray, count: int, seed: in
 def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap: int, seed: int = 0
                    ) -> tuple[int | None, str | None]:
     """(how many points to draw over the mesh instead of taking its vertices, or None to take them; a note saying
-    why, or None where the vertices stand for the surface). Labelled vertices are kept: their labels belong to
-    them. cap: the most points the run may hold."""
+    why, or None where the vertices stand for the surface). vertices: no two equal; labelled vertices are kept:
+    their labels belong to them. cap: the most points the run may hold."""
     if np.unique(faces).size < (1 - MAX_UNCOVERED) * len(vertices):
         return None, None  # a cloud with a few faces among its points: they are not its surface
-    # an STL file repeats each vertex for every face it has
-    distinct, inverse = np.unique(vertices, axis=0, return_inverse=True)
-    faces = inverse.ravel()[faces]
-    if not _unit_mesh(distinct, faces)[0].area > 0:
+    if not _unit_mesh(vertices, faces)[0].area > 0:
         return None, None  # faces without area: points stored as a mesh, with no surface to draw from
-    uncovered = uncovered_share(distinct, faces, seed)
+    uncovered = uncovered_share(vertices, faces, seed)
     if uncovered > MAX_UNCOVERED:
         why = f"leave {uncovered:.0%} of its surface farther than the skeleton's sample radius from any vertex"
-    elif (stray := stray_share(distinct)) > MAX_UNCOVERED:
-        why = (f"are so much sparser on {stray:.0%} of them than elsewhere that cleaning would cut those away as "
-               f"stray pieces")
+    elif ((stray := stray_share(vertices, seed)) > MAX_UNCOVERED
+          and (even := stray_share(sample_surface(vertices, faces, SURFACE_POINTS, seed)[0])) <= MAX_UNCOVERED):
+        # an even sample keeping what the vertices lose: their spread is to blame, not small separate parts
+        why = (f"are spread so unevenly that cleaning would cut {stray:.0%} of them away as stray pieces (of "
+               f"points drawn evenly over it, {even:.0%})")
     else:
         return None, None
-    gap = f"mesh: its {len(distinct):,} vertices {why}"
+    gap = f"mesh: its {len(vertices):,} vertices {why}"
     if labelled:
         return None, f"{gap}; they are kept for their labels (--sample N draws N points over it instead)"
-    count = min(max(SURFACE_POINTS, len(distinct)), cap)
+    count = min(max(SURFACE_POINTS, len(vertices)), cap)
     return count, f"{gap}, so {count:,} points are drawn evenly over it instead (--sample 0 keeps the vertices)"

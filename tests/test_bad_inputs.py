@@ -69,7 +69,6 @@ def corpus() -> dict[str, bytes | None]:
         "off_header_only.off": b"OFF\n",
         "off_short_vertex.off": b"OFF\n3 0 0\n1 2\n3 4\n5 6\n",
         "off_bad_index.off": b"OFF\n200 1 0\n" + _rows(points).encode() + b"3 0 1 999\n",
-        "off_degenerate_faces.off": b"OFF\n200 2 0\n" + _rows(points).encode() + b"3 0 0 0\n3 1 1 1\n",
         # text clouds
         "nan.xyz": _rows(np.vstack([points, [[np.nan, 0, 0]]])).encode(),
         "inf.xyz": _rows(np.vstack([points, [[np.inf, 0, 0]]])).encode(),
@@ -281,3 +280,13 @@ def test_points_with_nan_are_refused_or_left_out_on_request(tmp_path, capsys):
     assert json.loads((out / "params.json").read_text())["drop_nonfinite"] is True
     result = skelcore.skeletonize(holes, drop_nonfinite=True, max_iterations=2)
     assert len(result.cloud.points) <= 1500 and "dropped 40 points with NaN or Inf coordinates" in result.cloud.notes
+
+
+def test_faces_that_repeat_a_corner_leave_a_cloud(tmp_path, capsys):
+    """An OFF whose only faces repeat a corner (3 0 0 0) has no surface: its points run as a cloud (the inside
+    test refused "every face is degenerate" after the whole contraction)."""
+    points = make_shape("torus", 600).points
+    path = tmp_path / "degenerate_faces.off"
+    path.write_bytes(b"OFF\n600 2 0\n" + _rows(points).encode() + b"3 0 0 0\n3 1 1 2\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    assert json.loads((tmp_path / "out" / "skeleton.json").read_text())["topology"]["cycles"] == 1

@@ -74,6 +74,14 @@ def test_bad_input_is_one_line_and_non_zero(tmp_path, make, fragment):
     assert len(message) == 1 and fragment in message[0], result.stderr
 
 
+def test_a_flag_argparse_refuses_is_one_line(tmp_path, assets_dir):
+    """argparse's own refusals (a wrong type, a missing argument, an unknown command) print its usage first."""
+    for args in (["run", assets_dir / "torus.ply", "--out", tmp_path / "out", "--sample", "1.5"], ["run"], ["frob"]):
+        result = run_cli(*args)
+        assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+        assert "--help" in result.stderr and "usage" not in result.stderr
+
+
 def test_bad_parameter_is_one_line_and_non_zero(tmp_path, assets_dir):
     result = run_cli("run", assets_dir / "torus.ply", "--out", tmp_path / "out", "--sl", "-2")
     assert result.returncode != 0 and "Traceback" not in result.stderr

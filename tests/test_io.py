@@ -150,13 +150,20 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     assert np.all(cloud.points >= low - 1e-9) and np.all(cloud.points <= high + 1e-9)
     on_faces = np.isclose(cloud.points[:, 2], low[2]) | np.isclose(cloud.points[:, 2], high[2])  # top and bottom
     assert 0.3 < on_faces.mean() < 0.6  # 43% of its area; the sides and the holes' walls the rest
-    kept = io.load(tmp_path / "block.stl", sample=0)
-    assert kept.faces is not None and len(kept.points) == 264 and not any("mesh:" in n for n in kept.notes)
+    kept = io.load(tmp_path / "block.stl", sample=0, max_points=1000)  # 1,596 rows in the file, 264 points
+    assert kept.faces is not None and len(kept.points) == 264 and not kept.notes
     assert io.load(tmp_path / "block.stl", seed=3).points.tolist() != cloud.points.tolist()  # the run's seed draws
 
     vertices_b, faces_b = solid_mesh("handled_ball")  # covered, but 90% of the vertices are on the handles
     uneven = io.validate(vertices_b, faces_b, name="ball")
     assert uneven.faces is None and "stray pieces" in uneven.notes[0]
+
+    beads = [trimesh.creation.icosphere(0).apply_scale(0.05).apply_translation((1.4 * np.cos(a), 1.4 * np.sin(a), 0))
+             for a in range(10)]  # 12 vertices each, under 1%: stray to cleaning however the surface is sampled
+    beaded = trimesh.util.concatenate([trimesh.creation.icosphere(4), *beads])
+    assert surface_sampling.stray_share(np.asarray(beaded.vertices)) > surface_sampling.MAX_UNCOVERED
+    cloud = io.validate(beaded.vertices, beaded.faces, name="beads")
+    assert cloud.faces is not None and len(cloud.points) == len(beaded.vertices) and not cloud.notes
 
     fine = trimesh.creation.icosphere(subdivisions=5)  # 10,242 evenly spread vertices
     fine.export(tmp_path / "ball.ply")
@@ -167,11 +174,15 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     assert labelled.faces is not None and labelled.labels is not None and "kept for their labels" in labelled.notes[0]
     few_faces = io.validate(np.vstack([vertices, sphere(500) * 3]), faces, name="cloud with a block")
     assert few_faces.faces is not None and not few_faces.notes
-    clumps = np.vstack([sphere(900), *(sphere(5) * 0.01 + 40 * k for k in (1, 2, 3, 4))])  # 2% in stray clumps,
-    line = np.c_[np.arange(918), np.arange(918), np.arange(1, 919)]  # over faces without area
-    assert surface_sampling.stray_share(clumps) > surface_sampling.MAX_UNCOVERED
-    flat = io.validate(clumps, line, name="points as a mesh")
-    assert flat.faces is not None and len(flat.points) == 920 and not flat.notes  # nothing to draw from: kept
+    ends = np.vstack([sphere(580), *(sphere(4) * 0.01 + 40 * k for k in range(1, 6))])  # 3% in stray clumps,
+    ends = np.round(ends * 1000)  # whole numbers: each pair's middle lies exactly on its line
+    points = np.vstack([ends, (ends[0::2] + ends[1::2]) / 2])  # faces (end, end, middle) without area
+    faces_on_lines = np.c_[np.arange(0, 600, 2), np.arange(1, 600, 2), np.arange(600, 900)]
+    assert surface_sampling.stray_share(points) > surface_sampling.MAX_UNCOVERED
+    flat = io.validate(points, faces_on_lines, name="points as a mesh")
+    assert flat.faces is not None and len(flat.points) == len(np.unique(points, axis=0)) and not flat.notes  # kept
+    repeated = io.validate(sphere(100), [[0, 0, 1], [2, 3, 3]], name="corners repeated")
+    assert repeated.faces is None  # faces repeating a corner are none (the inside test refused them after the run)
 
 
 def test_load_bytes_names_the_upload_not_the_temp_path():
@@ -335,14 +346,25 @@ def test_nonfinite_rows_are_refused_or_dropped_on_request(tmp_path):
 
 
 
-def test_duplicate_check_by_hash_agrees_with_unique():
-    """The hash sort says 'no repeats' only when np.unique over rows finds none (-0.0 and 0.0 go to np.unique)."""
+def test_repeated_points_found_by_hash_agree_with_unique():
+    from skelcore.repeats import first_occurrences
+
+    """The hash sort keeps each point's first occurrence as np.unique over rows would (-0.0 and 0.0 are one
+    coordinate), and two unequal points sharing a hash are told apart by sorting the rows."""
     points = sphere(500)
-    assert not io._may_repeat(points)
-    assert io._may_repeat(np.concatenate([points, points[7:8]]))
-    signed = np.concatenate([points, [[0.0, 2.0, 3.0], [-0.0, 2.0, 3.0]]])
-    assert io._may_repeat(signed)
-    assert len(io.validate(signed).points) == len(np.unique(signed, axis=0))
+    assert first_occurrences(points) is None
+    repeated = np.concatenate([points, points[7:8], points[3:5], [[0.0, 2.0, 3.0], [-0.0, 2.0, 3.0]]])
+    first, row = first_occurrences(repeated)
+    _, expected = np.unique(repeated, axis=0, return_index=True)
+    assert first.tolist() == sorted(expected.tolist()) and np.array_equal(repeated[first][row], repeated)
+    # a point whose hash equals the first point's: its z bits undo the x bits' share of the hash
+    constant = np.array([0x9E3779B97F4A7C15], dtype=np.uint64)  # arrays: their products wrap without a warning
+    x1, x2, z1 = (np.array([value]).view(np.uint64) for value in (0.25, 0.75, 0.5))
+    z2 = ((x1 * constant) ^ (x2 * constant) ^ z1).view(np.float64)[0]
+    colliding = np.array([[0.25, 1.0, 0.5], [0.75, 1.0, z2], [0.25, 1.0, 0.5], [0.75, 1.0, z2]])
+    assert np.isfinite(z2) and first_occurrences(colliding[:2]) is None
+    first, row = first_occurrences(colliding)
+    assert first.tolist() == [0, 1] and row.tolist() == [0, 1, 0, 1]
 
 
 def test_an_empty_path_is_not_the_working_folder():
