@@ -165,6 +165,8 @@ def main(argv: list[str] | None = None) -> int:
         cloud = (load(args.input, sample=args.sample, voxel_size=args.voxel_size,
                       budget=budget_bytes(INSPECTOR_SHARE)) if args.input
                  else default_cloud(bundled_assets()))
+        for note in cloud.notes:  # what loading did (a mesh's surface sampled, repeats removed), as `skelcore run`
+            print(f"skel-inspect: {Path(cloud.name).name}: {note}", flush=True)
         server, inspector = serve(cloud, args.host, args.port, save_dir=args.save_dir, token=token,
                                   look_ahead=not args.no_look_ahead,
                                   **({"point_budget": None} if args.full_resolution else {}))

@@ -100,3 +100,24 @@ def test_full_resolution_reaches_the_session(monkeypatch):
     assert main(["--port", "0", "--full-resolution"]) == 2
     assert main(["--port", "0"]) == 2
     assert seen == [None, "default"]
+
+
+def test_a_cad_mesh_is_sampled_and_said_so(monkeypatch, capsys, tmp_path):
+    """skel-inspect loads as `skelcore run` does, and prints what loading did; --sample 0 keeps the vertices."""
+    import trimesh
+
+    import app.main as app_main
+    from skelcore.solids import solid_mesh
+
+    trimesh.Trimesh(*solid_mesh("block_2_holes")).export(tmp_path / "block.stl")
+    seen = []
+
+    def fake_serve(cloud, host, port, **options):
+        seen.append(len(cloud.points))
+        raise OSError("stop here")
+
+    monkeypatch.setattr(app_main, "serve", fake_serve)
+    assert main([str(tmp_path / "block.stl"), "--port", "0"]) == 2
+    assert "block.stl: mesh: its 264 vertices leave" in capsys.readouterr().out
+    assert main([str(tmp_path / "block.stl"), "--port", "0", "--sample", "0"]) == 2
+    assert seen == [10_000, 264]
