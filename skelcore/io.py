@@ -173,7 +173,7 @@ def writable_folder(folder, what: str) -> Path:
 
 def check_sampling(*, sample=None, voxel_size=None, max_points=MAX_POINTS, seed=0) -> None:
     """The loading options (see `load`), or a ParameterError naming the first of the wrong type or range."""
-    if sample is not None and (not is_integer(sample) or 0 < sample < MIN_POINTS or sample < 0):
+    if sample is not None and not (is_integer(sample) and (sample == 0 or sample >= MIN_POINTS)):
         raise ParameterError(f"parameter sample={sample!r}: must be a whole number of points, at least {MIN_POINTS} "
                              f"(or 0: a mesh's vertices as they are)")
     if voxel_size is not None and (not is_real(voxel_size) or not 0 < voxel_size < np.inf):
@@ -213,11 +213,10 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         points, faces, labels = without_repeats(points, faces, labels, [])
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
+    note = None
     if sample is None and faces is not None:
         sample, note = points_to_draw(points, faces, labels is not None, cap, seed)
         notes += [note] if note else []
-    else:
-        note = None
     if labels is not None and (sample or voxel_size is not None):
         labels = None
         notes.append(LABELS_DROPPED)
