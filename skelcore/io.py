@@ -241,7 +241,8 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         voxel = memory.voxel_size_for(points, max(cap, MIN_POINTS))
         raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; a voxel size of {voxel:g} brings "
                             f"them under", len(points), cap, voxel)
-    points, faces, labels = without_repeats(points, faces, labels, notes)
+    if faces is None:  # a mesh that kept its faces has had its repeats merged above, and nothing since moved it
+        points, _, labels = without_repeats(points, None, labels, notes)
     if len(points) < MIN_POINTS:
         raise _too_few(name, len(points), dropped, voxel_size)
     points, scale = _scaled(points, name)
