@@ -321,3 +321,20 @@ def test_principal_extents_ignore_the_frame_and_a_few_strays():
     plate[:20] += 50.0  # strays beyond the middle 98%
     rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     assert np.allclose(principal_extents(plate @ rotation.T), [0.2, 2.0, 4.0], rtol=0.05)
+
+
+def test_a_capsule_drawn_as_one_edge_is_not_called_collapsed():
+    """GLSkeleton's light graph draws a straight capsule as one edge between its ends; the verdict's collapse
+    check counts the nodes that edge spans at one per sample radius (it called every such run unstable)."""
+    import manifold3d
+    import skelcore
+    from skelcore.solids import sample_mesh, solid_arrays
+
+    capsule = manifold3d.Manifold.batch_boolean(
+        [manifold3d.Manifold.cylinder(2.0, 0.3, 0.3, 64, True), manifold3d.Manifold.sphere(0.3, 64).translate((0, 0, 1)),
+         manifold3d.Manifold.sphere(0.3, 64).translate((0, 0, -1))], manifold3d.OpType.Add)
+    points, _ = sample_mesh(*solid_arrays(capsule), 5000, seed=0)
+    result = skelcore.skeletonize(points, method="glskeleton")
+    assert result.skeleton.graph.number_of_nodes() == 2 and result.topology["ends"] == 2
+    nodes = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton nodes")
+    assert nodes["passed"] and nodes["value"].startswith("2 drawn, ")

@@ -94,6 +94,18 @@ def test_skeleton_checks_make_wrong_skeletons_unstable(change):
     assert verdict["label"] == "unstable", verdict["reasons"]
 
 
+def test_a_straight_stretch_drawn_as_one_edge_has_not_collapsed():
+    """GLSkeleton draws a rod as one edge between its ends: judged by the nodes it would hold at one per sample
+    radius along its edges, not by its own two."""
+    rod = evidence(nodes=2, cycles=0, loops=())
+    verdict = judge(features(entry(), {**rod, "spaced_nodes": 41}), 3, T)
+    assert verdict["label"] == "stable", verdict["reasons"]
+    texts = [c["text"] for c in verdict["criteria"]]
+    assert "skeleton nodes: 2 drawn, 41 at one per sample radius (at least 3): pass" in texts
+    short = judge(features(entry(), {**rod, "spaced_nodes": 2}), 3, T)
+    assert "skeleton nodes: 2 (at least 3): fail" in short["reasons"]
+
+
 def test_counts_of_pieces_and_loops():
     t = StabilityThresholds(piece_gap=2.0, loop_birth=2.0, loop_death=4.0)
     pieces = {"1": 5, "1.5": 3, "2": 2, "3": 1}
