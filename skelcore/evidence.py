@@ -11,7 +11,8 @@ from .step import IterationState
 
 def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
                       cloud: dict | None = None) -> dict:
-    """What the verdict's skeleton checks read: the skeleton's nodes, pieces and loops, and the pieces and loops
+    """What the verdict's skeleton checks read: the skeleton's nodes (with those GLSkeleton's light graph left out
+    of a straight stretch, which are no collapse), pieces and loops, and the pieces and loops
     of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
     (only the contracted cloud's loops need a complex: the input's pieces come from piece_counts).
     source: {"pieces": piece_counts of `original` at that radius}, and cloud: persistence_summary of the
@@ -19,19 +20,10 @@ def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.nd
     topology = skeleton.topology()
     cloud = cloud or persistence_summary(state.points, skeleton.radius)
     source = source or {"pieces": piece_counts(original, skeleton.radius)}
-    return {"nodes": skeleton.graph.number_of_nodes(), "spaced_nodes": spaced_nodes(skeleton),
-            "components": topology["components"],
+    nodes = skeleton.graph.number_of_nodes()
+    return {"nodes": nodes, "nodes_with_dropped": nodes + skeleton.dropped, "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
             "input_pieces": source["pieces"]}
-
-
-def spaced_nodes(skeleton: Skeleton) -> int:
-    """The nodes the skeleton would hold at one per sample radius along its edges: its own, and one more for every
-    further radius an edge spans. The graph step's nodes lie about a radius apart, but GLSkeleton's light graph
-    draws a straight stretch as one edge (skelcore.refine.drop_collinear), so its own count says nothing of size."""
-    lengths = np.array([length for _, _, length in skeleton.graph.edges(data="length")], dtype=float)
-    extra = np.maximum(np.rint(lengths / skeleton.radius) - 1, 0).sum() if len(lengths) else 0
-    return skeleton.graph.number_of_nodes() + int(extra)
 
 
 def cloud_evidence(state: IterationState, original: np.ndarray, radius: float) -> tuple[dict, dict]:

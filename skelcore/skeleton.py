@@ -98,6 +98,7 @@ class Skeleton:
     graph: nx.Graph  # nodes 0..m-1 with 'pos' (3,) and 'point_count'; edges with 'length'
     correspondence: np.ndarray  # (n,) node of every input point
     radius: float  # the sample radius in the user's units
+    dropped: int = 0  # degree-2 nodes GLSkeleton's light graph left out (skelcore.refine.drop_collinear)
 
     def nodes_array(self) -> np.ndarray:
         """(m,3) node positions, in node order."""
@@ -165,7 +166,9 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         # a node turning collinear_angle one sample radius from its neighbour lies this far off their chord:
         # the offset that angle allows at the skeleton's own spacing; a chord farther out cuts a resolved bend
         offset = radius * math.sin(math.radians(params.collinear_angle))
+        drawn = len(adj)
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle, offset)
+        return _finish(adj, xyz, node_of_point, radius, dropped=drawn - len(adj))
     return _finish(adj, xyz, node_of_point, radius)
 
 
@@ -177,7 +180,8 @@ def _roots(parent: np.ndarray) -> np.ndarray:
     return root
 
 
-def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radius: float) -> Skeleton:
+def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radius: float, dropped: int = 0
+            ) -> Skeleton:
     """Relabel nodes 0..m-1 in order of their ids."""
     kept = np.array(sorted(adj), dtype=np.int64)
     label = np.full(len(xyz), -1, dtype=np.int64)
@@ -189,4 +193,4 @@ def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radi
     graph.add_nodes_from((i, {"pos": positions[i], "point_count": int(counts[i])}) for i in range(len(kept)))
     edges = [(int(label[u]), int(label[v])) for u in adj for v in adj[u] if u < v]
     graph.add_edges_from((a, b, {"length": float(np.linalg.norm(positions[a] - positions[b]))}) for a, b in edges)
-    return Skeleton(graph=graph, correspondence=correspondence, radius=radius)
+    return Skeleton(graph=graph, correspondence=correspondence, radius=radius, dropped=dropped)

@@ -130,7 +130,7 @@ def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None, cache
     skeleton = skeleton_of_state(states[-1], points, skeleton_params)
     record["evidence"] = skeleton_evidence(skeleton, states[-1], points, cache.get("input"))
     cache["input"] = {"pieces": record["evidence"]["input_pieces"]}
-    record["truth"] = _truth(skeleton, item, evaluate, make_graph, record["evidence"]["spaced_nodes"])
+    record["truth"] = _truth(skeleton, item, evaluate, make_graph, record["evidence"]["nodes_with_dropped"])
     record["seconds"] = time.perf_counter() - started
     return record
 
@@ -148,12 +148,13 @@ def _statistics(entry: dict) -> dict:
     return kept
 
 
-def _truth(skeleton, item: StudyInput, evaluate, make_graph, spaced: int) -> dict:
-    """What is right about a run; spaced: its skeleton's nodes at one per sample radius (a collapse leaves few)."""
+def _truth(skeleton, item: StudyInput, evaluate, make_graph, graph_nodes: int) -> dict:
+    """What is right about a run; graph_nodes: its skeleton's nodes with those GLSkeleton's light graph left out
+    (a collapse leaves few)."""
     topology = skeleton.topology()
     nodes = skeleton.graph.number_of_nodes()
     truth = {"skeleton": {**topology, "nodes": nodes}, "chamfer": None, "hausdorff": None,
-             "collapsed": spaced < 3 or skeleton.graph.number_of_edges() == 0,
+             "collapsed": graph_nodes < 3 or skeleton.graph.number_of_edges() == 0,
              "disconnected": topology["components"] > item.truth["components"]}
     if "nodes" in item.truth and nodes:
         scored = evaluate(make_graph(skeleton.nodes_array(), skeleton.edges_array(), "skeleton"),

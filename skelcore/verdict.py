@@ -21,8 +21,8 @@ ones in `skelcore study` (its report gives the figures):
   the start (a ring of wire) is curve-like and small after any one step, whatever the settings;
 - skeleton pieces and loops: most wrong skeletons are made in the graph step, which the contraction's
   statistics cannot see: a skeleton must hold as many pieces as the input and the contracted cloud, as many
-  loops as the contracted cloud, and more than a couple of nodes at one per sample radius along its edges
-  (GLSkeleton draws a straight stretch as one edge, yet a rod's skeleton has not collapsed).
+  loops as the contracted cloud, and more than a couple of nodes, counting those GLSkeleton's light graph
+  leaves out of a straight stretch (it draws a rod as one edge, yet that skeleton has not collapsed).
 """
 from __future__ import annotations
 
@@ -215,9 +215,9 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
     if "skeleton_nodes" not in v:
         return
     nodes = v["skeleton_nodes"]
-    spaced = v.get("skeleton_spaced_nodes", nodes)  # results written before it was measured: the nodes alone
-    yield _criterion("skeleton nodes", spaced >= t.min_skeleton_nodes, "unstable",
-                     f"{nodes}" if spaced == nodes else f"{nodes} drawn, {spaced} at one per sample radius",
+    graph_nodes = v.get("skeleton_nodes_with_dropped", nodes)  # results written before it was kept: the nodes
+    yield _criterion("skeleton nodes", graph_nodes >= t.min_skeleton_nodes, "unstable",
+                     f"{nodes}" if graph_nodes == nodes else f"{nodes} drawn of {graph_nodes}",
                      f"at least {t.min_skeleton_nodes}")
     held, given = count_pieces(v["skeleton_cloud_pieces"], t), count_pieces(v["skeleton_input_pieces"], t)
     pieces = v["skeleton_components"]
@@ -271,7 +271,7 @@ WHY = {
                                    "like a good finished run",
     "curve-like share of the cloud": "a skeleton needs a curve; a run stopped early has bell-shaped histograms "
                                      "but a surface",
-    "skeleton nodes": "a skeleton of one or two nodes within a sample radius or two has collapsed",
+    "skeleton nodes": "a skeleton of one or two nodes has collapsed",
     "skeleton pieces": "the graph step can split or join pieces, which the contraction's statistics cannot see",
     "skeleton loops": "the graph step can lose or invent loops, which the contraction's statistics cannot see",
 }

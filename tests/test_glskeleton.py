@@ -325,7 +325,7 @@ def test_principal_extents_ignore_the_frame_and_a_few_strays():
 
 def test_a_capsule_drawn_as_one_edge_is_not_called_collapsed():
     """GLSkeleton's light graph draws a straight capsule as one edge between its ends; the verdict's collapse
-    check counts the nodes that edge spans at one per sample radius (it called every such run unstable)."""
+    check counts the nodes it left out of that stretch too (it called every such run unstable)."""
     import manifold3d
     import skelcore
     from skelcore.solids import sample_mesh, solid_arrays
@@ -337,4 +337,4 @@ def test_a_capsule_drawn_as_one_edge_is_not_called_collapsed():
     result = skelcore.skeletonize(points, method="glskeleton")
     assert result.skeleton.graph.number_of_nodes() == 2 and result.topology["ends"] == 2
     nodes = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton nodes")
-    assert nodes["passed"] and nodes["value"].startswith("2 drawn, ")
+    assert nodes["passed"] and nodes["value"].startswith("2 drawn of ")

@@ -95,15 +95,14 @@ def test_skeleton_checks_make_wrong_skeletons_unstable(change):
 
 
 def test_a_straight_stretch_drawn_as_one_edge_has_not_collapsed():
-    """GLSkeleton draws a rod as one edge between its ends: judged by the nodes it would hold at one per sample
-    radius along its edges, not by its own two."""
+    """GLSkeleton draws a rod as one edge between its ends: the collapse check counts the nodes its light graph
+    left out of that straight stretch, not only the two it drew."""
     rod = evidence(nodes=2, cycles=0, loops=())
-    verdict = judge(features(entry(), {**rod, "spaced_nodes": 41}), 3, T)
+    verdict = judge(features(entry(), {**rod, "nodes_with_dropped": 30}), 3, T)
     assert verdict["label"] == "stable", verdict["reasons"]
-    texts = [c["text"] for c in verdict["criteria"]]
-    assert "skeleton nodes: 2 drawn, 41 at one per sample radius (at least 3): pass" in texts
-    short = judge(features(entry(), {**rod, "spaced_nodes": 2}), 3, T)
-    assert "skeleton nodes: 2 (at least 3): fail" in short["reasons"]
+    assert "skeleton nodes: 2 drawn of 30 (at least 3): pass" in [c["text"] for c in verdict["criteria"]]
+    collapsed = judge(features(entry(), {**rod, "nodes_with_dropped": 2}), 3, T)
+    assert "skeleton nodes: 2 (at least 3): fail" in collapsed["reasons"]
 
 
 def test_counts_of_pieces_and_loops():
