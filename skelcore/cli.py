@@ -203,7 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     quality.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS), help="(default: both)")
     quality.add_argument("--shapes", nargs="+", default=None, metavar="NAME",
                          help="shapes to run (default: every solid, and the reference shapes when "
-                              "../shared/reference exists or --reference is given)")
+                              "../shared/reference exists or --reference is given; the everyday parts by name)")
+    quality.add_argument("--parts", action="store_true",
+                         help="run the everyday parts (wrench, key, nut, pipe, ...: skelcore.parts), not in the "
+                              "default set, instead of the default shapes")
     quality.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS), metavar="VARIANT",
                          help=f"of: {' '.join(VARIANTS)} (default: all)")
     quality.add_argument("--points", type=_point_count, default=10_000, help="points per shape (default: %(default)s)")
@@ -306,7 +309,7 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
     from pathlib import Path
 
-    from .errors import InputError, OutputError
+    from .errors import InputError, OutputError, ParameterError
     from .quality_bench import format_table, run_quality_bench, summarise, write_json
     from .io import writable_folder
 
@@ -316,6 +319,12 @@ def _bench_quality(args: argparse.Namespace) -> int:
             raise OutputError(f"--json {args.json}: is a folder, not a file")
     if args.reference is not None and not Path(args.reference).is_dir():  # else: silently no reference shapes
         raise InputError(f"--reference {args.reference}: no such folder")
+    if args.parts:
+        if args.shapes is not None:
+            raise ParameterError("--parts and --shapes: choose one (name parts in --shapes to run some of them)")
+        from .parts import PARTS
+
+        args.shapes = list(PARTS)
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,

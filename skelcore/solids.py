@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
+from .parts import PARTS
 from .surface_sampling import SURFACE_POINTS, sample_surface
 
 DEFAULT_POINTS = SURFACE_POINTS
@@ -232,11 +233,17 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
 }
 
 
+def _solid(name: str) -> tuple[Callable, int | None, str]:
+    """The entry of solid `name`: one of SOLIDS, or of the everyday parts (skelcore.parts.PARTS)."""
+    entry = SOLIDS.get(name) or PARTS.get(name)
+    if entry is None:
+        raise InputError(f"solid {name!r}: unknown (choose from {', '.join([*SOLIDS, *PARTS])})")
+    return entry
+
+
 def solid_mesh(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS)."""
-    if name not in SOLIDS:
-        raise InputError(f"solid {name!r}: unknown (choose from {', '.join(SOLIDS)})")
-    return solid_arrays(SOLIDS[name][0]())
+    """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS or PARTS)."""
+    return solid_arrays(_solid(name)[0]())
 
 
 def solid_arrays(solid) -> tuple[np.ndarray, np.ndarray]:
@@ -279,11 +286,12 @@ def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) 
 
 
 def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
-    """Solid `name` (one of SOLIDS) sampled evenly, its truth read from its closed mesh's Euler characteristic."""
+    """Solid `name` (one of SOLIDS or PARTS) sampled evenly, its truth read from its closed mesh's Euler
+    characteristic."""
     vertices, faces = solid_mesh(name)
     topology = mesh_topology(vertices, faces)
     samples, normals = sample_mesh(vertices, faces, points, seed)
-    _, ends, description = SOLIDS[name]
+    _, ends, description = _solid(name)
     return BenchmarkShape(name, samples, topology["genus"], topology["components"], f"manifold3d: {description}",
                           normals, ends, f"genus {topology['genus']} by the Euler characteristic of its closed mesh")
 
@@ -369,13 +377,14 @@ def shape_names(reference_dir=None) -> list[str]:
 def benchmark_shapes(reference_dir=None, points: int = DEFAULT_POINTS, seed: int = 0,
                      names: list[str] | None = None) -> list[BenchmarkShape]:
     """The benchmark's shapes, each sampled to `points` points: every solid, then every reference shape
-    when `reference_dir` (default ../shared/reference beside the project) exists. `names` picks some."""
+    when `reference_dir` (default ../shared/reference beside the project) exists. `names` picks some, among
+    them the everyday parts (skelcore.parts.PARTS), which are not in the default set."""
     folder = Path(reference_dir) if reference_dir is not None else default_reference_dir()
     available = shape_names(folder)
     names = available if names is None else list(names)
-    unknown = [name for name in names if name not in available]
+    unknown = [name for name in names if name not in available and name not in PARTS]
     if unknown:
         raise InputError(f"shape {unknown[0]!r}: unknown or its reference folder is missing "
-                         f"(choose from {', '.join(available)})")
-    return [solid_shape(name, points, seed) if name in SOLIDS else reference_shape(name, folder, points, seed)
+                         f"(choose from {', '.join([*available, *PARTS])})")
+    return [reference_shape(name, folder, points, seed) if name in REFERENCES else solid_shape(name, points, seed)
             for name in names]

@@ -1,4 +1,6 @@
 """The quality benchmark's shapes, perturbations and command, on a small fast subset."""
+import re
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -6,6 +8,7 @@ from scipy.spatial import cKDTree
 from skelcore import perturb as perturbations
 from skelcore import solids
 from skelcore.errors import InputError, ParameterError
+from skelcore.parts import PARTS
 
 N = 3000
 
@@ -21,6 +24,31 @@ def test_every_solid_has_the_genus_and_pieces_its_construction_promises(name):
                 "thin_handled_ball": (3, 1), "thick_torus": (1, 1), "table": (0, 1), "chair": (2, 1),
                 "stool": (3, 1)}[name]
     assert (topology["genus"], topology["components"]) == expected
+
+
+@pytest.mark.parametrize("name", list(PARTS))
+def test_every_everyday_part_is_closed_with_the_genus_its_description_gives(name):
+    vertices, faces = solids.solid_mesh(name)
+    topology = solids.mesh_topology(vertices, faces)
+    assert topology["closed"] and topology["components"] == 1
+    stated = re.search(r"\(genus (\d)\)", PARTS[name][2])
+    assert topology["genus"] == (int(stated.group(1)) if stated else 0)
+    assert name not in solids.shape_names()  # not in the default grid, nor in `skelcore study`
+
+
+def test_bench_quality_runs_the_everyday_parts_by_flag_or_by_name(capsys, monkeypatch):
+    from skelcore import cli, quality_bench
+
+    asked = []
+    monkeypatch.setattr(quality_bench, "run_quality_bench", lambda **kwargs: asked.append(kwargs["shapes"]) or [])
+    monkeypatch.setattr(quality_bench, "format_table", lambda *args: "")
+    assert cli.main(["bench-quality", "--parts", "--quiet"]) == 0
+    assert cli.main(["bench-quality", "--shapes", "wrench", "block_1_hole", "--quiet"]) == 0
+    assert asked == [list(PARTS), ["wrench", "block_1_hole"]]
+    assert cli.main(["bench-quality", "--parts", "--shapes", "key", "--quiet"]) == 2
+    assert "--parts and --shapes: choose one" in capsys.readouterr().err
+    shape = solids.benchmark_shapes(names=["key"], points=500)[0]  # sampled like a solid, its truth from its mesh
+    assert (shape.name, shape.cycles, shape.components, shape.ends) == ("key", 1, 1, 1) and len(shape.points) == 500
 
 
 @pytest.mark.parametrize("name", ["linked_rings_2", "linked_rings_3", "chain"])
@@ -376,3 +404,15 @@ def test_a_chairs_back_rail_closes_no_loop_of_its_own(monkeypatch):
     assert run_case(chair.points, "lbc", name="chair", seed=0)["topology"]["cycles"] == 2
     monkeypatch.setattr(loops, "_AWAY_FROM_RIM", np.ones_like(loops._AWAY_FROM_RIM))
     assert run_case(chair.points, "lbc", name="chair", seed=0)["topology"]["cycles"] == 3
+
+
+def test_flat_and_framed_parts_keep_their_loops_and_ends():
+    """A fast subset of `bench-quality --parts`: the wrench (a plate: a ring end and an open jaw) and the glasses
+    (two rims of thin rod, a bridge and temples), clean, both methods."""
+    from skelcore.quality_bench import run_quality_bench
+
+    results = run_quality_bench(methods=("lbc", "glskeleton"), shapes=["wrench", "glasses"], variants=("clean",))
+    assert len(results) == 4
+    for result in results:
+        assert result.exact and result.topology["ends"] == result.expected["ends"], (result.shape, result.method,
+                                                                                      result.topology)
