@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-SEGMENTS = 64  # segments of every round cross-section
+SEGMENTS = 64  # facets around every circle of a part or solid (skelcore.solids): sampling sees no facets
 
 
 def _m3d():

@@ -15,11 +15,10 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
-from .parts import PARTS
+from .parts import PARTS, SEGMENTS
 from .surface_sampling import SURFACE_POINTS, sample_surface
 
 DEFAULT_POINTS = SURFACE_POINTS
-SEGMENTS = 64  # facets around every circle of a solid: fine enough that sampling sees no facets
 
 
 @dataclass(frozen=True)
