@@ -21,10 +21,9 @@ def _m3d():
     return manifold3d
 
 
-def _cylinder(height: float, radius: float, centre=(0.0, 0.0, 0.0), turn=(0.0, 0.0, 0.0), top: float | None = None,
-              segments: int = SEGMENTS):
-    """A cylinder (a cone with `top`) along z, centred, turned by `turn` degrees about x, y, z, then moved."""
-    solid = _m3d().Manifold.cylinder(height, radius, radius if top is None else top, segments, True)
+def _cylinder(height: float, radius: float, centre=(0.0, 0.0, 0.0), turn=(0.0, 0.0, 0.0), segments: int = SEGMENTS):
+    """A cylinder along z, centred, turned by `turn` degrees about x, y, z, then moved."""
+    solid = _m3d().Manifold.cylinder(height, radius, radius, segments, True)
     return solid.rotate(turn).translate(centre)
 
 
