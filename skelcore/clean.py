@@ -90,7 +90,7 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
         keep &= ~(apart & (spacing > median + params.outlier_spread * max(mad, 1e-12 * median)))
     stray = np.zeros(n, dtype=bool)
     if params.remove_stray:
-        stray = stray_pieces(distance, index, keep, params.piece_gap, params.min_piece_share)
+        stray = stray_pieces(distance, index, spacing, keep, params.piece_gap, params.min_piece_share)
         keep &= ~stray
     if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
         return CleaningReport(n, neighbours=index, tree=tree)

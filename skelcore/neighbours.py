@@ -78,14 +78,13 @@ def leaf_knn(tree: cKDTree, k: int) -> tuple[np.ndarray, np.ndarray]:
     return distances.reshape(tree.n, k), leaf[indices.reshape(tree.n, k)]
 
 
-def stray_pieces(distance: np.ndarray, index: np.ndarray, keep: np.ndarray, piece_gap: float, min_piece_share: float
-                 ) -> np.ndarray:
+def stray_pieces(distance: np.ndarray, index: np.ndarray, spacing: np.ndarray, keep: np.ndarray, piece_gap: float,
+                 min_piece_share: float) -> np.ndarray:
     """(n,) which of the `keep` points lie in pieces holding less than `min_piece_share` of them, the pieces being
-    those points joined by chains of nearest-neighbour steps of at most `piece_gap` times their median spacing
-    (a point's mean distance to its neighbours): skelcore.clean's stray rule. distance, index: (n, k) each
-    point's nearest neighbours, itself first."""
+    those points joined by chains of nearest-neighbour steps of at most `piece_gap` times their median spacing:
+    skelcore.clean's stray rule. distance, index: (n, k) each point's nearest neighbours, itself first; spacing:
+    (n,) each point's mean distance to the others, which the caller has already."""
     n = len(distance)
-    spacing = distance[:, 1:].mean(axis=1)
     gap = piece_gap * np.median(spacing[keep])
     near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
     # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);

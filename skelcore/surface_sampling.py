@@ -74,7 +74,8 @@ def stray_share(points: np.ndarray, seed: int = 0) -> float:
     if len(points) <= cleaning.neighbours + 1:
         return 0.0
     distance, index = leaf_knn(cKDTree(points), cleaning.neighbours + 1)
-    stray = stray_pieces(distance, index, np.ones(len(points), bool), cleaning.piece_gap, cleaning.min_piece_share)
+    stray = stray_pieces(distance, index, distance[:, 1:].mean(axis=1), np.ones(len(points), bool),
+                         cleaning.piece_gap, cleaning.min_piece_share)
     return float(stray.mean())
 
 
