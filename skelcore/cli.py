@@ -285,6 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _run(args: argparse.Namespace) -> int:
     from .api import run
     from .results import check_output
+    from .verdict import failed_line
 
     check_output(args.out, force=args.force)  # before the work; the earlier results go only once it succeeded
     progress = None if args.quiet else print
@@ -292,6 +293,9 @@ def _run(args: argparse.Namespace) -> int:
     out = result._save(args.out, args.force)  # results that appeared meanwhile are refused in the CLI's terms
     if not args.quiet:
         print(f"{result.summary()} -> {out}")
+        failed = failed_line(result.verdict)
+        if failed:  # what a verdict other than stable rests on, without opening metrics.json
+            print(f"  {result.verdict['label']}: {failed}")
     return 0
 
 

@@ -277,6 +277,12 @@ WHY = {
 }
 
 
+def failed_line(verdict: dict) -> str:
+    """The criteria a verdict failed, on one line ("delta_kappa peaks 3 (at most 1 (2% rule)); ..."), or ""."""
+    return "; ".join(f"{c['name']} {c['value']} ({c['threshold']})" for c in verdict.get("criteria", [])
+                     if c["passed"] is False)
+
+
 def explanation_markdown(verdict: dict) -> str:
     """A markdown table of a verdict: each criterion, its threshold, this iteration's value, pass or fail; then
     why each failed criterion beyond the paper's matters."""

@@ -171,3 +171,13 @@ def test_a_cad_mesh_keeps_its_loops(tmp_path, capsys, solid):
     topology = json.loads((tmp_path / "out" / "skeleton.json").read_text())["topology"]
     assert (topology["cycles"], topology["components"]) == (mesh_topology(vertices, faces)["genus"], 1)
     assert json.loads((tmp_path / "out" / "params.json").read_text())["sample"] is None  # chosen again on a re-run
+
+
+def test_a_verdict_other_than_stable_names_the_criteria_it_failed(tmp_path, assets_dir, capsys):
+    """The summary line says "verdict not yet converged"; the line under it says why, as metrics.json does."""
+    assert main(["run", str(assets_dir / "torus.ply"), "--out", str(tmp_path / "one"), "--max-iterations", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "verdict not yet converged" in lines[-2]
+    assert lines[-1].startswith("  not yet converged: mean D_theta 0.") and lines[-1].endswith(" (target 0.5 within 0.25)")
+    assert main(["run", str(assets_dir / "torus.ply"), "--out", str(tmp_path / "all")]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].split("; ")[-2] == "verdict stable"
