@@ -20,14 +20,14 @@ from .errors import SkelError
 from .options import RunOptions
 from .pipeline import run_pipeline
 from .results import RESULT_FILES, write_atomic
-from .verdict import StabilityThresholds
+from .verdict import StabilityThresholds, failed_line
 
 DONE_FILE = "done.json"
 SUMMARY_COLUMNS = (
     "name", "input", "status", "error", "points", "iterations", "termination", "seconds",
     "nodes", "edges", "components", "cycles", "ends", "junctions",
     "d_theta_mean", "delta_kappa_mean", "d_theta_skewness", "delta_kappa_skewness", "d_theta_peaks",
-    "delta_kappa_peaks", "inside_share", "spread_ratio", "bounded", "verdict", "reused",
+    "delta_kappa_peaks", "inside_share", "spread_ratio", "bounded", "verdict", "verdict_failed", "reused",
 )
 RUN_COLUMNS = ("seconds", "reused")  # differ between two runs of the same batch
 
@@ -119,6 +119,7 @@ def _row(job: Job, result) -> dict:
         "delta_kappa_peaks": final["delta_kappa"]["peaks"]["count"],
         "inside_share": final["boundedness"]["inside_share"], "spread_ratio": final["boundedness"]["spread_ratio"],
         "bounded": bounded, "verdict": result.metrics["verdict"]["label"],
+        "verdict_failed": failed_line(result.metrics["verdict"]),
     })
     return row
 

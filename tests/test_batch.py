@@ -71,6 +71,10 @@ def test_layout_and_summary(serial_out, shapes_dir):
         assert row["points"] == 800 and 0 <= row["iterations"] <= 3 and row["nodes"] >= 1
         assert row["verdict"] in ("stable", "not yet converged", "unstable")
         folder = serial_out / row["name"]
+        failed = [c for c in json.loads((folder / "metrics.json").read_text())["verdict"]["criteria"]
+                  if c["passed"] is False]  # named in the row, as `skelcore run` names them under its summary
+        assert (row["verdict_failed"] == "") == (row["verdict"] == "stable")
+        assert row["verdict_failed"] == "; ".join(f"{c['name']} {c['value']} ({c['threshold']})" for c in failed)
         assert sorted(p.name for p in folder.iterdir()) == sorted([*RESULT_FILES, batch.DONE_FILE])
     csv_lines = (serial_out / "summary.csv").read_text().splitlines()
     assert csv_lines[0].split(",") == list(batch.SUMMARY_COLUMNS) and len(csv_lines) == 1 + len(NAMES)
@@ -78,6 +82,13 @@ def test_layout_and_summary(serial_out, shapes_dir):
     table = page[page.index("<table"):page.index("</table>")]
     assert all(f">{name}<" in table for name in NAMES) and "Comparison across objects" in page
     assert all(f"id='{name}'" in page for name in NAMES)  # and each object's own figures
+
+
+def test_a_verdict_other_than_stable_names_its_failed_criteria_in_the_summary(shapes_dir, tmp_path):
+    out = tmp_path / "one_step"
+    assert main(["batch", str(shapes_dir / "torus.ply"), "--out", str(out), "--max-iterations", "1", "--quiet"]) == 0
+    (row,) = summary(out)
+    assert row["verdict"] != "stable" and "contraction steps taken 1 (at least 2)" in row["verdict_failed"]
 
 
 def test_bad_objects_are_recorded_and_do_not_stop_the_batch(shapes_dir, tmp_path, monkeypatch, capsys):
