@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import viser
 
-from skelcore.verdict import explanation_markdown
+from skelcore.verdict import explanation_markdown, failed_criteria
 
 from . import layout
 from .analysis import Plots
@@ -18,6 +18,7 @@ from .scene import SceneView
 
 # viser's markdown tables draw their cells unpadded: "100.0%" ran into "at least 90%"
 VERDICT_STYLE = "<style>.verdict th, .verdict td { padding: 0 4px; }</style>"
+HEADLINE_CRITERIA = 2  # failed criteria named above the histograms, at most: two lines at 1280x720 keep both in view
 
 
 class Viewer:
@@ -74,7 +75,11 @@ class Viewer:
         """The explanation table in the Verdict tab, its headline above the histograms."""
         table = explanation_markdown(verdict)
         self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{table}\n\n</div>'
-        self.ui.plots.verdict_line.content = f"{table.splitlines()[0] if table else ''} _(criteria: Verdict tab)_"
+        names = [c["name"] for c in failed_criteria(verdict)]
+        failed = ", ".join(names[:HEADLINE_CRITERIA]) + (f" and {len(names) - HEADLINE_CRITERIA} more"
+                                                          if len(names) > HEADLINE_CRITERIA else "")
+        headline = (table.splitlines()[0] if table else "") + (f" · failed: {failed}" if names else "")
+        self.ui.plots.verdict_line.content = f"{headline} _(criteria: Verdict tab)_"
 
     def show_comparison(self, note: str, convergence, theta, kappa, shown: bool = True) -> None:
         plots = self.ui.plots

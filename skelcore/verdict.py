@@ -277,10 +277,14 @@ WHY = {
 }
 
 
+def failed_criteria(verdict: dict) -> list[dict]:
+    """The criteria (dicts of `judge`) a verdict failed, in the verdict's order."""
+    return [c for c in verdict.get("criteria", []) if c["passed"] is False]
+
+
 def failed_line(verdict: dict) -> str:
     """The criteria a verdict failed, on one line ("delta_kappa peaks 3 (at most 1 (2% rule)); ..."), or ""."""
-    return "; ".join(f"{c['name']} {c['value']} ({c['threshold']})" for c in verdict.get("criteria", [])
-                     if c["passed"] is False)
+    return "; ".join(f"{c['name']} {c['value']} ({c['threshold']})" for c in failed_criteria(verdict))
 
 
 def explanation_markdown(verdict: dict) -> str:

@@ -255,3 +255,24 @@ def test_a_double_click_on_pause_pauses(monkeypatch):
     clock[0] += playback.DOUBLE_CLICK
     play.toggle(lambda: True, me)
     assert worker.playing
+
+
+def _criterion(name: str, passed: bool) -> dict:
+    return {"name": name, "value": "1", "threshold": "t", "passed": passed, "severity": "unstable", "text": name}
+
+
+def test_the_verdict_line_above_the_histograms_names_the_failed_criteria():
+    """The headline says why, not only "unstable": the first two failed criteria by name, the rest counted."""
+    from app.viewer import Viewer
+
+    line, table = types.SimpleNamespace(content=""), types.SimpleNamespace(content="")
+    viewer = types.SimpleNamespace(ui=types.SimpleNamespace(plots=types.SimpleNamespace(verdict=table,
+                                                                                         verdict_line=line)))
+    names = ["D_theta peaks", "delta_kappa peaks", "points inside the original", "skeleton loops"]
+    for failing, said in (([], ""), (names[1:2], " · failed: delta_kappa peaks"),
+                          (names[1:], " · failed: delta_kappa peaks, points inside the original and 1 more")):
+        criteria = [_criterion(name, name not in failing) for name in names]
+        label = "unstable" if failing else "stable"
+        Viewer.show_verdict(viewer, {"label": label, "iteration": 4, "criteria": criteria})
+        assert line.content == f"**Iteration 4: {label}**{said} _(criteria: Verdict tab)_"
+        assert all(f"| {name} |" in table.content for name in names)  # the tab keeps every criterion
