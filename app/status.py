@@ -80,13 +80,11 @@ def pending_markdown(session) -> str:
 
 
 def run_notes(run, state, notice: str) -> str:
-    """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what cleaning and
-    multi-resolution did to the cloud, the points held on thin handles, what the view leaves out (`notice`) and
+    """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what loading and cleaning
+    did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), the
+    contraction at reduced resolution, the points held on thin handles, what the view leaves out (`notice`) and
     the figures the run ended on."""
-    cleaning = run.cloud.cleaning or {}
-    removed_by_cleaning = (f"Cleaning removed {cleaning['outliers_removed']:,} outliers and "
-                           f"{cleaning['stray_removed']:,} stray points of {cleaning['input_points']:,}."
-                           if cleaning.get("kept", 0) < cleaning.get("input_points", 0) else "")
+    input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".") for note in run.cloud.notes]
     reduction = run.reduction
     reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
                f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")
@@ -95,7 +93,7 @@ def run_notes(run, state, notice: str) -> str:
     latest = run.history[-1]
     end_figures = (f"Run ended at iteration {latest.iteration}: {latest.message}."
                    if latest.termination and latest.message != ending_words(latest) else "")
-    return "\n\n".join(filter(None, [removed_by_cleaning, reduced, held, notice, end_figures]))
+    return "\n\n".join(filter(None, [*input_notes, reduced, held, notice, end_figures]))
 
 
 def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, visible: dict[str, bool],

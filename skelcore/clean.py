@@ -64,8 +64,8 @@ class CleaningReport:
 
     def note(self) -> str:
         """One line for the cloud's notes."""
-        return (f"cleaning removed {len(self.outliers)} outliers and {len(self.stray)} points of stray pieces "
-                f"({self.input_points} -> {self.input_points - len(self.outliers) - len(self.stray)} points)")
+        return (f"cleaning removed {len(self.outliers):,} outliers and {len(self.stray):,} points of stray pieces "
+                f"({self.input_points:,} -> {self.input_points - len(self.outliers) - len(self.stray):,} points)")
 
 
 MIN_KEPT = 20  # cleaning never leaves fewer points than the engine needs

@@ -276,3 +276,20 @@ def test_the_verdict_line_above_the_histograms_names_the_failed_criteria():
         Viewer.show_verdict(viewer, {"label": label, "iteration": 4, "criteria": criteria})
         assert line.content == f"**Iteration 4: {label}**{said} _(criteria: Verdict tab)_"
         assert all(f"| {name} |" in table.content for name in names)  # the tab keeps every criterion
+
+
+def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
+    """A mesh drawn over instead of its vertices was said only in the terminal or a passing notification; the notes
+    below the tabs keep it, beside what cleaning removed."""
+    import numpy as np
+
+    from skelcore.solids import solid_mesh
+
+    vertices, faces = solid_mesh("block_2_holes")
+    session = Session(validate(vertices, faces, name="block.stl"), look_ahead=False)
+    notes = run_notes(session.run, session.history[0], notice="")
+    assert notes.startswith(f"Mesh: its {len(vertices):,} vertices leave ") and "points are drawn evenly over it" in notes
+    points = np.vstack([make_shape("torus", 3000, seed=0).points, [[9.0, 9.0, 9.0], [-9.0, 9.0, 9.0]]])
+    session = Session(validate(points, name="torus.xyz"), look_ahead=False)
+    assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in run_notes(
+        session.run, session.history[0], notice="")
