@@ -297,8 +297,7 @@ def explanation_markdown(verdict: dict) -> str:
     for c in verdict.get("criteria", []):
         result = "n/a" if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
         lines.append(f"| {c['name']} | {c['value']} | {c['threshold']} | {result} |")
-    why = [f"- *{c['name']}*: {WHY[c['name']]}" for c in verdict.get("criteria", [])
-           if c["passed"] is False and c["name"] in WHY]
+    why = [f"- *{c['name']}*: {WHY[c['name']]}" for c in failed_criteria(verdict) if c["name"] in WHY]
     return "\n".join(lines + (["", "Why:"] + why if why else []))
 
 
