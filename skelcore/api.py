@@ -161,7 +161,9 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
                 progress: Callable[[str], None] | None = None, **params) -> Result:
     """Contract a cloud into its curve skeleton and judge the contraction; the pipeline of `skelcore run`.
 
-    points_or_path: an (n,3) array, a Cloud (from `load`) or a file path.
+    points_or_path: an (n,3) array, a Cloud (from `load`), an open3d or trimesh point cloud or triangle mesh
+      (a mesh is judged as a mesh file is: drawn over when its vertices do not stand for its surface), or a
+      file path.
     method: "lbc" (Cao et al. 2010) or "glskeleton" (Wen et al. 2024).
     weights: (n,) positive per-point contraction weights (a multiplier of W_L per point: point i's
       Laplacian row becomes W_L w_i L_i), aligned with the cloud's points.
@@ -175,7 +177,7 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       follow those points.
     sample_radius: the skeleton's ball radius, a fraction of the object's bounding-box diagonal
         (points far outside the bulk of the cloud left out).
-    sample: for a mesh file, as in `load` (default: its vertices where they cover its surface).
+    sample: for a mesh file or mesh object, as in `load` (default: its vertices where they cover its surface).
     drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing the input.
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.
@@ -203,7 +205,7 @@ def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weig
         raise ParameterError(f"parameter progress={progress!r}: must be a function of one line (such as print)")
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
-        points_or_path, labels = as_cloud(points_or_path, labels, options.drop_nonfinite), None
+        points_or_path, labels = as_cloud(points_or_path, labels, options.drop_nonfinite, options.sample), None
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
@@ -230,17 +232,34 @@ def contraction_params(method: str, params: dict) -> ContractionParams:
     return ContractionParams(method=method, **params).validated()
 
 
-def as_cloud(points_or_cloud, labels=None, drop_nonfinite: bool = False) -> io.Cloud:
-    """A Cloud from an (n,3) array (checked as a loaded file is) or a Cloud; `labels` replace its labels.
-    An array with repeated points loses the repeats (and their labels), as a file does; with `drop_nonfinite` its
-    NaN or Inf rows are left out (else refused)."""
+def as_cloud(points_or_cloud, labels=None, drop_nonfinite: bool = False, sample: int | None = None) -> io.Cloud:
+    """A Cloud from an (n,3) array or an open3d/trimesh cloud or mesh (checked as a loaded file is) or a Cloud;
+    `labels` replace its labels. An array with repeated points loses the repeats (and their labels), as a file
+    does; with `drop_nonfinite` its NaN or Inf rows are left out (else refused). sample: for a mesh, as in
+    `load` (ignored for points)."""
     if isinstance(points_or_cloud, io.Cloud):
         if labels is None:
             return points_or_cloud
         return dataclasses.replace(points_or_cloud, labels=as_labels(labels, len(points_or_cloud.points), "labels"))
     if isinstance(labels, (str, Path)):
         raise ParameterError("parameter labels: for an array input, give the labels as an array")
-    return io.validate(points_or_cloud, name="array", labels=labels, drop_nonfinite=drop_nonfinite)
+    points, faces, name = library_geometry(points_or_cloud)
+    return io.validate(points, faces, name=name, labels=labels, drop_nonfinite=drop_nonfinite,
+                       sample=None if faces is None else sample)
+
+
+def library_geometry(value) -> tuple:
+    """(points, faces or None, name) of an open3d or trimesh point cloud or triangle mesh, read by the attributes
+    those libraries give them (neither is imported); anything else is taken as an array of points."""
+    kind = type(value).__name__
+    if isinstance(value, np.ndarray) or not hasattr(value, "vertices") and not hasattr(value, "points"):
+        return value, None, "array"
+    if hasattr(value, "vertices") and hasattr(value, "faces"):  # trimesh.Trimesh
+        return np.asarray(value.vertices), np.asarray(value.faces), kind
+    if hasattr(value, "vertices") and hasattr(value, "triangles"):  # open3d.geometry.TriangleMesh
+        return np.asarray(value.vertices), np.asarray(value.triangles), kind
+    # open3d.geometry.PointCloud (.points), trimesh.PointCloud (.vertices)
+    return np.asarray(value.points if hasattr(value, "points") else value.vertices), None, kind
 
 
 def contract(points, method: str | None = None, *, weights=None, params: ContractionParams | None = None,

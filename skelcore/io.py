@@ -256,7 +256,8 @@ def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = 
     why = ([f"after dropping the {dropped} with NaN or Inf coordinates"] if dropped else []) + (
         [f"in voxels of {voxel_size:g} (a smaller voxel size keeps more)"] if voxel_size is not None else [])
     left = f" remain {' and '.join(why)}" if why else ""
-    return InputError(f"{name}: only {distinct} distinct points{left}, at least {MIN_POINTS} are needed")
+    return InputError(f"{name}: only {distinct} distinct point{'' if distinct == 1 else 's'}{left}, at least "
+                      f"{MIN_POINTS} are needed")
 
 
 def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
@@ -325,9 +326,11 @@ def _check_float32_steps(name: str, step: float, place: float, diagonal: float, 
 def as_points(value, name: str) -> np.ndarray:
     """`value` as a non-empty (n,3) float64 array of finite coordinates, or an InputError naming `name`."""
     try:
+        if np.iscomplexobj(value):
+            raise InputError(f"{name}: coordinates are complex numbers; give their real parts (np.real)")
         points = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: coordinates are not numbers") from None
+        raise InputError(f"{name}: coordinates are not numbers (got {type(value).__name__})") from None
     if points.size == 0:
         raise InputError(f"{name}: holds no points")
     if points.ndim != 2 or points.shape[1] != 3:

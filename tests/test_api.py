@@ -341,3 +341,27 @@ def test_a_run_whose_first_step_fails_is_an_error_not_a_result():
         skelcore.skeletonize(points, weights=np.full(len(points), 1e300))
     # the cause, not the words of a run that kept a good state: there is none
     assert "(the solve produced NaN)" in str(failure.value) and "kept" not in str(failure.value)
+
+
+def test_open3d_and_trimesh_clouds_and_meshes_are_taken_as_they_come():
+    """A robotics user holds an open3d PointCloud, a graphics user a trimesh mesh: both skeletonise without a
+    conversion (they were refused as "coordinates are not numbers"); a mesh is judged as a mesh file is."""
+    import open3d as o3d
+    import trimesh
+
+    torus = trimesh.creation.torus(1.0, 0.3)
+    points = trimesh.sample.sample_surface(torus, 3000, seed=0)[0]
+    clouds = (o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points)), trimesh.PointCloud(points))
+    meshes = (torus, o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(torus.vertices),
+                                               o3d.utility.Vector3iVector(torus.faces)))
+    for geometry in (*clouds, *meshes):
+        result = skelcore.skeletonize(geometry)
+        assert (result.topology["cycles"], result.topology["components"]) == (1, 1), type(geometry).__name__
+        assert result.cloud.name == type(geometry).__name__
+    sampled = skelcore.skeletonize(torus)  # 1,024 vertices in rings 2.6 sample radii apart: drawn over
+    assert len(sampled.cloud.points) == 10_000 and "points are drawn evenly over it" in sampled.cloud.notes[0]
+    assert len(skelcore.skeletonize(torus, sample=0).cloud.points) == len(torus.vertices)
+    with pytest.raises(InputError, match=r"^array: coordinates are complex numbers; give their real parts"):
+        skelcore.skeletonize(points.astype(complex))
+    with pytest.raises(InputError, match=r"^array: coordinates are not numbers \(got dict\)$"):
+        skelcore.skeletonize({"x": 1})
