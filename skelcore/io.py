@@ -214,6 +214,8 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
+    if faces is not None:  # the vertices as stored, before points drawn in float64 over them hide float32's rounding
+        _scaled(points, name)
     if sample is None and faces is not None:
         sample, note = points_to_draw(points, faces, labels is not None, cap, seed)
         notes += [note] if note else []

@@ -298,6 +298,20 @@ def test_float32_coordinates_coarser_than_a_skeleton_ball_are_refused():
     np.testing.assert_array_equal(io.validate(near, name="near").points, near)
 
 
+def test_a_float32_mesh_far_from_the_origin_is_refused_before_it_is_drawn_over(tmp_path):
+    """Every STL is float32: at 3e6 its vertices are rounded to steps of 0.25. Its surface was drawn over in
+    float64 first (the vertices leave it uncovered) and the refusal, made on the points, never came: the run went
+    on from the rounded mesh. The vertices are judged as stored."""
+    import trimesh
+
+    mesh = trimesh.creation.torus(1.0, 0.3)
+    mesh.apply_translation([3e6, 0, 0])
+    mesh.export(tmp_path / "far.stl")
+    with pytest.raises(InputError) as error:
+        io.load(tmp_path / "far.stl")
+    assert_one_line(error, "far.stl", "float32", "steps of 0.25", "subtract an offset such as (3000000, 0, 0)")
+
+
 def test_duplicates_removed_and_reported(tmp_path):
     points = sphere(100)
     doubled = np.concatenate([points, points[:30]])
