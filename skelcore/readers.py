@@ -17,6 +17,7 @@ they cannot be told from commas between numbers. Lines end in LF, CR LF, or CR a
 from __future__ import annotations
 
 import logging
+import os
 import re
 from pathlib import Path
 
@@ -68,6 +69,11 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray | None] | None:
             faces = _binary_triangles(handle, order, *elements[1][1:])
             if faces is None:
                 return None
+        extra = os.fstat(handle.fileno()).st_size - handle.tell()
+    if extra >= vertex_type.itemsize:  # a trailing newline is no vertex; a whole record more is a header's miscount
+        promised = f"{n_vertices:,} vertices" + (f" and {len(faces):,} faces" if faces is not None else "")
+        raise InputError(f"{path.name}: the header promises {promised}, the file holds {extra:,} bytes more after "
+                         f"them (room for {extra // vertex_type.itemsize:,} more vertices): its counts are wrong")
     points = np.column_stack([vertices[axis].astype(np.float64) for axis in axes])
     return points, faces
 

@@ -160,3 +160,20 @@ def test_decimal_commas_are_refused_not_read_as_more_columns(tmp_path):
         load(path)
     path.write_text("\n".join(",".join(f"{v:.6f}" for v in p) for p in points))  # commas between numbers: read
     np.testing.assert_allclose(load(path).points, points, atol=1e-6)
+
+
+def test_a_binary_ply_holding_more_vertices_than_its_header_counts_is_refused(tmp_path, cloud):
+    """Its header said 400 of its 500 vertices: the 100 after them were left out without a word. A trailing
+    newline, no whole vertex, is read as before."""
+    from skelcore.errors import InputError
+
+    points = cloud[0].astype("<f4")
+    header = "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n" \
+             "property float z\nend_header\n"
+    path = tmp_path / "miscounted.ply"
+    path.write_bytes(header.format(400).encode() + points.tobytes())
+    with pytest.raises(InputError, match=r"^miscounted.ply: the header promises 400 vertices, the file holds 1,200 "
+                                         r"bytes more after them \(room for 100 more vertices\): its counts are wrong$"):
+        io.load(path)
+    path.write_bytes(header.format(500).encode() + points.tobytes() + b"\n")
+    assert len(readers.read_ply(path)[0]) == 500
