@@ -96,7 +96,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 
     group.add_argument("--point-budget", type=int, default=POINT_BUDGET,
                        help="larger clouds are contracted as voxel centroids of about this many points, every input "
-                            "point carried along (multi-resolution; default: %(default)s)")
+                            "point carried along (multi-resolution; 0: never, as --full-resolution; default: "
+                            "%(default)s)")
     group.add_argument("--full-resolution", action="store_true",
                        help="contract every input point, whatever the cloud's size (no multi-resolution)")
 
