@@ -214,8 +214,6 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
-    if faces is not None:  # the vertices as stored, before points drawn in float64 over them hide float32's rounding
-        _scaled(points, name)
     if sample is None and faces is not None:
         sample, note = points_to_draw(points, faces, labels is not None, cap, seed)
         notes += [note] if note else []
@@ -228,6 +226,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
                              else f"{name}: surface sampling needs a mesh, but the file has no faces")
         if sample > cap:  # refused before drawing them: a huge sample would exhaust the memory first
             raise ParameterError(f"parameter sample={sample:,}: more points than the cap of {cap:,}")
+        _scaled(points, name)  # the vertices as stored: points drawn over them in float64 hide float32's rounding
         points = sample_surface(points, faces, int(sample), seed, name)[0]
         faces = None
         if note is None:  # the choice's own note says it
