@@ -95,10 +95,10 @@ class Analyses:
 
         def compute() -> Plots:
             history = self.session.metrics_upto(index, run)
-            figures = (_compact(report.histogram_figure(history[-1], "d_theta", iteration=state.iteration, fit=True)),
-                       _compact(report.histogram_figure(history[-1], "delta_kappa", iteration=state.iteration,
-                                                        fit=True)),
-                       report.convergence_figure(history).update_layout(CARD, height=None))
+            histograms = [_compact(report.histogram_figure(history[-1], measure, iteration=state.iteration, fit=True,
+                                                           of_points=len(run.cloud.points)))
+                          for measure in ("d_theta", "delta_kappa")]
+            figures = (*histograms, report.convergence_figure(history).update_layout(CARD, height=None))
             return Plots(figures, tuple(figure.to_json() for figure in figures))
         return self._cached(run, ("plots", index, state.params), compute)
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import threading
 import time
 
+import numpy as np
+
 from skelcore import display
 
 from . import compare, layout, status
@@ -214,7 +216,8 @@ class Presenter:
             playing = self._play_button()
             for viewer in self.all():
                 self._update_status(viewer, playing)
-            self.ui.log.content = "\n".join(f"- {line}" for line in self.session.log[-LOG_LINES:])
+            # newest first: at 1280x720 the tab shows the first few lines without scrolling the controls away
+            self.ui.log.content = "\n".join(f"- {line}" for line in reversed(self.session.log[-LOG_LINES:]))
 
     def update_status(self, viewer: Viewer) -> None:
         with self._status_lock:
@@ -273,11 +276,16 @@ class Presenter:
             return self.drawn[stage][1], self.drawn[stage][2]
 
     def fit(self, client) -> None:
-        """Frame the whole cloud in this client's view, keeping its viewing direction."""
+        """Frame the whole cloud in this client's view, keeping its viewing direction: the original points and
+        the contracted ones of the iteration shown (a step can fling some out of the original's box)."""
         if client is None:
             return
         camera = client.camera
-        framing = display.framing_camera(self.session.cloud.points, camera.look_at - camera.position, camera.fov,
+        viewer, run = self.viewer(client), self.session.run
+        points = self.session.cloud.points
+        if viewer is not None and 0 < viewer.shown < len(run.history):
+            points = np.concatenate([points, run.state(viewer.shown).points])
+        framing = display.framing_camera(points, camera.look_at - camera.position, camera.fov,
                                          camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction)
         camera.position = framing.position
         camera.look_at = framing.look_at

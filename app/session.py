@@ -21,12 +21,11 @@ from skelcore.clean import clean, cleaned
 from skelcore.api import Result
 from skelcore.contraction import IterationState, record
 from skelcore.errors import ParameterError
-from skelcore.evidence import skeleton_evidence
+from skelcore.evidence import input_evidence, skeleton_evidence
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
 from skelcore.options import RunOptions
-from skelcore.persistence import piece_counts
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
@@ -44,7 +43,7 @@ class Run:
     history: list[IterationState]
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
     evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
-    input_topology: dict[float, dict] = field(default_factory=dict)  # the input's, by skeleton radius: one per run
+    input_topology: dict[float, dict] = field(default_factory=dict)  # the input's, by skeleton gap unit: one per run
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
     weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
     label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any
@@ -366,10 +365,10 @@ class Session:
             key = (index, self.skeleton_params)
             if key not in run.evidence:
                 skeleton = self.skeleton(index, run)
-                if skeleton.radius not in run.input_topology:  # the same at every iteration: computed once
-                    run.input_topology[skeleton.radius] = {"pieces": piece_counts(run.cloud.points, skeleton.radius)}
+                if skeleton.gap not in run.input_topology:  # the same at every iteration: computed once
+                    run.input_topology[skeleton.gap] = input_evidence(run.cloud.points, skeleton.gap)
                 run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
-                                                      run.input_topology[skeleton.radius])
+                                                      run.input_topology[skeleton.gap])
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 

@@ -45,13 +45,14 @@ def empty_figure(title: str = ""):
 
 
 def histogram_figure(metrics, measure: str, iteration: int | None = None, title: str | None = None,
-                     fit: bool = False):
+                     fit: bool = False, of_points: int | None = None):
     """Histogram of one measure at one iteration, with its mean, median, target and significant peaks marked
     (lines named in the legend, so no two labels overlap).
 
     fit=True (an IterationMetrics only: it holds the values) spans the x axis over the values and the target
     rather than the measure's whole range, rebinned into as many bins, so an early iteration whose values
-    all sit near 0 is not one bar; peaks are marked only on the full-range histogram the verdict counts."""
+    all sit near 0 is not one bar; peaks are marked only on the full-range histogram the verdict counts.
+    of_points: the input's point count, said beside n where the metrics judged a sample of it."""
     import plotly.graph_objects as go
 
     key = measure_key(measure)
@@ -81,8 +82,10 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
                   (stats["median"], f"median {stats['median']:.3f}", dict(dash="dot", color="#111111", width=1.5))]
     for x, label, line in marks:
         figure.add_trace(go.Scatter(x=[x, x], y=[0, top], mode="lines", name=label, line=line, hoverinfo="name"))
+    judged = stats["n"] + stats.get("n_undefined", 0)
+    sampled = f" of {of_points:,}" if isinstance(of_points, (int, np.integer)) and of_points > judged else ""
     summary = (f"skew {_number(stats['skewness'])} · symmetry {_number(stats['symmetry'])} · "
-               f"peaks {peaks['count']} · n {stats['n']}")
+               f"peaks {peaks['count']} · n {stats['n']:,}{sampled}")
     heading = title or (name if iteration is None else f"{name}, iteration {iteration}")
     figure.update_layout(title=dict(text=heading, subtitle=dict(text=summary)), height=FIGURE_HEIGHT, bargap=0,
                          margin=dict(l=50, r=20, t=60, b=95), xaxis=dict(title=axis_label, range=shown_range),

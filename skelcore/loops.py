@@ -47,7 +47,9 @@ with thin handles, the mug and the chair read the same share with the band left 
 Before the disk, a cycle must be joined by the surface all round. A surface edge whose middle has no
 original point within the skeleton's sample radius r crosses empty space that the skeleton resolves (its
 ends lie more than r from that middle too): it is a jump across a gap of the scan, where the k-nearest
-one-rings reach over nothing (a twig's tip beside another branch, a partial scan's shadow), not surface.
+one-rings reach over nothing (a twig's tip beside another branch, a partial scan's shadow), not surface. In a
+cloud sparser than the skeleton's balls r is the points' spacing (the median surface edge) instead: there
+most edges have no point within a ball of their middle, over surface that is there.
 A cycle with an edge whose shortest supporting surface edge is such a jump is no loop of the shape,
 whatever its disk says: the walls of the branches it runs along cross it. A long edge over surface that is
 there (a sparse patch, the merged rings of GLSkeleton's reduction, a chord over points that went to another

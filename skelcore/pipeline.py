@@ -266,7 +266,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 clock.mark("contract")
                 surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
-                evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius)
+                evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
                 skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
                 clock.mark("skeleton")
             else:
@@ -284,7 +284,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 surface = original_surface(reduced[-1], reduction.points,
                                            None if probe_inside.exception() else probe_inside.result())
                 radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
-                evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius))
+                evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
+                                                                  surface.gap_unit(radius)))
                 skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
                 clock.mark("skeleton")
                 states = lifted.result()
@@ -293,7 +294,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             cache.result().forget(len(states))  # a run that ended on an earlier state drops the later ones
             metrics = cache.result().all(states)
             clock.mark("metrics")
-            source, cloud_parts = evidence.result() if radius == skeleton.radius else (None, None)
+            ahead = (radius, surface.gap_unit(radius)) == (skeleton.radius, skeleton.gap)
+            source, cloud_parts = evidence.result() if ahead else (None, None)
             evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts)
             clock.mark("evidence")
     except SkelError as error:

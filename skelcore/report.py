@@ -212,7 +212,8 @@ def _run_section(run: dict) -> str:
         ("Histograms across iterations (paper Fig. 2)",
          [histograms_over_iterations_figure(iterations, key) for key in MEASURES]),
         ("Final iteration: histograms and clouds (paper Figs. 3-4)",
-         [histogram_figure(final, key) for key in MEASURES] + [cloud_figure(run["original"], run["contracted"])]),
+         [histogram_figure(final, key, of_points=run["metrics"].get("n_points")) for key in MEASURES]
+         + [cloud_figure(run["original"], run["contracted"])]),
     ]
     if run["skeleton"] is not None:
         figures.append(("Curve skeleton (paper Fig. 5)", [skeleton_figure(run["skeleton"], run["contracted"])]))

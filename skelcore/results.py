@@ -120,7 +120,7 @@ def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
         attrs["pos"] = np.asarray(attrs["pos"]) * scale
     for _, _, attrs in graph.edges(data=True):
         attrs["length"] = attrs["length"] * scale
-    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale)
+    return dataclasses.replace(skeleton, graph=graph, radius=skeleton.radius * scale, gap=skeleton.gap * scale)
 
 
 def write_atomic(path: Path, write: Callable[[Path], None]) -> None:

@@ -52,7 +52,7 @@ class SkeletonParams:
     put_back_flung: bool = True
     cut_false_loops: bool = True  # cut cycles whose spanning disk the original surface does not cross
     # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
-    # within the sample radius of its middle (skelcore.loops)
+    # within the sample radius of its middle, or the points' spacing where larger (skelcore.loops)
     cut_jumps: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
@@ -98,6 +98,9 @@ class Skeleton:
     graph: nx.Graph  # nodes 0..m-1 with 'pos' (3,) and 'point_count'; edges with 'length'
     correspondence: np.ndarray  # (n,) node of every input point
     radius: float  # the sample radius in the user's units
+    # the narrowest gap of the input told from its surface: the radius, or a sparse cloud's larger point spacing
+    # (OriginalSurface.gap_unit); the unit in which the verdict reads the input's pieces
+    gap: float
     dropped: int = 0  # degree-2 nodes GLSkeleton's light graph left out (skelcore.refine.drop_collinear)
 
     def nodes_array(self) -> np.ndarray:
@@ -147,7 +150,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
         cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe,
-                        radius if params.cut_jumps else 0.0)
+                        known.gap_unit(radius) if params.cut_jumps else 0.0)
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
@@ -168,8 +171,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         offset = radius * math.sin(math.radians(params.collinear_angle))
         drawn = len(adj)
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle, offset)
-        return _finish(adj, xyz, node_of_point, radius, dropped=drawn - len(adj))
-    return _finish(adj, xyz, node_of_point, radius)
+        return _finish(adj, xyz, node_of_point, radius, known.gap_unit(radius), dropped=drawn - len(adj))
+    return _finish(adj, xyz, node_of_point, radius, known.gap_unit(radius))
 
 
 def _roots(parent: np.ndarray) -> np.ndarray:
@@ -180,8 +183,8 @@ def _roots(parent: np.ndarray) -> np.ndarray:
     return root
 
 
-def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radius: float, dropped: int = 0
-            ) -> Skeleton:
+def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radius: float, gap: float,
+            dropped: int = 0) -> Skeleton:
     """Relabel nodes 0..m-1 in order of their ids."""
     kept = np.array(sorted(adj), dtype=np.int64)
     label = np.full(len(xyz), -1, dtype=np.int64)
@@ -193,4 +196,4 @@ def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radi
     graph.add_nodes_from((i, {"pos": positions[i], "point_count": int(counts[i])}) for i in range(len(kept)))
     edges = [(int(label[u]), int(label[v])) for u in adj for v in adj[u] if u < v]
     graph.add_edges_from((a, b, {"length": float(np.linalg.norm(positions[a] - positions[b]))}) for a, b in edges)
-    return Skeleton(graph=graph, correspondence=correspondence, radius=radius, dropped=dropped)
+    return Skeleton(graph=graph, correspondence=correspondence, radius=radius, gap=gap, dropped=dropped)

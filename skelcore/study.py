@@ -128,8 +128,8 @@ def run_one(item: StudyInput, setting: str, auto_wl0: float | None = None, cache
     record["conventions"] = conventions
     skeleton_params = RunOptions(params=params).skeleton_params()
     skeleton = skeleton_of_state(states[-1], points, skeleton_params)
-    record["evidence"] = skeleton_evidence(skeleton, states[-1], points, cache.get("input"))
-    cache["input"] = {"pieces": record["evidence"]["input_pieces"]}
+    record["evidence"] = skeleton_evidence(skeleton, states[-1], points, cache.get(("input", skeleton.gap)))
+    cache[("input", skeleton.gap)] = {"pieces": record["evidence"]["input_pieces"]}
     record["truth"] = _truth(skeleton, item, evaluate, make_graph, record["evidence"]["nodes_with_dropped"])
     record["seconds"] = time.perf_counter() - started
     return record

@@ -4,11 +4,13 @@ Everything here depends on the input and its one-rings only, not on where the co
 points: for a run on one set of rings (LBC's, or GLSkeleton's between two reductions) it is the same at every
 iteration. Made once with `OriginalSurface.of` and passed to extract_skeleton, it is not worked out again for
 each iteration's skeleton (the inspector draws one per step): the validated edges and triangles, the surface's
-connected pieces, the object diagonal, the median edge length, the probe of false loops with the normals it
-has computed, and the convex hull and symmetric adjacency that finding flung points reads (skelcore.flung).
+connected pieces, the object diagonal, the median edge length (the points' spacing), the probe of false loops
+with the normals it has computed, and the convex hull and symmetric adjacency that finding flung points reads
+(skelcore.flung).
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -72,13 +74,24 @@ class OriginalSurface:
                              f"{len(self.points)})")
         return contracted
 
+    @functools.cached_property
+    def spacing(self) -> float:
+        """The median length of the surface's edges: the points' spacing along it (0 without edges)."""
+        if not len(self.edges):
+            return 0.0
+        return float(np.median(np.linalg.norm(self.points[self.edges[:, 0]] - self.points[self.edges[:, 1]], axis=1)))
+
+    def gap_unit(self, radius: float) -> float:
+        """The narrowest gap of the input a skeleton of ball radius `radius` tells from its surface: the radius,
+        or the points' spacing where a cloud sparser than the balls has a larger one (there most surface edges
+        have no point within a ball of their middle, over surface that is there)."""
+        return max(radius, self.spacing)
+
     @property
     def probe(self) -> SurfaceProbe:
         """The surface probe of false loops at the median edge length (its normals kept between skeletons)."""
         if self._probe is None:
-            spacing = float(np.median(np.linalg.norm(self.points[self.edges[:, 0]] - self.points[self.edges[:, 1]],
-                                                     axis=1)))
-            self._probe = SurfaceProbe(self.points, spacing, self.shared_inside)
+            self._probe = SurfaceProbe(self.points, self.spacing, self.shared_inside)
         return self._probe
 
     def hull_planes(self, inner: bool = False) -> np.ndarray | None:

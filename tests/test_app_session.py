@@ -115,9 +115,9 @@ def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
     from skelcore.evidence import skeleton_evidence
 
     inputs = []
-    real = session_module.piece_counts
-    monkeypatch.setattr(session_module, "piece_counts",
-                        lambda points, unit: inputs.append(points) or real(points, unit))
+    real = session_module.input_evidence
+    monkeypatch.setattr(session_module, "input_evidence",
+                        lambda points, gap: inputs.append(points) or real(points, gap))
     for _ in range(3):
         session.step()
     verdicts = [session.verdict(index, with_skeleton=True) for index in (1, 2, 3)]

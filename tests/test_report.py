@@ -241,3 +241,14 @@ def test_a_verdict_without_a_label_is_written_in_words():
     from skelcore.report import _verdict_html
 
     assert "none (no contraction step to judge)" in _verdict_html({"label": None, "reasons": []})
+
+
+def test_a_histogram_of_a_sample_says_how_many_points_the_input_has(history):
+    _, _, metrics = history
+    final = metrics[-1]
+    judged = final.d_theta_stats["n"] + final.d_theta_stats["n_undefined"]
+    subtitle = report.histogram_figure(final, "d_theta", of_points=judged + 10_000).layout.title.subtitle.text
+    assert subtitle.endswith(f"n {final.d_theta_stats['n']:,} of {judged + 10_000:,}")
+    for whole in (None, judged):  # every point judged: nothing to add
+        text = report.histogram_figure(final, "d_theta", of_points=whole).layout.title.subtitle.text
+        assert text.endswith(f"n {final.d_theta_stats['n']:,}")

@@ -12,6 +12,7 @@ from skelcore.evaluate import load_graph
 from skelcore.export import (polylines, skeleton_document, write_points_ply, write_skeleton, write_skeleton_graphml,
                              write_skeleton_obj)
 from skelcore.neighbours import one_rings
+from skelcore.normalise import object_diagonal
 from skelcore.refine import drop_collinear
 from skelcore.sampling import ball_cover_sampling
 from skelcore.shapes import make_shape
@@ -96,6 +97,32 @@ def test_a_loop_of_four_nodes_on_a_thin_torus_survives():
     skeleton = skeleton_of(contracted, original, sample_radius=0.3)  # r ~ 0.9: about 4 samples round the circle
     assert skeleton.graph.number_of_nodes() <= 6
     assert topology(skeleton) == {"components": 1, "cycles": 1, "junctions": 0, "ends": 0}
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_a_cloud_sparser_than_the_balls_keeps_its_loop(seed):
+    # 400 points on a torus: most surface edges are longer than two default radii (0.07), with no point within
+    # one of their middle; read as jumps over gaps of the scan, they cut the loop (both draws)
+    contracted, original = torus(n=400, seed=seed)
+    skeleton = skeleton_of(contracted, original)
+    assert topology(skeleton) == {"components": 1, "cycles": 1, "junctions": 0, "ends": 0}
+    assert skeleton.radius == pytest.approx(SkeletonParams.sample_radius * object_diagonal(original))
+
+
+def test_the_verdict_reads_a_sparse_clouds_pieces_at_its_spacing():
+    """The input's pieces at the sample radius: a 400-point torus falls apart into dozens; at its spacing, one."""
+    import types
+
+    from skelcore.evidence import skeleton_evidence
+    from skelcore.persistence import piece_counts
+    from skelcore.verdict import StabilityThresholds, count_pieces
+
+    contracted, original = torus(n=400)
+    skeleton = skeleton_of(contracted, original)
+    assert skeleton.gap > skeleton.radius
+    evidence = skeleton_evidence(skeleton, types.SimpleNamespace(points=contracted), original)
+    assert count_pieces(evidence["input_pieces"], StabilityThresholds()) == 1
+    assert count_pieces(piece_counts(original, skeleton.radius), StabilityThresholds()) > 10
 
 
 def test_genus_two_gives_two_loops():
