@@ -78,7 +78,8 @@ def animation_files(frames: list[np.ndarray], fps: float = ANIMATION_FPS) -> dic
     with tempfile.TemporaryDirectory(prefix="skel-inspect-") as tmp:
         path = Path(tmp) / "run.mp4"
         # imageio-ffmpeg's bundled ffmpeg; macro_block_size=1 keeps the exact frame size
-        iio.imwrite(path, np.stack(frames), extension=".mp4", fps=fps, codec="libx264", macro_block_size=1, quality=7)
+        iio.imwrite(path, np.stack(frames), extension=".mp4", fps=fps, codec="libx264", macro_block_size=1, quality=7,
+                    ffmpeg_log_level="error")  # not its warning that a few frames give no rate estimate
         mp4 = path.read_bytes()
     return {"gif": gif, "mp4": mp4}
 

@@ -18,6 +18,7 @@ import contextlib
 import time
 from pathlib import Path
 
+import numpy as np
 import viser
 
 from . import compare, layout
@@ -321,8 +322,10 @@ class Inspector:
         # one line: the status' first line counts the points
         self.ui.run.title.content = f"**skelcore inspector** &middot; {Path(cloud.name).name}"
         if cloud.points is not self._source:  # a new cloud: dense ones start thinned
+            # the same points loaded again (an asset reloaded) keep the pinned run to compare with
+            reloaded = self._source is not None and np.array_equal(cloud.points, self._source)
             self._source = cloud.points
-            if self.presenter.pinned is not None:  # its skeleton and metrics are another object's
+            if self.presenter.pinned is not None and not reloaded:  # its skeleton and metrics are another object's
                 self._unpin()
             opacity = auto_opacity(len(cloud.points))
             self.ui.view.opacity["original"].value = opacity

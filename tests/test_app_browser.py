@@ -731,6 +731,11 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
         later.context.close()
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
+    # the same points loaded again (a bundled asset reloaded): the pinned run is of them, so it stays
+    pinned = inspector.presenter.pinned
+    inspector.open(inspector.module_cloud)
+    inspector.wait_idle()
+    assert inspector.presenter.pinned is pinned and page.viewer.ui.plots.pin.label == PIN_AGAIN
     # another cloud: the pinned run is of the one before, so it is let go
     inspector.open(validate(make_shape("capsule", 800).points, name="capsule.xyz"))
     try:

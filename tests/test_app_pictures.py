@@ -119,3 +119,11 @@ def test_a_picture_names_the_verdict_the_panel_shows(monkeypatch):
     viewer = setting(client=client, view=setting(picture=contextlib.nullcontext))
     Delivery(session, files, None, None, None, None, lambda *_: "")._render(viewer, 1)
     assert captions[-1][2] == panel
+
+
+def test_an_animation_of_a_few_large_frames_is_written_without_ffmpeg_chatter(capfd):
+    """ffmpeg warns that five frames give no rate estimate: harmless, but it read as an error in the server's log."""
+    frames = [np.full((720, 1280, 3), shade, dtype=np.uint8) for shade in range(0, 250, 50)]
+    files = export.animation_files(frames)
+    assert files["mp4"] and files["gif"]
+    assert "probesize" not in capfd.readouterr().err
