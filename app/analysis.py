@@ -88,19 +88,23 @@ class Analyses:
         return self._cached(run, ("readiness", index, state.termination), compute if compute else lambda: None)
 
     def plots(self, run: Run, index: int) -> Plots:
-        """The figures of history[index], or of the state computed ahead (index len(history)). Keyed by the
-        state's parameters too: a state ahead computed again with others is another state (the same parameters
-        give the same state)."""
+        """The figures of history[index], or of the state computed ahead (index len(history)): its histograms, and
+        the convergence of the run so far with that iteration marked (scrubbed back, the later ones are still
+        shown). Keyed by the state's parameters too (a state ahead computed again with others is another state;
+        the same parameters give the same state) and by the last iteration plotted, which the state ahead shares
+        with the newest state it becomes."""
         state = run.state(index)
+        last = max(index, len(run.history) - 1)
 
         def compute() -> Plots:
-            history = self.session.metrics_upto(index, run)
-            histograms = [_compact(report.histogram_figure(history[-1], measure, iteration=state.iteration, fit=True,
-                                                           of_points=len(run.cloud.points)))
+            history = self.session.metrics_upto(last, run)
+            histograms = [_compact(report.histogram_figure(history[index], measure, iteration=state.iteration,
+                                                           fit=True, of_points=len(run.cloud.points)))
                           for measure in ("d_theta", "delta_kappa")]
-            figures = (*histograms, report.convergence_figure(history).update_layout(CARD, height=None))
+            convergence = report.convergence_figure(history, shown=state.iteration if index < last else None)
+            figures = (*histograms, convergence.update_layout(CARD, height=None))
             return Plots(figures, tuple(figure.to_json() for figure in figures))
-        return self._cached(run, ("plots", index, state.params), compute)
+        return self._cached(run, ("plots", index, state.params, last), compute)
 
     def colours(self, run: Run, index: int, quantity: str, on_original: bool) -> Colours:
         """Colours of one of COLOUR_RANGES' quantities, for every point (the sample's values carried to the

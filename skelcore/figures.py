@@ -130,9 +130,11 @@ def histograms_over_iterations_figure(iterations, measure: str, title: str | Non
     return figure
 
 
-def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityThresholds(), title: str | None = None):
+def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityThresholds(), title: str | None = None,
+                       shown: int | None = None):
     """Means of D_theta (toward 0.5) and delta_kappa (toward 0) per iteration, each marker coloured by the
-    iteration's verdict, the tolerance band around each target shaded."""
+    iteration's verdict, the tolerance band around each target shaded; `shown`: an iteration marked by a dotted
+    line (the one a viewer shows, when it is not the last)."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
@@ -152,6 +154,8 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
                                     text=labels, hovertemplate="iteration %{x}: %{y:.4f} (%{text})<extra></extra>"),
                          row=row, col=1)
     _verdict_legend(figure)
+    if shown is not None:
+        figure.add_vline(x=shown, line_dash="dot", line_color="#111111", line_width=1.5)
     figure.update_yaxes(range=list(D_THETA_RANGE), row=1, col=1)
     figure.update_yaxes(range=[-0.15, 0.15], row=2, col=1)
     figure.update_xaxes(title_text="iteration", dtick=1, row=2, col=1)

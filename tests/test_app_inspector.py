@@ -240,3 +240,28 @@ def test_fit_view_frames_the_contracted_points_of_the_iteration_shown_too(cloud,
         inspector.presenter.viewers.pop(-1, None)
         inspector.close()
         server.stop()
+
+
+def test_scrubbed_back_the_convergence_shows_the_whole_run_with_the_iteration_marked(cloud):
+    """The histograms are of the iteration shown; the convergence goes on to the newest, the shown one marked."""
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, look_ahead=False))
+    try:
+        assert inspector.wait_idle(120)
+        for _ in range(3):
+            inspector.session.step()
+        run = inspector.session.run
+        theta, _, convergence = inspector.presenter.analyses.plots(run, 1).figures
+        assert theta.layout.title.text.endswith("iteration 1")
+        assert list(convergence.data[0].x) == [state.iteration for state in run.history]
+        assert [(shape.x0, shape.type) for shape in convergence.layout.shapes if shape.yref.endswith("domain")] == [
+            (1, "line"), (1, "line")]
+        newest = inspector.presenter.analyses.plots(run, len(run.history) - 1).figures[2]
+        assert not [shape for shape in newest.layout.shapes if shape.yref.endswith("domain")]
+    finally:
+        inspector.close()
+        server.stop()

@@ -252,3 +252,11 @@ def test_a_histogram_of_a_sample_says_how_many_points_the_input_has(history):
     for whole in (None, judged):  # every point judged: nothing to add
         text = report.histogram_figure(final, "d_theta", of_points=whole).layout.title.subtitle.text
         assert text.endswith(f"n {final.d_theta_stats['n']:,}")
+
+
+def test_the_convergence_marks_the_iteration_shown(history):
+    _, _, metrics = history
+    lines = lambda figure: sorted((shape.xref, shape.x0) for shape in figure.layout.shapes
+                                  if shape.type == "line" and shape.yref.endswith("domain"))
+    assert lines(report.convergence_figure(metrics, shown=1)) == [("x", 1), ("x2", 1)]  # on both means
+    assert lines(report.convergence_figure(metrics)) == []
