@@ -181,3 +181,14 @@ def test_a_verdict_other_than_stable_names_the_criteria_it_failed(tmp_path, asse
     assert lines[-1].startswith("  not yet converged: mean D_theta 0.") and lines[-1].endswith(" (target 0.5 within 0.25)")
     assert main(["run", str(assets_dir / "torus.ply"), "--out", str(tmp_path / "all")]) == 0
     assert capsys.readouterr().out.splitlines()[-1].split("; ")[-2] == "verdict stable"
+
+
+def test_a_cloud_sparser_than_the_skeletons_balls_is_said_to_be(tmp_path, assets_dir, capsys):
+    """A few hundred points on a torus lie farther apart than the sample radius: the run says what that costs."""
+    points = make_shape("torus", 400, seed=0).points
+    np.savetxt(tmp_path / "sparse.xyz", points)
+    assert main(["run", str(tmp_path / "sparse.xyz"), "--out", str(tmp_path / "sparse")]) == 0
+    said = [line for line in capsys.readouterr().out.splitlines() if "a sparse cloud" in line]
+    assert len(said) == 1 and "more than the skeleton's sample radius (2.0%)" in said[0]
+    assert main(["run", str(assets_dir / "torus.ply"), "--out", str(tmp_path / "dense")]) == 0
+    assert "a sparse cloud" not in capsys.readouterr().out
