@@ -205,6 +205,8 @@ class Presenter:
                                       readiness.provisional)
             viewer.client.flush()
             self.mark("skeleton", viewer, run, index)
+            if skeleton.gap > skeleton.radius:  # the notes say so once a skeleton has read the surface
+                self.update_status(viewer)
         verdict = self.session.verdict(index, run, with_skeleton=index > 0)  # the skeleton's checks complete it
         if viewer.showing(run, index):
             viewer.show_verdict(verdict)
@@ -243,7 +245,9 @@ class Presenter:
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)
         self.ui.pending.content = status.pending_markdown(session)
-        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points))
+        # a sparse cloud: known once a skeleton of the run has read its surface
+        sparse = "" if run.surface is None else run.surface[2].sparse_note(session.sample_radius)
+        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), sparse)
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)
 

@@ -79,12 +79,14 @@ def pending_markdown(session) -> str:
     return session.pending and f"**Pending:** {session.pending}"
 
 
-def run_notes(run, state, notice: str) -> str:
+def run_notes(run, state, notice: str, sparse: str = "") -> str:
     """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what loading and cleaning
-    did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), the
-    contraction at reduced resolution, the points held on thin handles, what the view leaves out (`notice`) and
-    the figures the run ended on."""
-    input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".") for note in run.cloud.notes]
+    did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), a cloud
+    sparser than the skeleton's balls (`sparse`, OriginalSurface.sparse_note), the contraction at reduced
+    resolution, the points held on thin handles, what the view leaves out (`notice`) and the figures the run
+    ended on."""
+    input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
+                   for note in [*run.cloud.notes, *filter(None, [sparse])]]
     reduction = run.reduction
     reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
                f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")

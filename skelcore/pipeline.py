@@ -298,11 +298,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             source, cloud_parts = evidence.result() if ahead else (None, None)
             evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts)
             clock.mark("evidence")
-            if skeleton.gap > skeleton.radius:
-                _say(progress, f"{cloud.name}: a sparse cloud: its points lie {skeleton.gap / surface.diagonal:.1%} "
-                               f"of the diagonal apart, more than the skeleton's sample radius "
-                               f"({skeleton.radius / surface.diagonal:.1%}); gaps and holes narrower than that "
-                               f"spacing are not told from surface")
+            sparse = surface.sparse_note(options.sample_radius)
+            if sparse:
+                _say(progress, f"{cloud.name}: {sparse}")
     except SkelError as error:
         raise named(error, cloud.name) from None
     return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence)

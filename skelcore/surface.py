@@ -87,6 +87,16 @@ class OriginalSurface:
         have no point within a ball of their middle, over surface that is there)."""
         return max(radius, self.spacing)
 
+    def sparse_note(self, sample_radius: float) -> str:
+        """What a skeleton of ball radius `sample_radius` (a fraction of the diagonal) cannot resolve in a cloud
+        sparser than its balls, in words ("" when the cloud is not)."""
+        radius = sample_radius * self.diagonal
+        if self.gap_unit(radius) <= radius:
+            return ""
+        return (f"a sparse cloud: its points lie {self.spacing / self.diagonal:.1%} of the diagonal apart, more than "
+                f"the skeleton's sample radius ({sample_radius:.1%}); gaps and holes narrower than that spacing are "
+                f"not told from surface")
+
     @property
     def probe(self) -> SurfaceProbe:
         """The surface probe of false loops at the median edge length (its normals kept between skeletons)."""

@@ -293,3 +293,16 @@ def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
     session = Session(validate(points, name="torus.xyz"), look_ahead=False)
     assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in run_notes(
         session.run, session.history[0], notice="")
+
+
+def test_about_this_run_says_a_cloud_is_sparser_than_the_skeletons_balls():
+    """As `skelcore run` says it; known once a skeleton of the run has read the surface."""
+    sparse = Session(validate(make_shape("torus", 400, seed=0).points, name="sparse.xyz"), look_ahead=False)
+    dense = Session(validate(make_shape("torus", 3000, seed=0).points, name="dense.xyz"), look_ahead=False)
+    for session in (sparse, dense):
+        session.step()
+        session.skeleton(1)
+    note = sparse.run.surface[2].sparse_note(sparse.sample_radius)
+    assert note.startswith("a sparse cloud: its points lie ")
+    assert f"A{note[1:]}." in run_notes(sparse.run, sparse.history[1], notice="", sparse=note)
+    assert dense.run.surface[2].sparse_note(dense.sample_radius) == ""
