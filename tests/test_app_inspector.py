@@ -1,6 +1,8 @@
 """The inspector without a browser: a viser server, and a stand-in for a browser where a test needs one."""
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -186,72 +188,66 @@ def test_the_iteration_slider_marks_no_end_before_the_first_step():
         server.stop()
 
 
-def test_the_log_tab_shows_the_newest_line_first(cloud):
-    """At 1280x720 the Log tab holds a few lines before the control panel scrolls: the newest go on top."""
+@contextlib.contextmanager
+def served(cloud):
+    """An idle inspector on `cloud` (no look-ahead) with its own viser server, closed afterwards."""
     import viser
 
     from app.inspector import Inspector
-    from app.presenter import LOG_LINES
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     inspector = Inspector(server, Session(cloud, look_ahead=False))
     try:
         assert inspector.wait_idle(120)
+        yield inspector
+    finally:
+        inspector.close()
+        server.stop()
+
+
+def test_the_log_tab_shows_the_newest_line_first(cloud):
+    """At 1280x720 the Log tab holds a few lines before the control panel scrolls: the newest go on top."""
+    from app.presenter import LOG_LINES
+
+    with served(cloud) as inspector:
         inspector.open(validate(cloud.points[::2], name="half.xyz"))
         assert inspector.wait_idle(120)
         inspector.presenter.update_statuses()
         lines = inspector.ui.log.content.split("\n")
         assert lines == [f"- {line}" for line in inspector.session.log[::-1][:LOG_LINES]] and len(lines) >= 2
-    finally:
-        inspector.close()
-        server.stop()
 
 
 def test_fit_view_frames_the_contracted_points_of_the_iteration_shown_too(cloud, monkeypatch):
     """A step can fling contracted points out of the original's box: Fit view keeps them in the picture."""
     import types
 
-    import viser
-
     import app.presenter as presenter_module
-    from app.inspector import Inspector
 
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    inspector = Inspector(server, Session(cloud, look_ahead=False))
     framed = []
     real = presenter_module.display.framing_camera
     monkeypatch.setattr(presenter_module.display, "framing_camera",
                         lambda points, *args, **kwargs: framed.append(points) or real(points, *args, **kwargs))
-    try:
-        assert inspector.wait_idle(120)
+    with served(cloud) as inspector:
         for _ in range(2):
             inspector.session.step()
         camera = types.SimpleNamespace(look_at=np.zeros(3), position=np.array([0.0, -5.0, 0.0]), fov=0.9, aspect=1.5,
                                        up_direction=np.array([0.0, 0.0, 1.0]))
         client = types.SimpleNamespace(client_id=-1, camera=camera)
         inspector.presenter.viewers[-1] = types.SimpleNamespace(shown=2)
-        inspector.presenter.fit(client)
-        contracted = inspector.session.run.state(2).points
-        assert np.array_equal(framed[-1], np.concatenate([inspector.session.cloud.points, contracted]))
-        inspector.presenter.viewers[-1].shown = 0  # the input alone
-        inspector.presenter.fit(client)
-        assert np.array_equal(framed[-1], inspector.session.cloud.points)
-    finally:
-        inspector.presenter.viewers.pop(-1, None)
-        inspector.close()
-        server.stop()
+        try:
+            inspector.presenter.fit(client)
+            contracted = inspector.session.run.state(2).points
+            assert np.array_equal(framed[-1], np.concatenate([inspector.session.cloud.points, contracted]))
+            inspector.presenter.viewers[-1].shown = 0  # the input alone
+            inspector.presenter.fit(client)
+            assert np.array_equal(framed[-1], inspector.session.cloud.points)
+        finally:
+            inspector.presenter.viewers.pop(-1)
 
 
 def test_scrubbed_back_the_convergence_shows_the_whole_run_with_the_iteration_marked(cloud):
     """The histograms are of the iteration shown; the convergence goes on to the newest, the shown one marked."""
-    import viser
-
-    from app.inspector import Inspector
-
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    inspector = Inspector(server, Session(cloud, look_ahead=False))
-    try:
-        assert inspector.wait_idle(120)
+    with served(cloud) as inspector:
         for _ in range(3):
             inspector.session.step()
         run = inspector.session.run
@@ -262,6 +258,3 @@ def test_scrubbed_back_the_convergence_shows_the_whole_run_with_the_iteration_ma
             (1, "line"), (1, "line")]
         newest = inspector.presenter.analyses.plots(run, len(run.history) - 1).figures[2]
         assert not [shape for shape in newest.layout.shapes if shape.yref.endswith("domain")]
-    finally:
-        inspector.close()
-        server.stop()
