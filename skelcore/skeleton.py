@@ -140,6 +140,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     contracted = known.checked(contracted)
     original, edges, triangles = known.points, known.edges, known.triangles
     radius = params.sample_radius * known.diagonal
+    gap = known.gap_unit(radius)
     if params.put_back_flung:
         contracted = put_back(contracted, known)
 
@@ -150,7 +151,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
         cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe,
-                        known.gap_unit(radius) if params.cut_jumps else 0.0)
+                        gap if params.cut_jumps else 0.0)
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
@@ -171,8 +172,8 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         offset = radius * math.sin(math.radians(params.collinear_angle))
         drawn = len(adj)
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle, offset)
-        return _finish(adj, xyz, node_of_point, radius, known.gap_unit(radius), dropped=drawn - len(adj))
-    return _finish(adj, xyz, node_of_point, radius, known.gap_unit(radius))
+        return _finish(adj, xyz, node_of_point, radius, gap, dropped=drawn - len(adj))
+    return _finish(adj, xyz, node_of_point, radius, gap)
 
 
 def _roots(parent: np.ndarray) -> np.ndarray:
