@@ -31,6 +31,7 @@ from scipy.sparse import coo_matrix, csr_array
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
+from . import density
 from .skeleton import SkeletonParams
 
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
@@ -41,12 +42,6 @@ SURROUNDED = 0.5  # length of the mean unit direction to them, below which they 
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
 HOLLOW = 1 / 3  # a closed cross-section's points lie at least this share of their mean distance from its centroid,
 STRAY = 0.1  # all but at most this share of them (noise scatters a few of a wall's points inwards)
-# thin_tubes thins a part whose cells of a quarter radius hold more than DENSE times the points of the typical
-# occupied cell: there a scale's ball holds that many times more points than elsewhere, and each probe, as many
-# times more of them are probes, judges them all (in an evenly sampled cloud no cell comes near: at a typical
-# count of 2, a cell holds 17 or more once in 10^11)
-DENSE = 16
-CELLS_PER_RADIUS = 4
 
 
 def probe_ids(count: int, seed: int = 0) -> np.ndarray:
@@ -177,42 +172,19 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     not draw as a curve; and so are those that close no loop of the input (`_closing_loops`, over its surface
     `edges` (e, 2)): a limb or a tail ends, and the hold (thin_parts) keeps its end.
 
-    A part far denser than the rest (`_density_capped`: a small object beside a large one, a patch a scanner
-    dwelt on) is judged on a thinned copy of it, each of its points taking the anchor of its nearest point kept:
-    every probe there would see all of its points, and the work and memory grew as their square (10,000 points
-    in a ball: 45 s and 5 GB)."""
-    capped = _density_capped(points, radius)
-    if capped is None:
+    A part far denser than the rest (skelcore.density: a small object beside a large one, a patch a scanner
+    dwelt on) is judged on a copy thinned to the density cap, each of its points taking the anchor of its nearest
+    point kept: every probe there would see all of its points, and the work and memory grew as their square."""
+    kept = density.capped(points, radius / density.CELLS_PER_RADIUS)
+    if kept is None:
         return _thin_tubes_judged(points, radius, edges, k)
-    kept, representative = capped
-    joined = representative[edges]
-    joined = np.unique(np.sort(joined[joined[:, 0] != joined[:, 1]], axis=1), axis=0)
-    return _thin_tubes_judged(points[kept], radius, joined, k)[representative]
-
-
-def _density_capped(points: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """(ids of the points kept, each point's nearest kept one as an index into them) where some cell of a grid of
-    a quarter `radius` (far below what thin_tubes resolves) holds more than DENSE times as many points as the
-    median occupied cell: those cells keep that many, a fixed random choice. The median of the cells, not of the
-    points: where a small part holds half the points, the typical point lies in it. None where no cell is so
-    dense, so an evenly sampled cloud is judged as it is."""
-    _, cell = np.unique(np.floor((points - points.min(axis=0)) / (radius / CELLS_PER_RADIUS)).astype(np.int64),
-                        axis=0, return_inverse=True)
-    cell = cell.ravel()
-    counts = np.bincount(cell)
-    cap = DENSE * int(np.median(counts))
-    if counts.max() <= cap:
-        return None
-    # the first `cap` points of each cell in a fixed random order
-    order = np.random.default_rng(0).permutation(len(points))
-    order = order[np.argsort(cell[order], kind="stable")]
-    rank = np.arange(len(points)) - np.repeat(np.cumsum(counts) - counts, counts)
-    kept = np.sort(order[rank < cap])
     representative = np.empty(len(points), dtype=np.int64)
     representative[kept] = np.arange(len(kept))
     dropped = np.setdiff1d(np.arange(len(points)), kept)
     representative[dropped] = cKDTree(points[kept]).query(points[dropped], workers=-1)[1]
-    return kept, representative
+    joined = representative[edges]
+    joined = np.unique(np.sort(joined[joined[:, 0] != joined[:, 1]], axis=1), axis=0)
+    return _thin_tubes_judged(points[kept], radius, joined, k)[representative]
 
 
 def _thin_tubes_judged(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> np.ndarray:
