@@ -62,6 +62,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 
 import networkx as nx
 import numpy as np
@@ -286,10 +287,12 @@ def segment_distance(points: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.nda
 
 
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
-                    probe: SurfaceProbe, radius: float = 0.0) -> int:
+                    probe: SurfaceProbe, radius: float = 0.0,
+                    disk_probe: Callable[[int], SurfaceProbe] | None = None) -> int:
     """Cut every cycle of `adj` that is no loop of the shape (see the module's rules) at its weakest edge,
     shortest cycles first, until every cycle left is a loop. `radius`: the skeleton's sample radius, the
-    empty space a jump crosses (0: no jumps). Returns the number of cuts."""
+    empty space a jump crosses (0: no jumps). disk_probe: the probe that judges the disk of a cycle through a
+    given node (OriginalSurface.probe_of_piece of its piece; None: `probe`). Returns the number of cuts."""
     ends = node_of_point[edges].reshape(-1, 2)
     low, high = ends.min(axis=1), ends.max(axis=1)
     m = len(xyz)
@@ -312,8 +315,9 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
                 key = frozenset(cycle)
                 if key not in judged:
                     corners = np.array([xyz[node] for node in ordered])
-                    judged[key] = (probe.crossings(corners) >= CROSSING_POINTS
-                                   and probe.open_share(corners) >= OPEN_SHARE)
+                    disk = probe if disk_probe is None else disk_probe(ordered[0])
+                    judged[key] = (disk.crossings(corners) >= CROSSING_POINTS
+                                   and disk.open_share(corners) >= OPEN_SHARE)
                 if not judged[key]:
                     false_cycles.append(ordered)
             if false_cycles and minimum:  # one cut at a time, the basis found again: the shortest false cycle first

@@ -150,8 +150,11 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     collapse_to_graph(complex_)
     adj, parent = complex_.nbr, complex_.parent
     if params.cut_false_loops and len(edges):
-        cut_false_loops(adj, xyz, _roots(parent)[owner], edges, known.probe,
-                        gap if params.cut_jumps else 0.0)
+        node_of_point = _roots(parent)[owner]
+        node_piece = np.zeros(len(xyz), dtype=np.int64)
+        node_piece[node_of_point] = known.pieces[1]  # a node's points lie on one piece (ball_cover_by_piece)
+        cut_false_loops(adj, xyz, node_of_point, edges, known.probe, gap if params.cut_jumps else 0.0,
+                        lambda node: known.probe_of_piece(int(node_piece[node])))
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:

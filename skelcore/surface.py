@@ -5,7 +5,7 @@ points: for a run on one set of rings (LBC's, or GLSkeleton's between two reduct
 iteration. Made once with `OriginalSurface.of` and passed to extract_skeleton, it is not worked out again for
 each iteration's skeleton (the inspector draws one per step): the validated edges and triangles, the surface's
 connected pieces, the object diagonal, the median edge length (the points' spacing), the probe of false loops
-with the normals it has computed, and the convex hull and symmetric adjacency that finding flung points reads
+with the normals it has computed (and a piece's own, where it is sampled far more finely than the cloud), and the convex hull and symmetric adjacency that finding flung points reads
 (skelcore.flung).
 """
 from __future__ import annotations
@@ -21,10 +21,11 @@ from scipy.spatial import ConvexHull, QhullError
 from .collapse import surface_triangles
 from .errors import InputError
 from .inside import InsideTest
-from .io import as_points
+from .io import MIN_POINTS, as_points
 from .loops import SurfaceProbe
 from .normalise import object_diagonal
 
+FINER = 2.0  # a piece sampled more finely than the cloud by this factor has its loops judged at its own spacing
 HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (hull_planes)
 
 
@@ -40,6 +41,7 @@ class OriginalSurface:
     _probe: SurfaceProbe | None = field(default=None, repr=False)
     _hulls: dict = field(default_factory=dict, repr=False)  # "inner", "whole": face planes (None: flat)
     _adjacency: sp.csr_matrix | None = field(default=None, repr=False)
+    _piece_probes: dict = field(default_factory=dict, repr=False)  # piece -> the probe its loops are judged by
 
     @classmethod
     def of(cls, original, surface, shared_inside: InsideTest | None = None) -> "OriginalSurface":
@@ -103,6 +105,23 @@ class OriginalSurface:
         if self._probe is None:
             self._probe = SurfaceProbe(self.points, self.spacing, self.shared_inside)
         return self._probe
+
+    def probe_of_piece(self, piece: int) -> SurfaceProbe:
+        """The probe a loop on surface piece `piece` (of `pieces`) is judged by: `probe`, or where the piece is
+        sampled more than FINER times as finely as the cloud (a small object beside a large one), one over the
+        piece's own points at its own spacing. The cloud's probe reads open space within one of the cloud's
+        spacings of the surface as solid, and a small object's hole can be narrower than that (a torus a tenth the
+        size of the other in its cloud: its hole read 0% open, and its loop was cut)."""
+        if piece not in self._piece_probes:
+            count, labels = self.pieces
+            probe = self.probe
+            own = self.edges[labels[self.edges[:, 0]] == piece] if count > 1 else self.edges[:0]
+            if len(own) and np.count_nonzero(labels == piece) >= MIN_POINTS:
+                spacing = float(np.median(np.linalg.norm(self.points[own[:, 0]] - self.points[own[:, 1]], axis=1)))
+                if FINER * spacing < self.spacing:
+                    probe = SurfaceProbe(self.points[labels == piece], spacing)
+            self._piece_probes[piece] = probe
+        return self._piece_probes[piece]
 
     def hull_planes(self, inner: bool = False) -> np.ndarray | None:
         """(f, 4) face planes of the convex hull of the original points, rows (n, d) with n.x + d <= 0 inside and n a
