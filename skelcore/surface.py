@@ -5,8 +5,8 @@ points: for a run on one set of rings (LBC's, or GLSkeleton's between two reduct
 iteration. Made once with `OriginalSurface.of` and passed to extract_skeleton, it is not worked out again for
 each iteration's skeleton (the inspector draws one per step): the validated edges and triangles, the surface's
 connected pieces, the object diagonal, the median edge length (the points' spacing), the probe of false loops
-with the normals it has computed (and a piece's own, where it is sampled far more finely than the cloud), and the convex hull and symmetric adjacency that finding flung points reads
-(skelcore.flung).
+with the normals it has computed (and a piece's own, where it is sampled far more finely than the cloud), and the
+convex hull and symmetric adjacency that finding flung points reads (skelcore.flung).
 """
 from __future__ import annotations
 

@@ -152,8 +152,8 @@ def test_a_handles_ends_are_those_of_its_axis_not_of_a_stray_position():
 def test_a_patch_far_denser_than_the_rest_is_judged_thinned():
     """A scanner that dwelt on one spot: 10,000 more points on a patch of the ball 0.1 across, where every probe
     would see all of them (work and memory as their square: the judgement took 20 s and 3.5 GB, now 0.2 s). The
-    patch is judged thinned to the density cap (the ball's points away from it all kept), and the handles are anchored as
-    without it; no point of the ball (the patch's included) is."""
+    patch is judged thinned to the density cap (the ball's points away from it all kept), and the handles are
+    anchored as without it; no point of the ball (the patch's included) is."""
     from skelcore import density
     from skelcore.solids import solid_shape
 
