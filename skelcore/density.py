@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .multires import voxel_rows
 from .normalise import SAMPLE_RADIUS, object_diagonal
 
 # A cell holding more than DENSE times the points of the median occupied cell is over-dense. At a typical count of
@@ -30,8 +29,7 @@ def cell_size(points: np.ndarray) -> float:
 def capped(points: np.ndarray, cell: float) -> np.ndarray | None:
     """Ids (ascending) of the points kept when every cell of edge `cell` keeps at most DENSE times the points of the
     median occupied cell, the first of a fixed random order; None when no cell holds more."""
-    rows, count = voxel_rows(points, points.min(axis=0), cell)
-    counts = np.bincount(rows, minlength=count)
+    rows, counts = _cells(points, cell)
     cap = DENSE * int(np.median(counts))
     if counts.max() <= cap:
         return None
@@ -39,6 +37,17 @@ def capped(points: np.ndarray, cell: float) -> np.ndarray | None:
     order = order[np.argsort(rows[order], kind="stable")]
     rank = np.arange(len(points)) - np.repeat(np.cumsum(counts) - counts, counts)
     return np.sort(order[rank < cap])
+
+
+def _cells(points: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the row of each point's cell of edge `cell`, numbered in key order; the points of each cell). A cell's
+    three indices are packed into one integer, 21 bits apiece, which tells apart any two cells fewer than 2^20
+    apart on every axis (an object spans a few hundred) however far from the origin; so a far-flung stray point
+    neither overflows a grid nor stretches one over the empty space between it and the object."""
+    cells = np.clip(np.floor(points / cell), -(2.0**62), 2.0**62).astype(np.int64)
+    keys = (cells[:, 0] << 42) + (cells[:, 1] << 21) + cells[:, 2]  # wraps past 64 bits, as a packing may
+    _, rows, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    return rows.ravel(), counts
 
 
 def counted(points: np.ndarray) -> np.ndarray:

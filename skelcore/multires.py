@@ -163,7 +163,7 @@ def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduc
     size = extent / np.sqrt(budget)  # a surface's voxel count goes as size^-2
     best, previous, slope = None, None, -2.0
     for _ in range(VOXEL_ROUNDS):
-        voxel_of, count = voxel_rows(points, low, size)
+        voxel_of, count = _voxels(points, low, size)
         if count <= upper and (best is None or count > best[2]):
             best = (size, voxel_of, count)
         if lower <= count <= upper:
@@ -175,7 +175,7 @@ def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduc
         size *= (0.5 * (lower + upper) / count) ** (1.0 / slope)
     if best is None:  # every round above the budget: a coarser grid is sure to fit
         size *= 2.0
-        best = (size, *voxel_rows(points, low, size))
+        best = (size, *_voxels(points, low, size))
     size, voxel_of, count = best
     centroids = np.zeros((count, 3))
     for axis in range(3):
@@ -184,7 +184,7 @@ def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduc
     return Reduction(points=centroids, voxel_of=voxel_of, voxel_size=float(size), input_points=points)
 
 
-def voxel_rows(points: np.ndarray, low: np.ndarray, size: float) -> tuple[np.ndarray, int]:
+def _voxels(points: np.ndarray, low: np.ndarray, size: float) -> tuple[np.ndarray, int]:
     """Voxel row of every point (numbered in key order) and the number of occupied voxels."""
     cells = ((points - low) / size).astype(np.int64)
     span = cells.max(axis=0) + 1

@@ -177,3 +177,17 @@ def test_a_large_object_beside_a_far_denser_small_part_is_no_stray():
     report = clean(np.vstack([torus, blob]))
     assert len(report.stray) == 0 and len(report.outliers) < 0.01 * len(torus)
     assert density.counted(torus).all() and not density.counted(np.vstack([torus, blob])).all()
+
+
+@pytest.mark.parametrize("far", [1e6, 1e12, 1e17])
+def test_points_flung_far_out_neither_overflow_nor_stretch_the_density_cells(far):
+    """Two stray points a million to 10^17 extents out: the density cells are packed per point, not numbered on a
+    grid from the cloud's lowest corner (whose size overflowed 64 bits: "negative dimensions", an internal error
+    on `skelcore run`), nor measured from that corner (float rounding there merged the object's cells)."""
+    from skelcore import density
+
+    torus = make_shape("torus", 5000, seed=0).points
+    cloud = np.vstack([torus, [[far, -far, far], [-far, far, -far]]])
+    assert density.counted(cloud).all()
+    report = clean(cloud)
+    assert set(report.outliers) | set(report.stray) >= {5000, 5001} and len(report.kept) > 4950

@@ -115,9 +115,9 @@ def test_voxels_numbered_without_a_sort_as_with_one(monkeypatch):
     """The occupancy-array numbering of small grids is np.unique's (key order)."""
     points = make_shape("torus", 20_000, seed=0, noise=0.01).points
     low = points.min(axis=0)
-    dense = multires.voxel_rows(points, low, 0.05)
+    dense = multires._voxels(points, low, 0.05)
     monkeypatch.setattr(multires, "DENSE_GRID", 0)
-    assert np.array_equal(dense[0], multires.voxel_rows(points, low, 0.05)[0]) and dense[1] == dense[0].max() + 1
+    assert np.array_equal(dense[0], multires._voxels(points, low, 0.05)[0]) and dense[1] == dense[0].max() + 1
 
 
 def test_cli_run_says_in_metrics_json_that_it_reduced(tmp_path):
