@@ -1,9 +1,7 @@
 """Cleaning before contraction: outliers and stray pieces out, so that they neither rescale the object nor
 tie its skeleton together.
 
-Both rules compare each point with the cloud's own typical spacing, so they follow the sampling (the typical
-spacing read with any far denser part thinned, skelcore.density: else a small dense part holding most points
-sets it, and a large sparser object falls apart into stray pieces):
+Both rules compare each point with the cloud's own typical spacing, so they follow the sampling:
 - statistical outliers: a point whose mean distance to its `neighbours` nearest points (its spacing) is
   both `outlier_ratio` times the median spacing of those neighbours (it lies apart from them, where a
   sparsely sampled part is sparse all round) and `outlier_spread` robust standard deviations (1.4826 MAD)
@@ -28,7 +26,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import density
 from .errors import InputError
 from .io import Cloud, on_one_line
 from .neighbours import CHUNK, knn, leaf_knn, local_frames, stray_pieces
@@ -85,16 +82,15 @@ def clean(points: np.ndarray, params: CleaningParams = CleaningParams()) -> Clea
     tree = cKDTree(points)
     distance, index = leaf_knn(tree, params.neighbours + 1)
     spacing = distance[:, 1:].mean(axis=1)
-    counted = density.counted(tree.data[tree.indices])  # the cloud's typical spacing: not a far denser part's
     keep = np.ones(n, dtype=bool)
     if params.remove_outliers:
-        median = np.median(spacing[counted])
-        mad = 1.4826 * np.median(np.abs(spacing[counted] - median))
+        median = np.median(spacing)
+        mad = 1.4826 * np.median(np.abs(spacing - median))
         apart = spacing > params.outlier_ratio * np.median(spacing[index[:, 1:]], axis=1)
         keep &= ~(apart & (spacing > median + params.outlier_spread * max(mad, 1e-12 * median)))
     stray = np.zeros(n, dtype=bool)
     if params.remove_stray:
-        stray = stray_pieces(distance, index, spacing, keep, params.piece_gap, params.min_piece_share, counted)
+        stray = stray_pieces(distance, index, spacing, keep, params.piece_gap, params.min_piece_share)
         keep &= ~stray
     if keep.sum() < MIN_KEPT:  # nothing left to clean against: keep everything
         return CleaningReport(n, neighbours=index, tree=tree)

@@ -79,15 +79,13 @@ def leaf_knn(tree: cKDTree, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stray_pieces(distance: np.ndarray, index: np.ndarray, spacing: np.ndarray, keep: np.ndarray, piece_gap: float,
-                 min_piece_share: float, counted: np.ndarray | None = None) -> np.ndarray:
+                 min_piece_share: float) -> np.ndarray:
     """(n,) which of the `keep` points lie in pieces holding less than `min_piece_share` of them, the pieces being
     those points joined by chains of nearest-neighbour steps of at most `piece_gap` times their median spacing:
     skelcore.clean's stray rule. distance, index: (n, k) each point's nearest neighbours, itself first; spacing:
-    (n,) each point's mean distance to the others, which the caller has already; counted: (n,) the points the
-    median counts (skelcore.density.counted; None: all), so that a small part far denser than the rest does not
-    set the gap of a large one."""
+    (n,) each point's mean distance to the others, which the caller has already."""
     n = len(distance)
-    gap = piece_gap * np.median(spacing[keep if counted is None else keep & counted])
+    gap = piece_gap * np.median(spacing[keep])
     near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
     # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);
     # float64 weights and 32-bit ids are what connected_components works on, so it copies nothing first

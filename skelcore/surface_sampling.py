@@ -66,7 +66,6 @@ def stray_share(points: np.ndarray, seed: int = 0) -> float:
     spacing alike, and with them the rule's gap)."""
     from scipy.spatial import cKDTree
 
-    from . import density
     from .neighbours import leaf_knn, stray_pieces  # scipy: loaded when a mesh is judged, not when io is imported
 
     if len(points) > STRAY_PROBES:
@@ -74,10 +73,9 @@ def stray_share(points: np.ndarray, seed: int = 0) -> float:
     cleaning = CleaningParams()
     if len(points) <= cleaning.neighbours + 1:
         return 0.0
-    tree = cKDTree(points)
-    distance, index = leaf_knn(tree, cleaning.neighbours + 1)
+    distance, index = leaf_knn(cKDTree(points), cleaning.neighbours + 1)
     stray = stray_pieces(distance, index, distance[:, 1:].mean(axis=1), np.ones(len(points), bool),
-                         cleaning.piece_gap, cleaning.min_piece_share, density.counted(tree.data[tree.indices]))
+                         cleaning.piece_gap, cleaning.min_piece_share)
     return float(stray.mean())
 
 

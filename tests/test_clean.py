@@ -162,32 +162,3 @@ def test_a_row_of_like_objects_far_apart_keeps_each_ones_loop():
     assert (topology["cycles"], topology["components"]) == (3, 3)
     assert len(beside.nodes) >= 0.8 * 3 * len(alone.nodes)
 
-
-def test_a_large_object_beside_a_far_denser_small_part_is_no_stray():
-    """A torus of 4,000 points with a blob of 16,000 on its top (a patch a scanner dwelt on): read over the points,
-    the cloud's spacing was the blob's, every step between the torus's points was longer than the stray rule's gap,
-    and the whole torus (3,986 points) went as stray pieces, leaving the blob to skeletonise. The spacing is read
-    with the blob thinned to the density cap (skelcore.density): the torus stays, and so does the blob; an even
-    cloud is read as it was."""
-    from skelcore import density
-
-    torus = make_shape("torus", 4000, seed=0).points
-    top = torus[np.argmax(torus[:, 2])]
-    blob = top + np.random.default_rng(1).normal(0.0, 0.01, (16_000, 3))
-    report = clean(np.vstack([torus, blob]))
-    assert len(report.stray) == 0 and len(report.outliers) < 0.01 * len(torus)
-    assert density.counted(torus).all() and not density.counted(np.vstack([torus, blob])).all()
-
-
-@pytest.mark.parametrize("far", [1e6, 1e12, 1e17])
-def test_points_flung_far_out_neither_overflow_nor_stretch_the_density_cells(far):
-    """Two stray points a million to 10^17 extents out: the density cells are packed per point, not numbered on a
-    grid from the cloud's lowest corner (whose size overflowed 64 bits: "negative dimensions", an internal error
-    on `skelcore run`), nor measured from that corner (float rounding there merged the object's cells)."""
-    from skelcore import density
-
-    torus = make_shape("torus", 5000, seed=0).points
-    cloud = np.vstack([torus, [[far, -far, far], [-far, far, -far]]])
-    assert density.counted(cloud).all()
-    report = clean(cloud)
-    assert set(report.outliers) | set(report.stray) >= {5000, 5001} and len(report.kept) > 4950

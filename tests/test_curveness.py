@@ -1,5 +1,6 @@
 """Curve-likeness of a contracted cloud (skelcore.curveness) and the stop rule that waits for it."""
 import numpy as np
+import pytest
 
 from skelcore.contraction import goes_on
 from skelcore.curveness import curve_share
@@ -155,15 +156,33 @@ def test_a_patch_far_denser_than_the_rest_is_judged_thinned():
     patch is judged thinned to the density cap (the ball's points away from it all kept), and the handles are
     anchored as without it; no point of the ball (the patch's included) is."""
     from skelcore import density
+    from skelcore.normalise import object_diagonal
     from skelcore.solids import solid_shape
 
     ball = solid_shape("thin_handled_ball", 10_000).points
     rng = np.random.default_rng(3)
     patch = np.column_stack([rng.normal(0.0, 0.02, (10_000, 2)), -np.ones(10_000)])
     points = np.vstack([ball, patch / np.linalg.norm(patch, axis=1, keepdims=True)])
-    assert density.capped(ball, density.cell_size(ball)) is None  # evenly sampled: judged as it is
-    kept = density.capped(points, density.cell_size(points))
+    cell = 0.02 * object_diagonal(points) / density.CELLS_PER_RADIUS  # thin_tubes': a quarter sample radius
+    assert density.capped(ball, cell) is None  # evenly sampled: judged as it is
+    kept = density.capped(points, cell)
     assert np.isin(np.flatnonzero(ball[:, 2] > -0.95), kept).all() and len(kept) < len(ball) + 0.1 * len(patch)
     anchors, _ = _thin_tubes(points)
     anchored, handle = np.isfinite(anchors[:, 0]), _handle_of(points)
     assert all(anchored[handle == h].mean() > 0.2 for h in (1, 2, 3)) and not anchored[handle == 0].any()
+
+
+@pytest.mark.parametrize("far", [1e6, 1e12, 1e17])
+def test_points_flung_far_out_neither_overflow_nor_stretch_the_density_cells(far):
+    """Two stray points a million to 10^17 extents out: the density cells are packed per point, not numbered on a
+    grid from the cloud's lowest corner (whose size overflowed 64 bits: "negative dimensions", an internal error of
+    `skelcore run`), nor measured from that corner (float rounding there merged the object's cells). A dense
+    cluster beside them is still found, and only its cell thinned."""
+    from skelcore import density
+
+    torus = _torus(5000, 1.0, 0.3)
+    cloud = np.vstack([torus, [[far, -far, far], [-far, far, -far]]])
+    assert density.capped(cloud, 0.01) is None
+    dense = np.vstack([cloud, torus[:1] + np.random.default_rng(0).normal(0.0, 1e-4, (2000, 3))])
+    kept = density.capped(dense, 0.01)
+    assert kept is not None and np.isin(np.arange(1, 5002), kept).all() and len(kept) < 5002 + 200
