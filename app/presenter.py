@@ -245,9 +245,9 @@ class Presenter:
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)
         self.ui.pending.content = status.pending_markdown(session)
-        # a sparse cloud: known once a skeleton of the run has read its surface
-        sparse = "" if run.surface is None else run.surface[2].sparse_note(session.sample_radius)
-        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), sparse)
+        # a sparse cloud, small separate pieces: known once a skeleton of the run has read its surface
+        scale = [] if run.surface is None else run.surface[2].scale_notes(session.sample_radius)
+        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), scale)
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)
 

@@ -79,14 +79,14 @@ def pending_markdown(session) -> str:
     return session.pending and f"**Pending:** {session.pending}"
 
 
-def run_notes(run, state, notice: str, sparse: str = "") -> str:
+def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what loading and cleaning
-    did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), a cloud
-    sparser than the skeleton's balls (`sparse`, OriginalSurface.sparse_note), the contraction at reduced
+    did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), what the
+    skeleton's balls cannot resolve (`scale`, OriginalSurface.scale_notes), the contraction at reduced
     resolution, the points held on thin handles, what the view leaves out (`notice`) and the figures the run
     ended on."""
     input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
-                   for note in [*run.cloud.notes, *filter(None, [sparse])]]
+                   for note in [*run.cloud.notes, *(scale or [])]]
     reduction = run.reduction
     reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
                f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")

@@ -298,9 +298,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             source, cloud_parts = evidence.result() if ahead else (None, None)
             evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts)
             clock.mark("evidence")
-            sparse = surface.sparse_note(options.sample_radius)
-            if sparse:
-                _say(progress, f"{cloud.name}: {sparse}")
+            for note in surface.scale_notes(options.sample_radius):
+                _say(progress, f"{cloud.name}: {note}")
     except SkelError as error:
         raise named(error, cloud.name) from None
     return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence)

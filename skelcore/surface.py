@@ -26,6 +26,9 @@ from .loops import SurfaceProbe
 from .normalise import object_diagonal
 
 FINER = 2.0  # a piece sampled more finely than the cloud by this factor has its loops judged at its own spacing
+# A separate piece less than this many sample radii across is resolved by a few balls: its hole narrower than two
+# (of tori beside one 10-20 times their size, those 2.1-2.6 radii across lost their loop, 3.0-4.3 kept it)
+SMALL_PIECE = 4.0
 HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (hull_planes)
 
 
@@ -89,15 +92,31 @@ class OriginalSurface:
         have no point within a ball of their middle, over surface that is there)."""
         return max(radius, self.spacing)
 
-    def sparse_note(self, sample_radius: float) -> str:
-        """What a skeleton of ball radius `sample_radius` (a fraction of the diagonal) cannot resolve in a cloud
-        sparser than its balls, in words ("" when the cloud is not)."""
+    def scale_notes(self, sample_radius: float) -> list[str]:
+        """What a skeleton of ball radius `sample_radius` (a fraction of the diagonal) cannot resolve, in words: a
+        cloud sparser than its balls, and separate pieces less than SMALL_PIECE balls across (a small object
+        beside a large one: the radius is a fraction of the whole cloud's diagonal). Empty when neither."""
         radius = sample_radius * self.diagonal
-        if self.gap_unit(radius) <= radius:
-            return ""
-        return (f"a sparse cloud: its points lie {self.spacing / self.diagonal:.1%} of the diagonal apart, more than "
-                f"the skeleton's sample radius ({sample_radius:.1%}); gaps and holes narrower than that spacing are "
-                f"not told from surface")
+        notes = []
+        if self.gap_unit(radius) > radius:
+            notes.append(f"a sparse cloud: its points lie {self.spacing / self.diagonal:.1%} of the diagonal apart, "
+                         f"more than the skeleton's sample radius ({sample_radius:.1%}); gaps and holes narrower "
+                         f"than that spacing are not told from surface")
+        count, labels = self.pieces
+        if count > 1:
+            low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)
+            np.minimum.at(low, labels, self.points)
+            np.maximum.at(high, labels, self.points)
+            across = np.linalg.norm(high - low, axis=1) / radius
+            small = across[(np.bincount(labels, minlength=count) >= MIN_POINTS) & (across < SMALL_PIECE)]
+            if len(small):
+                pieces = (f"a separate piece is {small[0]:.1f} of the skeleton's sample radii across" if len(small) == 1
+                          else f"{len(small)} separate pieces are {small.min():.1f}-{small.max():.1f} of the "
+                               f"skeleton's sample radii across")
+                notes.append(f"{pieces}, less than {SMALL_PIECE:g}: balls of {sample_radius:.1%} of the whole "
+                             f"cloud's diagonal resolve little of such a piece, and a loop of it may be lost; "
+                             f"skeletonise it alone, or lower the sample radius")
+        return notes
 
     @property
     def probe(self) -> SurfaceProbe:

@@ -108,3 +108,24 @@ def test_a_small_object_beside_a_large_one_has_its_loops_judged_at_its_own_spaci
     turn = np.linspace(0, 2 * np.pi, 8, endpoint=False)
     corners = np.column_stack([2.0 + 0.07 * np.cos(turn), 0.07 * np.sin(turn), np.zeros(8)])
     assert surface.probe.open_share(corners) < 0.1 < 0.3 < own.open_share(corners)
+
+
+def test_a_separate_piece_a_few_balls_across_is_said_to_be_resolved_little():
+    """The sample radius is a fraction of the whole cloud's diagonal: a torus 1/20 the size of the other in its
+    cloud is 2.2 radii across and loses its loop; one 1/10 the size, 4.3 across, keeps it and is not named; nor is
+    a cloud of one piece."""
+    from skelcore.neighbours import one_rings
+    from skelcore.params import default_k
+    from skelcore.skeleton import SkeletonParams
+
+    def notes(scale):
+        rng = np.random.default_rng(0)
+        cloud = np.vstack([_torus(8000, 1.0, 0.3, rng), _torus(2000, scale, 0.3 * scale, rng) + [2.0, 0.0, 0.0]])
+        surface = OriginalSurface.of(cloud, one_rings(cloud, default_k(len(cloud))).triangles)
+        return surface.scale_notes(SkeletonParams.sample_radius)
+
+    [said] = notes(0.05)
+    assert said.startswith("a separate piece is 2.") and "less than 4" in said and "skeletonise it alone" in said
+    assert notes(0.1) == []
+    one = _torus(5000, 1.0, 0.3, np.random.default_rng(1))
+    assert OriginalSurface.of(one, one_rings(one, default_k(5000)).triangles).scale_notes(0.02) == []
