@@ -27,7 +27,7 @@ def capped(points: np.ndarray, cell: float) -> np.ndarray | None:
     if not len(points):
         return None
     rows, counts = _cells(points, cell)
-    cap = DENSE * int(np.median(counts))
+    cap = int(DENSE * np.median(counts))
     if counts.max() <= cap:
         return None
     order = np.random.default_rng(0).permutation(len(points))
