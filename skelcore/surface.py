@@ -26,8 +26,8 @@ from .loops import SurfaceProbe
 from .normalise import object_diagonal
 
 FINER = 2.0  # a piece sampled more finely than the cloud by this factor has its loops judged at its own spacing
-# A separate piece less than this many sample radii across is resolved by a few balls: its hole narrower than two
-# (of tori beside one 10-20 times their size, those 2.1-2.6 radii across lost their loop, 3.0-4.3 kept it)
+# A separate piece less than this many sample radii across is resolved by a few balls, a hole of it by fewer (of
+# tori beside one 10-20 times their size, those 2.1-2.6 radii across lost their loop, those 3.0-4.3 kept it)
 SMALL_PIECE = 4.0
 HULL_DIRECTIONS = 128  # directions whose extreme original points span a hull within theirs (hull_planes)
 
