@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-# A cell holding more than DENSE times the points of the median occupied cell is over-dense. At a typical count of
-# 2 an evenly sampled cloud has a cell of 17 or more once in 10^11; a part that dense puts that many times the
-# points of elsewhere into a neighbourhood, and as many times more probes among them.
+# A cell holding more than DENSE times the points of the median occupied cell is over-dense. Counts of an evenly
+# sampled cloud scatter as Poisson's: with one point a cell, 17 or more come once in 10^15 cells; a part that dense
+# puts that many times the points of elsewhere into a neighbourhood, and as many times more probes among them.
 DENSE = 16
 CELLS_PER_RADIUS = 4  # cells of a quarter of the skeleton's sample radius: far below what it resolves
 
