@@ -84,17 +84,22 @@ def stray_pieces(distance: np.ndarray, index: np.ndarray, spacing: np.ndarray, k
     those points joined by chains of nearest-neighbour steps of at most `piece_gap` times their median spacing:
     skelcore.clean's stray rule. distance, index: (n, k) each point's nearest neighbours, itself first; spacing:
     (n,) each point's mean distance to the others, which the caller has already."""
+    piece = joined_pieces(distance, index, keep, piece_gap * np.median(spacing[keep]))
+    sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
+    return keep & (sizes[piece] < min_piece_share * keep.sum())
+
+
+def joined_pieces(distance: np.ndarray, index: np.ndarray, members: np.ndarray, gap: float) -> np.ndarray:
+    """(n,) the piece of each point: `members` joined by chains of nearest-neighbour steps of at most `gap`
+    (distance, index: (n, k) each point's nearest neighbours, itself first); every other point a piece alone."""
     n = len(distance)
-    gap = piece_gap * np.median(spacing[keep])
-    near = (distance[:, 1:] <= gap) & keep[index[:, 1:]] & keep[:, None]
+    near = (distance[:, 1:] <= gap) & members[index[:, 1:]] & members[:, None]
     # built as CSR, row by row as the kNN gives them: a COO graph's conversion sorts every edge (3x slower);
     # float64 weights and 32-bit ids are what connected_components works on, so it copies nothing first
     ids = np.int32 if n < np.iinfo(np.int32).max else np.int64
     indptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))]).astype(ids)
     graph = csr_matrix((np.ones(indptr[-1]), index[:, 1:][near].astype(ids), indptr), shape=(n, n))
-    _, piece = connected_components(graph, directed=False)
-    sizes = np.bincount(piece[keep], minlength=piece.max() + 1)
-    return keep & (sizes[piece] < min_piece_share * keep.sum())
+    return connected_components(graph, directed=False)[1]
 
 
 def pca_frames(points: np.ndarray, neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -162,3 +162,20 @@ def test_a_row_of_like_objects_far_apart_keeps_each_ones_loop():
     assert (topology["cycles"], topology["components"]) == (3, 3)
     assert len(beside.nodes) >= 0.8 * 3 * len(alone.nodes)
 
+
+
+def test_a_large_sparse_surface_beside_a_far_denser_part_is_no_stray():
+    """A torus of 4,000 points with a blob of 16,000 on its top (a patch a scanner dwelt on): read over the points,
+    the cloud's spacing is the blob's, every step between the torus's points is longer than the stray rule's gap,
+    and the whole torus (3,986 points) went as stray pieces, leaving the blob to skeletonise. Joined at their own
+    spacing its points make one piece with flat neighbourhoods: a surface, kept. Noise scattered through a box 25
+    times the size of a compact sphere joins at its own spacing too, but spans a volume: still removed."""
+    torus = make_shape("torus", 4000, seed=0).points
+    blob = torus[np.argmax(torus[:, 2])] + np.random.default_rng(1).normal(0.0, 0.01, (16_000, 3))
+    report = clean(np.vstack([torus, blob]))
+    assert len(report.stray) < 0.01 * len(torus) and len(report.outliers) < 0.1 * len(torus)  # beside the blob
+    rng = np.random.default_rng(2)
+    sphere = rng.normal(size=(6000, 3))
+    sphere *= 0.06 / np.linalg.norm(sphere, axis=1, keepdims=True)
+    noisy = clean(np.vstack([sphere, rng.uniform(-1.5, 1.5, (1500, 3))]))
+    assert (noisy.kept < 6000).all() and len(noisy.kept) > 5900
