@@ -8,7 +8,8 @@ cell, so it is read as it is.
 
 Not used for the cloud's typical spacing (cleaning's median): by counts alone a dense small part beside a sparse
 large object (whose median spacing is then the part's) cannot be told from a compact object in sparse scattered
-noise (whose cells the noise's single points outnumber).
+noise (whose cells the noise's single points outnumber); cleaning tells those apart by their neighbourhoods'
+flatness instead (skelcore.clean).
 """
 from __future__ import annotations
 

@@ -82,9 +82,7 @@ class OriginalSurface:
     @functools.cached_property
     def spacing(self) -> float:
         """The median length of the surface's edges: the points' spacing along it (0 without edges)."""
-        if not len(self.edges):
-            return 0.0
-        return float(np.median(np.linalg.norm(self.points[self.edges[:, 0]] - self.points[self.edges[:, 1]], axis=1)))
+        return _median_edge(self.points, self.edges)
 
     def gap_unit(self, radius: float) -> float:
         """The narrowest gap of the input a skeleton of ball radius `radius` tells from its surface: the radius,
@@ -136,7 +134,7 @@ class OriginalSurface:
             probe = self.probe
             own = self.edges[labels[self.edges[:, 0]] == piece] if count > 1 else self.edges[:0]
             if len(own) and np.count_nonzero(labels == piece) >= MIN_POINTS:
-                spacing = float(np.median(np.linalg.norm(self.points[own[:, 0]] - self.points[own[:, 1]], axis=1)))
+                spacing = _median_edge(self.points, own)
                 if FINER * spacing < self.spacing:
                     probe = SurfaceProbe(self.points[labels == piece], spacing)
             self._piece_probes[piece] = probe
@@ -164,6 +162,13 @@ class OriginalSurface:
             graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
             self._adjacency = ((graph + graph.T) > 0).astype(float).tocsr()
         return self._adjacency
+
+
+def _median_edge(points: np.ndarray, edges: np.ndarray) -> float:
+    """The median length of `edges` (e, 2) between `points`: their spacing along the surface (0 without edges)."""
+    if not len(edges):
+        return 0.0
+    return float(np.median(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)))
 
 
 def _fibonacci_sphere(count: int) -> np.ndarray:
