@@ -141,7 +141,8 @@ def main(argv: list[str] | None = None) -> int:
                                                    "0: its vertices (default: its vertices where they cover its "
                                                    "surface, else points drawn evenly)")
     parser.add_argument("--full-resolution", action="store_true",
-                        help="contract every point, even above the point budget (slower on large clouds)")
+                        help="contract every point, even above the point budget or in dense parts (slower on large "
+                             "clouds)")
     parser.add_argument("--no-look-ahead", action="store_true",
                         help="do not compute the next iteration while the run waits for Step (saves the CPU on a "
                              "shared machine; each Step then takes the whole step's time)")

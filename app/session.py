@@ -166,7 +166,7 @@ class Session:
             generator, states = None, list(history)
             reduction = None
         else:
-            reduction = multires.reduce_cloud(cloud.points, self.point_budget)
+            reduction = multires.contracted_cloud(cloud.points, self.point_budget)
             reduction = None if reduction is None else reduction.denoised(RunOptions().cleaning.denoise_neighbours)
             points = cloud.points if reduction is None else reduction.points
             reduced_weights = weights if reduction is None or weights is None else reduction.mean(weights)

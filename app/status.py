@@ -88,8 +88,16 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
                    for note in [*run.cloud.notes, *(scale or [])]]
     reduction = run.reduction
-    reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point carried "
-               f"along (skel-inspect --full-resolution turns it off)." if reduction is not None else "")
+    if reduction is None:
+        reduced = ""
+    elif reduction.thinned:
+        reduced = (f"Dense parts thinned for the contraction: {reduction.n_input - len(reduction.points):,} of the "
+                   f"{reduction.n_input:,} points, in parts many times denser than the surface around them, were left "
+                   f"out of it, each carried along with its nearest contracted point (skel-inspect --full-resolution "
+                   f"turns it off).")
+    else:
+        reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "
+                   f"carried along (skel-inspect --full-resolution turns it off).")
     held = (f"{state.anchored:,} points on thin handles are held in place and drawn on their axis "
             f"(More: {label('hold_curves')})." if state.anchored else "")
     latest = run.history[-1]

@@ -99,7 +99,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                             "point carried along (multi-resolution; 0: never, as --full-resolution; default: "
                             "%(default)s)")
     group.add_argument("--full-resolution", action="store_true",
-                       help="contract every input point, whatever the cloud's size (no multi-resolution)")
+                       help="contract every input point, whatever the cloud's size or density (no multi-resolution, "
+                            "dense parts not thinned)")
 
 
 def contraction_params(args: argparse.Namespace) -> ContractionParams:

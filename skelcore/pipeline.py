@@ -251,10 +251,11 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         for note in cloud.notes:
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
-        reduction = multires.reduce_cloud(cloud.points, options.point_budget)
-        # The inside test samples a large surface at POINT_BUDGET: the run's reduction serves when it is that one
-        # (its centroids as they are: the original surface, as the inspector's metrics sample it).
-        samples = reduction if options.point_budget == multires.POINT_BUDGET else None
+        reduction = multires.contracted_cloud(cloud.points, options.point_budget)
+        # The inside test samples a large surface at POINT_BUDGET: the run's voxel reduction serves when it is that
+        # one (its centroids as they are: the original surface, as the inspector's metrics sample it).
+        voxels = reduction is not None and not reduction.thinned
+        samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
         reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
         with _Helpers() as helpers:
             cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,

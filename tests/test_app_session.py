@@ -795,3 +795,22 @@ def test_a_repeated_notice_replaces_the_one_still_up():
                             "Parameter refused: s_L = 0.5: must be at least 1"]
     messages.withdraw("Run has ended")
     assert client.shown == ["Parameter refused: s_L = 0.5: must be at least 1"]
+
+
+def test_a_dense_patch_is_thinned_for_the_contraction_and_about_says_so():
+    """As `skelcore run`: a patch a hundred times denser than the surface around it is thinned for the
+    contraction, every point carried along and shown; --full-resolution contracts every point."""
+    from app.status import run_notes
+    from skelcore.solids import solid_shape
+
+    ball = solid_shape("handled_ball", 3000).points
+    patch = np.column_stack([np.random.default_rng(3).normal(0.0, 0.03, (3000, 2)), -np.ones(3000)])
+    cloud = validate(np.vstack([ball, patch / np.linalg.norm(patch, axis=1, keepdims=True)]), name="ball.xyz")
+    session = Session(cloud)
+    reduction = session.run.reduction
+    assert reduction is not None and reduction.thinned and len(reduction.points) < 3200
+    assert any(line.startswith("dense parts: ") for line in session.log)
+    session.step()
+    assert session.history[-1].points.shape == (len(session.run.cloud.points), 3) == (reduction.n_input, 3)
+    assert "Dense parts thinned for the contraction" in run_notes(session.run, session.history[-1], notice="")
+    assert Session(cloud, point_budget=None).run.reduction is None

@@ -229,3 +229,111 @@ def test_a_negative_point_budget_is_refused():
 
     with pytest.raises(ParameterError, match="point_budget"):
         multires.reduce_cloud(make_shape("torus", 1000).points, -1)
+
+
+def _ball_with_a_dense_patch(ball_points: int = 5000, patch_points: int = 5000) -> np.ndarray:
+    """The handled ball with a patch of its surface (a scanner's dwell, about 0.06 of radius 1 across) sampled
+    over a hundred times as densely as the rest."""
+    from skelcore.solids import solid_shape
+
+    ball = solid_shape("handled_ball", ball_points).points
+    patch = np.column_stack([np.random.default_rng(3).normal(0.0, 0.03, (patch_points, 2)), -np.ones(patch_points)])
+    return np.vstack([ball, patch / np.linalg.norm(patch, axis=1, keepdims=True)])
+
+
+def test_a_patch_far_denser_than_the_surface_around_it_is_thinned_for_the_contraction():
+    """Contracted with every point, the patch barely moves and holds the ball back: the run stops after two
+    steps with 6 ends on a shape that has none. Thinned (every point still carried along), the ball contracts
+    as it does alone: its 3 loops and no end."""
+    from skelcore.io import Cloud
+    from skelcore.pipeline import compute
+
+    points = _ball_with_a_dense_patch()
+    run = compute(Cloud(points=points, name="ball"), RunOptions())
+    reduction = run.reduction
+    assert reduction is not None and reduction.thinned and 5000 <= len(reduction.points) < 5200
+    assert run.skeleton.correspondence.shape == (len(run.cloud.points),)
+    assert all(state.points.shape == run.cloud.points.shape for state in run.states)
+    topology = run.skeleton.topology()
+    assert (topology["components"], topology["cycles"]) == (1, 3) and topology["ends"] <= 1
+    assert run.states[-1].iteration >= 5
+    every_point = compute(Cloud(points=points, name="ball"), RunOptions(point_budget=0))
+    assert every_point.reduction is None  # --full-resolution
+    assert every_point.states[-1].iteration <= 3 and every_point.skeleton.topology()["ends"] >= 4
+
+
+def test_thinning_keeps_every_point_of_a_thin_handle_and_of_the_even_surface():
+    """Only the patch is thinned, to a few times the density of the surface around it: the ball's own points
+    away from it, its thin handles' among them (a handle crossing a cell puts more surface into it than a
+    sheet), all stay."""
+    from scipy.spatial import cKDTree
+
+    from skelcore import density
+    from skelcore.normalise import SAMPLE_RADIUS, object_diagonal
+    from skelcore.solids import solid_shape
+
+    ball = solid_shape("thin_handled_ball", 5000).points
+    patch = np.column_stack([np.random.default_rng(3).normal(0.0, 0.03, (5000, 2)), -np.ones(5000)])
+    points = np.vstack([ball, patch / np.linalg.norm(patch, axis=1, keepdims=True)])
+    kept = density.evened(points, SAMPLE_RADIUS * object_diagonal(points))
+    away = np.flatnonzero(np.linalg.norm(ball - [0, 0, -1], axis=1) > 0.15)
+    assert np.isin(away, kept).all() and len(away) > 4500
+    # around the patch the kept cloud is up to EVEN times as dense as the ball's own surface there (the input: 350)
+    near = lambda cloud: int((np.linalg.norm(cloud - [0, 0, -1], axis=1) < 0.1).sum())  # noqa: E731
+    assert near(points) > 100 * near(ball) and near(ball) <= near(points[kept]) <= (density.EVEN + 1) * near(ball)
+    patch_kept = points[kept[kept >= 5000]]
+    # a regular subset: no two kept patch points far closer than the ball's own spacing
+    spacing = np.median(cKDTree(ball).query(ball, k=2)[0][:, 1])
+    assert cKDTree(patch_kept).query(patch_kept, k=2)[0][:, 1].min() > 0.1 * spacing
+
+
+def test_an_evenly_sampled_cloud_and_a_finely_sampled_separate_object_are_not_thinned():
+    """A small object beside a large one, each evenly sampled, is measured against its own density (its own
+    points resolve its loop), so nothing is thinned; nor is an evenly sampled shape, or one with a few repeated
+    points."""
+    import trimesh
+
+    from skelcore import density
+    from skelcore.normalise import SAMPLE_RADIUS, object_diagonal
+
+    big = trimesh.creation.torus(1.0, 0.3, major_sections=32, minor_sections=32)
+    small = trimesh.creation.torus(1.0, 0.3, major_sections=32, minor_sections=32)
+    small.apply_scale(0.1)
+    small.apply_translation([2.0, 0.0, 0.0])
+    pair = np.vstack([trimesh.sample.sample_surface(big, 5000, seed=1)[0],
+                      trimesh.sample.sample_surface(small, 5000, seed=2)[0]])
+    torus = make_shape("torus", 5000, seed=0).points
+    repeated = np.vstack([torus, np.repeat(torus[:3], 10, axis=0)])  # 30 of 5,030: under the 1% a part must hold
+    for points in (pair, torus, repeated):
+        assert density.evened(points, SAMPLE_RADIUS * object_diagonal(points)) is None
+    assert multires.contracted_cloud(pair) is None
+
+
+def test_a_pile_of_repeated_points_is_thinned_without_a_warning(recwarn):
+    """Coincident points are read as a millionth of a cell apart: finite densities; at most one of the pile is kept
+    (its voxel keeps the point nearest its centre, which may be a neighbour of the pile, read dense too), and the
+    surface away from it nearly as it was (where a cloud is thinned, a random sample's chance clumps more than
+    EVEN times as dense keep one point a voxel too)."""
+    from skelcore import density
+    from skelcore.normalise import SAMPLE_RADIUS, object_diagonal
+
+    torus = make_shape("torus", 3000, seed=0).points
+    points = np.vstack([torus, np.repeat(torus[:1], 300, axis=0)])
+    kept = density.evened(points, SAMPLE_RADIUS * object_diagonal(points))
+    away = np.flatnonzero(np.linalg.norm(torus - torus[0], axis=1) > 0.1 * object_diagonal(torus))
+    assert np.isin(away, kept).mean() > 0.98 and len(away) > 2700 and (kept >= 3000).sum() <= 1
+    assert not [warning for warning in recwarn if issubclass(warning.category, RuntimeWarning)]
+
+
+def test_cli_run_says_that_it_thinned_a_dense_part(tmp_path, capsys):
+    """`skelcore run` names the thinning in its progress and in metrics.json; --full-resolution turns it off."""
+    from skelcore.cli import main
+
+    path = tmp_path / "ball.ply"
+    write_points_ply(path, _ball_with_a_dense_patch(3000, 3000))
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    assert "dense parts: " in capsys.readouterr().out
+    reduction = json.loads((tmp_path / "out" / "metrics.json").read_text())["multiresolution"]
+    assert reduction["dense_parts_thinned"] and reduction["contracted_points"] < reduction["input_points"]
+    assert main(["run", str(path), "--out", str(tmp_path / "all"), "--quiet", "--full-resolution"]) == 0
+    assert json.loads((tmp_path / "all" / "metrics.json").read_text())["multiresolution"] is None
