@@ -83,7 +83,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
             # (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
+            ratios = None if earlier is None else (earlier.ring_ratio, state.ring_ratio)
+            if rings_stalled(iteration, drop, current, candidate, params, run.diagonal, ratios):
                 moved = f"fell by {drop:.4f} < {params.termination:g}" if drop >= 0 else f"rose by {-drop:.4f}"
                 failure = ("ring_ratio", f"a_t {moved}")
             else:

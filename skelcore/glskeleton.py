@@ -152,7 +152,8 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal):
+        ratios = None if earlier is None else (earlier.ring_ratio, state.ring_ratio)
+        if rings_stalled(iteration, drop, current, candidate, params, run.diagonal, ratios):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
                      else f"widened the rings by {-drop:.4f}")
             state = stopped(state, "ring_ratio", f"the step {moved}", notes)

@@ -317,12 +317,23 @@ def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -
 
 
 def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: np.ndarray, params: ContractionParams,
-                  diagonal: float) -> bool:
+                  diagonal: float, ratios: tuple[float, float] | None = None) -> bool:
     """cloudcontr's stop rule, from the second step on: the step shrank the rings' total size by `drop` (a
     share of the input's), less than params.termination; except that while the rings still shrink, a step
-    that goes_on is taken."""
+    that goes_on is taken, and so is one that speeds up a contraction not yet under way (`under_way`)."""
     return iteration > 1 and drop < params.termination and not (
-        drop >= 0 and goes_on(current, candidate, params, diagonal))
+        drop >= 0 and (not under_way(drop, ratios, params) or goes_on(current, candidate, params, diagonal)))
+
+
+def under_way(drop: float, ratios: tuple[float, float] | None, params: ContractionParams) -> bool:
+    """Whether the contraction is under way for the stop rule, given a_t of the two states before the step
+    (`ratios`; None: it is): the rings have shrunk in all by params.termination, or the step shrank them no more
+    than the step before. cloudcontr's rule tells a contraction that has slowed down; a bulky ball's first steps
+    barely shrink it while W_L triples a step, each shrinking it more than the last."""
+    if ratios is None:
+        return True
+    earlier, last = ratios
+    return 1.0 - last >= params.termination or drop <= earlier - last
 
 
 def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:

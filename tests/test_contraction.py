@@ -179,6 +179,33 @@ def test_ring_ratio_termination_discards_the_last_candidate():
     assert all(s.termination is None for s in states[:-1])
 
 
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_a_step_that_speeds_up_a_contraction_not_yet_under_way_is_no_stall(method):
+    """cloudcontr's rule stops once a step shrinks a_t by less than the termination threshold; before the
+    contraction is under way, a step that shrank it more than the step before is speeding up, not stalling (a
+    bulky ball's first steps barely shrink it). The capsule's steps shrink a_t by 0.22, then 0.30, then 0.15: with
+    a threshold of 0.3 (and cloudcontr's rule otherwise alone) the run takes the second step and stops at the
+    third, where it used to stop at the second."""
+    points = make_shape("capsule", 800, seed=0).points
+    states = run_contraction(points, ContractionParams(method=method, termination=0.3, curve_share=0))
+    drops = [a.ring_ratio - b.ring_ratio for a, b in zip(states, states[1:])]
+    assert states[-1].termination == "ring_ratio" and states[-1].iteration == 2 and drops[1] > drops[0]
+
+
+def test_the_stall_rule_lets_a_contraction_get_under_way():
+    """A step that shrank a_t by less than the threshold is a stall, unless the contraction is not under way yet
+    (a_t has fallen by less than the threshold in all) and the step shrank it more than the one before."""
+    from skelcore.step import rings_stalled
+
+    still = np.zeros((10, 3))
+    params = ContractionParams(termination=0.01, curve_share=0)
+    assert not rings_stalled(2, 0.005, still, still, params, 1.0, ratios=(1.0, 0.996))  # 0.004, then 0.005
+    assert rings_stalled(2, 0.003, still, still, params, 1.0, ratios=(1.0, 0.996))  # slowing down
+    assert rings_stalled(5, 0.005, still, still, params, 1.0, ratios=(0.5, 0.497))  # under way: cloudcontr's rule
+    assert rings_stalled(2, -0.001, still, still, params, 1.0, ratios=(1.0, 0.999))  # the rings widened
+    assert rings_stalled(2, 0.005, still, still, params, 1.0)  # no step before: cloudcontr's rule alone
+
+
 def test_a_ring_ratio_that_rose_is_told_as_a_rise():
     """The stop rule's words say which way a_t moved: a step that widened the rings reads "rose by", never
     "fell by" a negative amount."""
