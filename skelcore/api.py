@@ -158,7 +158,8 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
                 cleaning: CleaningParams | bool = True,
                 sample_radius: float = RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
                 voxel_size: float | None = None, max_points: int = io.MAX_POINTS, drop_nonfinite: bool = False,
-                progress: Callable[[str], None] | None = None, **params) -> Result:
+                point_budget: int | None = RunOptions.point_budget, progress: Callable[[str], None] | None = None,
+                **params) -> Result:
     """Contract a cloud into its curve skeleton and judge the contraction; the pipeline of `skelcore run`.
 
     points_or_path: an (n,3) array, a Cloud (from `load`), an open3d or trimesh point cloud or triangle mesh
@@ -179,6 +180,9 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
         (points far outside the bulk of the cloud left out).
     sample: for a mesh file or mesh object, as in `load` (default: its vertices where they cover its surface).
     drop_nonfinite: leave out points with NaN or Inf coordinates instead of refusing the input.
+    point_budget: a larger cloud is contracted as voxel centroids of about this many points, and one within it
+      with a part many times denser than the surface around it with that part thinned, every point carried along
+      (skelcore.multires); 0 or None: every point contracted (`skelcore run --full-resolution`).
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
       max_iterations, termination, ...); unset ones take their defaults.
     progress: called with one line per iteration (e.g. print).
@@ -187,7 +191,8 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
         voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
-        label_weights=tuple(sorted(check_label_weights(label_weights).items())), drop_nonfinite=drop_nonfinite)
+        label_weights=tuple(sorted(check_label_weights(label_weights).items())), drop_nonfinite=drop_nonfinite,
+        point_budget=point_budget)
     if isinstance(labels, (str, Path)) and isinstance(points_or_path, (str, Path)):
         labels = None  # read by the load, through options.labels
     return run(points_or_path, options, progress=progress, labels=labels, weights=weights)

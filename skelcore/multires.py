@@ -28,7 +28,7 @@ A cloud within the budget is contracted as it is, unless a part of it is many ti
 around it (a patch a scanner dwelt on, a detail scanned again from close by): that part is thinned to
 about twice the density around it (skelcore.density.evened) and its left-out points are carried along in the
 same way, each with its nearest kept point (`thin_dense`). A separate object sampled more finely than a larger
-one beside it is its own piece and is not thinned.
+one beside it, more than a sample radius from it, is its own piece and is not thinned.
 """
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ class Reduction:
 
     def carrier(self, rings: OneRings) -> sp.csr_matrix:
         """(n, m) convex weights: each input point over the CARRIERS nearest of its voxel's centroid and that
-        centroid's ring."""
+        centroid's ring (a thinned cloud's kept point: itself alone)."""
         import scipy.sparse as sp
 
         counts = np.diff(rings.indptr)
@@ -142,6 +142,10 @@ class Reduction:
             columns[rows] = np.take_along_axis(mine, nearest, axis=1)
             weights[rows] = np.where(np.isfinite(near2),
                                      1.0 / np.maximum(near2, (WEIGHT_FLOOR * self.voxel_size) ** 2), 0.0)
+        if self.thinned:  # a kept point is where the contraction put it (the blend above moves it a little)
+            kept = np.flatnonzero(np.all(self.input_points == self.points[self.voxel_of], axis=1))
+            columns[kept], weights[kept] = self.voxel_of[kept, None], 0.0
+            weights[kept, 0] = 1.0
         weights /= weights.sum(axis=1, keepdims=True)
         indptr = np.arange(0, weights.size + 1, keep)
         return sp.csr_matrix((weights.ravel(), columns.ravel(), indptr), shape=(self.n_input, len(self.points)))

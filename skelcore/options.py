@@ -29,7 +29,8 @@ class RunOptions:
     cleaning: CleaningParams = CleaningParams()  # outliers and stray pieces removed before contraction
     labels: str | None = None  # label file or PLY vertex property; None: the PLY's label property, if any
     label_weights: tuple[tuple[int, float], ...] = ()  # (label, contraction weight) pairs (skelcore.labels)
-    point_budget: int | None = multires.POINT_BUDGET  # larger clouds: multi-resolution (None or 0: never)
+    # larger clouds: multi-resolution; within it, parts far denser than the rest thinned (None or 0: neither)
+    point_budget: int | None = multires.POINT_BUDGET
     drop_nonfinite: bool = False  # leave out points with NaN or Inf coordinates instead of refusing the input
 
     def validated(self) -> "RunOptions":

@@ -337,3 +337,28 @@ def test_cli_run_says_that_it_thinned_a_dense_part(tmp_path, capsys):
     assert reduction["dense_parts_thinned"] and reduction["contracted_points"] < reduction["input_points"]
     assert main(["run", str(path), "--out", str(tmp_path / "all"), "--quiet", "--full-resolution"]) == 0
     assert json.loads((tmp_path / "all" / "metrics.json").read_text())["multiresolution"] is None
+
+
+def test_thinned_points_are_carried_and_kept_ones_stay_where_the_contraction_put_them():
+    """A left-out point moves with the kept points around it (a convex blend); a kept point is not blended: its
+    carried position is its own contracted one."""
+    from skelcore.neighbours import one_rings
+    from skelcore.params import default_k
+
+    reduction = multires.thin_dense(_ball_with_a_dense_patch(3000, 3000))
+    assert reduction is not None and reduction.thinned
+    carrier = reduction.carrier(one_rings(reduction.points, default_k(len(reduction.points))))
+    moved = np.random.default_rng(0).normal(size=reduction.points.shape)
+    carried = carrier @ moved
+    kept = np.flatnonzero(np.all(reduction.input_points == reduction.points[reduction.voxel_of], axis=1))
+    assert len(kept) == len(reduction.points)
+    np.testing.assert_allclose(carried[kept], moved[reduction.voxel_of[kept]])
+    np.testing.assert_allclose(np.asarray(carrier.sum(axis=1)).ravel(), 1.0)
+
+
+def test_the_api_thins_a_dense_part_unless_told_to_contract_every_point():
+    import skelcore
+
+    points = _ball_with_a_dense_patch(2000, 2000)
+    assert skelcore.skeletonize(points).reduction.thinned
+    assert skelcore.skeletonize(points, point_budget=0).reduction is None
