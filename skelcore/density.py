@@ -63,8 +63,8 @@ def evened(points: np.ndarray, cell: float) -> np.ndarray | None:
     over its space, so neither a patch holding most of the points nor a few sparse points sets it. A piece is a
     set of occupied cells joined through their 26 neighbours: a separate small object sampled finely (one the
     skeleton must resolve by its own points) more than a cell from a larger one is measured against itself, not
-    thinned to the density of the larger one. Counting the points of each cell would not do: a thin handle crossing a cell puts more surface
-    into it than a sheet does, and would read dense."""
+    thinned to the density of the larger one. Counting the points of each cell would not do: a thin handle
+    crossing a cell puts more surface into it than a sheet does, and would read dense."""
     from scipy.spatial import cKDTree
 
     if len(points) <= SPACING_NEIGHBOURS or not cell > 0:
