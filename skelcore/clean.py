@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .density import group_medians
 from .errors import InputError
 from .io import Cloud, on_one_line
 from .neighbours import CHUNK, joined_pieces, knn, leaf_knn, local_frames, stray_pieces
@@ -120,9 +121,8 @@ def _sparse_surfaces(tree: cKDTree, distance: np.ndarray, index: np.ndarray, spa
     if len(rows):
         values, _, _ = local_frames(tree.data[tree.indices[index[rows]]])
         variation = values[:, 0] / np.maximum(values.sum(axis=1), 1e-300)  # the curvature of eq. 7
-        labels, at = np.unique(piece[rows], return_inverse=True)
-        flat = np.array([np.median(variation[at.ravel() == label]) <= FLAT for label in range(len(labels))])
-        surface[rows[flat[at.ravel()]]] = True
+        at = np.unique(piece[rows], return_inverse=True)[1].ravel()
+        surface[rows[(group_medians(variation, at) <= FLAT)[at]]] = True
     return surface
 
 

@@ -74,7 +74,7 @@ def evened(points: np.ndarray, cell: float) -> np.ndarray | None:
     density = 1.0 / np.maximum(reach, COINCIDENT) ** 2
     cell_piece = _pieces(keys)
     piece = cell_piece[rows]
-    typical = _medians(_medians(density, rows), cell_piece)[piece]
+    typical = group_medians(group_medians(density, rows), cell_piece)[piece]
     ratio = density / typical
     if (ratio > DENSE).mean() < OVER_DENSE_SHARE:
         return None
@@ -107,8 +107,8 @@ def _pieces(keys: np.ndarray) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
-def _medians(values: np.ndarray, group: np.ndarray) -> np.ndarray:
-    """(groups,) the median of `values` over each group (group: (n,) ids 0.. with none empty)."""
+def group_medians(values: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """(groups,) the median of `values` over each group (group: (n,) ids 0.. with none empty), all groups at once."""
     order = np.lexsort((values, group))
     ordered = values[order]
     sizes = np.bincount(group)
