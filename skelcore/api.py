@@ -24,7 +24,7 @@ from .contraction import IterationState
 from .contraction import contract as _contract
 from .errors import ParameterError, SkelError
 from .evidence import skeleton_evidence
-from .labels import as_labels, check_label_weights, check_weights
+from .labels import as_labels, check_label_weights
 from .metrics import IterationMetrics
 from .options import RunOptions
 from .params import CleaningParams, ContractionParams, check_flag
@@ -167,7 +167,8 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       file path.
     method: "lbc" (Cao et al. 2010) or "glskeleton" (Wen et al. 2024).
     weights: (n,) positive per-point contraction weights (a multiplier of W_L per point: point i's
-      Laplacian row becomes W_L w_i L_i), aligned with the cloud's points.
+      Laplacian row becomes W_L w_i L_i), one per point of the input (the rows loading keeps take theirs: a
+      repeated point its first row's) or one per point of a Cloud given.
     labels: per-point integer labels: an (n,) array, a label file or a PLY vertex property name; a PLY
       input's label property is read without asking. label_weights: {label: weight}; unnamed labels keep 1.
       Give `weights` or `label_weights`, not both.
@@ -282,6 +283,7 @@ def contract(points, method: str | None = None, *, weights=None, params: Contrac
     merged = {**(params or ContractionParams()).to_dict(), **changes}
     if method is not None:
         merged["method"] = method
+    weights = None if weights is None else io.point_weights(cloud, weights)
     return _contract(cloud.points, contraction_params(merged.pop("method"), merged), weights)
 
 
@@ -322,6 +324,6 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
     else:
         cloud = as_cloud(points_or_result, labels)
     if weights is not None:
-        weights = check_weights(weights, len(cloud.points))
+        weights = io.point_weights(cloud, weights)
     return open_inspector(cloud, params, host=host, port=port or 0,
                           label_weights=check_label_weights(label_weights), weights=weights)

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
-from .labels import as_labels, ply_label_property, read_labels, read_ply_labels
+from .labels import as_labels, check_weights, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
 from .repeats import without_repeats
@@ -46,6 +46,10 @@ class Cloud:
     cleaning: dict | None = None  # what skelcore.clean removed before contraction (counts), once it ran
     labels: np.ndarray | None = None  # (n,) int64 per-point labels (skelcore.labels), when the input has them
     scale: float = 1.0  # the file's coordinates are points * scale (a power of two; 1 unless extreme)
+    # the input's row of every point, when validation kept input rows (None once resampled, and after cleaning),
+    # and how many rows the input had: per-point values given for the input follow the points kept (point_weights)
+    rows: np.ndarray | None = None
+    input_rows: int = 0
 
     @functools.cached_property
     def diagonal(self) -> float:
@@ -193,8 +197,9 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)
     notes: list[str] = []
     dropped = 0
+    kept = None  # the input rows left after dropping NaN or Inf rows (None: all)
     if drop_nonfinite:
-        points, faces, labels, dropped = _drop_nonfinite(points, faces, labels, name)
+        points, faces, labels, kept, dropped = _drop_nonfinite(points, faces, labels, name)
         if dropped:
             notes.append(f"dropped {dropped} points with NaN or Inf coordinates")
         if dropped and len(points) < MIN_POINTS:  # said before as_points calls a file of NaN rows empty
@@ -209,17 +214,21 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     if labels is not None:
         labels = as_labels(labels, len(points), name)
     had_faces = faces is not None
+    input_rows = len(points) + dropped
+    rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
-        points, faces, labels = without_repeats(points, faces, labels, [])
+        points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
     if sample is None and faces is not None:
         sample, note = points_to_draw(points, faces, labels is not None, cap, seed)
         notes += [note] if note else []
-    if labels is not None and (sample or voxel_size is not None):
-        labels = None
-        notes.append(LABELS_DROPPED)
+    if sample or voxel_size is not None:  # new points: no input row's labels or values belong to them
+        rows = None
+        if labels is not None:
+            labels = None
+            notes.append(LABELS_DROPPED)
     if sample:
         if faces is None:
             raise InputError(f"{name}: the mesh has no surface to sample (its triangles have no area)" if had_faces
@@ -243,13 +252,34 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         raise TooLargeError(f"{name}: {len(points):,} points exceed {why}; a voxel size of {voxel:g} brings "
                             f"them under", len(points), cap, voxel)
     if faces is None:  # a mesh that kept its faces has had its repeats merged above, and nothing since moved it
-        points, _, labels = without_repeats(points, None, labels, notes)
+        points, _, labels, rows = without_repeats(points, None, labels, rows, notes)
     if len(points) < MIN_POINTS:
         raise _too_few(name, len(points), dropped, voxel_size)
     points, scale = _scaled(points, name)
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
-    return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale)
+    return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale, rows=rows,
+                 input_rows=input_rows)
+
+
+def point_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
+    """Per-point `weights` as the cloud's (n,) checked weights: given one per point, or one per row of the input it
+    was validated from, of which the rows kept are taken (a repeated point keeps its first row's, as labels do)."""
+    n = len(cloud.points)
+    try:
+        given = np.shape(weights)
+    except ValueError:  # ragged: check_weights names it
+        given = None
+    if given is None or cloud.input_rows == n or given == (n,):
+        return check_weights(weights, n, name)
+    if given != (cloud.input_rows,) or cloud.input_rows == 0:
+        input_rows = f" or per input row ({cloud.input_rows})" if cloud.input_rows and cloud.rows is not None else ""
+        raise ParameterError(f"parameter {name}: expected one weight per point ({n}){input_rows}, got shape {given}")
+    if cloud.rows is None:
+        raise ParameterError(f"parameter {name}: given per input row, but the {n} points were drawn anew (over the "
+                             f"mesh's surface or in voxels): keep the input's points (sample=0, no voxel_size) or "
+                             f"give one weight per point drawn")
+    return check_weights(weights, cloud.input_rows, name)[cloud.rows]
 
 
 def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = None) -> InputError:
@@ -343,16 +373,17 @@ def as_points(value, name: str) -> np.ndarray:
 
 
 def _drop_nonfinite(points, faces, labels, name: str):
-    """Points without their NaN/Inf rows, faces and labels without theirs, and how many rows went."""
+    """Points without their NaN/Inf rows, faces and labels without theirs, the input rows kept (None: all), and
+    how many rows went."""
     try:
         points = np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError):
-        return points, faces, labels, 0  # as_points names the problem
+        return points, faces, labels, None, 0  # as_points names the problem
     if points.ndim != 2 or points.shape[1] != 3:
-        return points, faces, labels, 0
+        return points, faces, labels, None, 0
     keep = np.isfinite(points).all(axis=1)
     if keep.all():
-        return points, faces, labels, 0
+        return points, faces, labels, None, 0
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         if len(faces) and (faces.min() < 0 or faces.max() >= len(points)):
@@ -361,7 +392,7 @@ def _drop_nonfinite(points, faces, labels, name: str):
         faces = remap[faces[keep[faces].all(axis=1)]]
     if labels is not None and len(labels) == len(points):
         labels = np.asarray(labels)[keep]
-    return points[keep], faces, labels, int((~keep).sum())
+    return points[keep], faces, labels, np.flatnonzero(keep), int((~keep).sum())
 
 
 def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud") -> np.ndarray:

@@ -21,7 +21,6 @@ from .curveness import skeleton_scale_share
 from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
-from .labels import check_weights
 from .loops import cloud_inside
 from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
 from .options import METRICS_K, RunOptions
@@ -241,7 +240,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                         seed=options.seed, labels=options.labels if labels is None else labels,
                         drop_nonfinite=options.drop_nonfinite)
     clock.mark("load")
-    weights = None if weights is None else check_weights(weights, len(cloud.points))
+    weights = None if weights is None else io.point_weights(cloud, weights)
     try:
         if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
             report = clean(cloud.points, options.cleaning)

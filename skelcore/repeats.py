@@ -5,20 +5,23 @@ from __future__ import annotations
 import numpy as np
 
 
-def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.ndarray | None, notes: list[str]
-                    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.ndarray | None,
+                    rows: np.ndarray | None, notes: list[str]
+                    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
     """The points without repeats (each point's first occurrence, in the input's order; said in `notes`), the faces
-    renumbered over them without those whose corners repeat (None when none is left), the labels that follow."""
+    renumbered over them without those whose corners repeat (None when none is left), the labels and the input
+    `rows` that follow."""
     kept = first_occurrences(points)
     if kept is not None:
         first, row = kept
         notes.append(f"removed {len(points) - len(first)} duplicate points")
-        points, labels = points[first], None if labels is None else labels[first]
+        points = points[first]
+        labels, rows = (None if values is None else values[first] for values in (labels, rows))
         faces = None if faces is None else row[faces]
     if faces is not None:
         faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
         faces = faces if len(faces) else None
-    return points, faces, labels
+    return points, faces, labels, rows
 
 
 def first_occurrences(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

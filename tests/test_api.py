@@ -319,6 +319,30 @@ def test_explicit_weights_are_listed_in_params_json(tmp_path):
     assert any("cleaning removed" in note for note in cleaned.cloud.notes)
 
 
+def test_weights_given_per_input_row_follow_the_points_loading_keeps():
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    weights = np.linspace(0.5, 2.0, len(points))
+    repeated = np.vstack([points, points[:40]])  # loading drops the 40 repeats; each point keeps its first row's
+    given = np.append(weights, np.full(40, 9.0))
+    result = skelcore.skeletonize(repeated, weights=given, max_iterations=1, cleaning=False)
+    assert np.array_equal(result.weights, weights)
+    gone = repeated.copy()
+    gone[3] = np.nan  # its repeat in row len(points) + 3 is now the first: its weight goes with the point
+    result = skelcore.skeletonize(gone, weights=given, max_iterations=1, cleaning=False, drop_nonfinite=True)
+    assert np.array_equal(result.weights, np.r_[weights[:3], weights[4:], 9.0])
+    state = next(skelcore.contract(repeated, weights=given))
+    assert len(state.points) == len(points)
+    with pytest.raises(ParameterError, match=rf"per point \({len(points)}\) or per input row \({len(repeated)}\)"):
+        skelcore.skeletonize(repeated, weights=given[:-1])
+
+
+def test_weights_for_a_mesh_drawn_anew_are_refused_in_words():
+    trimesh = pytest.importorskip("trimesh")
+    mesh = trimesh.creation.torus(1.0, 0.3)  # vertices on rings only: its surface is drawn over
+    with pytest.raises(ParameterError, match=r"drawn anew.*\(sample=0"):
+        skelcore.skeletonize(mesh, weights=np.ones(len(mesh.vertices)))
+
+
 def test_result_report_is_one_page(tmp_path):
     result = skelcore.skeletonize(skelcore.load(REPO / "assets" / "capsule.ply").points)
     page = result.report(tmp_path / "r.html").read_text()
