@@ -93,8 +93,8 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     elif reduction.thinned:
         reduced = (f"Dense parts thinned for the contraction: {reduction.n_input - len(reduction.points):,} of the "
                    f"{reduction.n_input:,} points, in parts many times denser than the surface around them, were left "
-                   f"out of it, each carried along with its nearest contracted point (skel-inspect --full-resolution "
-                   f"turns it off).")
+                   f"out of it, each carried along with its nearest contracted point (so in the histograms they can "
+                   f"stand together as a narrow spike; skel-inspect --full-resolution turns it off).")
     else:
         reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "
                    f"carried along (skel-inspect --full-resolution turns it off).")
