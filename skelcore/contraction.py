@@ -18,7 +18,7 @@ from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows,
                    free_points, goes_on, hold_curves, record, rejected, retune, rings_stalled, schedule, shown,
-                   solve_stages, start_run, torn)
+                   solve_stages, stall_ratios, start_run, torn)
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
            "retune", "run_contraction"]
@@ -54,16 +54,16 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
     current, sizes, ratio = run.unit, sizes0, 1.0
     solver = CholeskySolver()
     held = np.full(len(points), np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    iteration, earlier = 0, None  # earlier: the accepted state before `state`
-    before = (iteration, state, earlier, current, sizes, ratio, held)  # what the last step started from, for a Redo
+    iteration, earlier, first_ratio = 0, None, 1.0  # earlier: the accepted state before `state`; a_t after step 1
+    before = (iteration, state, earlier, current, sizes, ratio, held, first_ratio)  # what the last step started from
     while True:
         sent = yield state
         if isinstance(sent, Redo):
-            (iteration, state, earlier, current, sizes, ratio, held), sent = before, sent.params
+            (iteration, state, earlier, current, sizes, ratio, held, first_ratio), sent = before, sent.params
         elif state.termination:
             return
         params, notes = retune(params, sent)
-        before = (iteration, state, earlier, current, sizes, ratio, held)
+        before = (iteration, state, earlier, current, sizes, ratio, held, first_ratio)
         iteration += 1
         step_start = time.perf_counter()
         wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
@@ -83,7 +83,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             # curve-like (a sheet) goes on contracting, as long as each such step leaves it more curve-like
             # (thin parts pulled into a blob would not)
             drop = ratio - new_ratio
-            ratios = None if earlier is None else (earlier.ring_ratio, state.ring_ratio)
+            ratios = stall_ratios(first_ratio, earlier, state)
             if rings_stalled(iteration, drop, current, candidate, params, run.diagonal, ratios):
                 moved = f"fell by {drop:.4f} < {params.termination:g}" if drop >= 0 else f"rose by {-drop:.4f}"
                 failure = ("ring_ratio", f"a_t {moved}")
@@ -94,7 +94,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
             continue
         current, sizes, ratio = candidate, new_sizes, new_ratio
         if iteration == 1:
-            held = hold_curves(wl, current, run)
+            held, first_ratio = hold_curves(wl, current, run), ratio
         termination = "max_iterations" if iteration >= params.max_iterations else None
         message = "; ".join(filter(None, [TERMINATION_MESSAGES.get(termination, ""), *notes]))
         timings["rest"] = time.perf_counter() - step_start - timings["laplacian"] - timings["solve"]

@@ -79,7 +79,7 @@ from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
                    free_points, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
-                   start_run, stopped, torn)
+                   stall_ratios, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`
@@ -105,18 +105,18 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
     score, reducing = _covariance_score(unit), True
     solver = CholeskySolver()
     held = np.full(n, np.inf)  # W_L held on thin parts' axes (step.hold_curves)
-    iteration, earlier = 0, None  # earlier: the accepted state before `state`
+    iteration, earlier, first_ratio = 0, None, 1.0  # earlier: the accepted state before `state`; a_t after step 1
 
     def carried():  # what the loop carries from step to step: a Redo restores it
         return (iteration, state, earlier, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing,
-                held, ids, owner)
+                held, ids, owner, first_ratio)
 
     before = carried()
     while True:
         sent = yield state
         if isinstance(sent, Redo):
             (iteration, state, earlier, rings, builder, current, sizes, sizes0, start_sizes, ratio, score, reducing,
-             held, ids, owner), sent = before, sent.params
+             held, ids, owner, first_ratio), sent = before, sent.params
         elif state.termination:
             return
         params, notes = retune(params, sent)
@@ -152,7 +152,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         # LBC's rule, on the rings of this solve: stop once the step shrinks them by less than `termination`
         drop = float((start_sizes[free].sum() - new_sizes[free].sum()) / sizes0[free].sum())
         # as in LBC (skelcore.contraction): a cloud not yet curve-like goes on while each step makes it more so
-        ratios = None if earlier is None else (earlier.ring_ratio, state.ring_ratio)
+        ratios = stall_ratios(first_ratio, earlier, state)
         if rings_stalled(iteration, drop, current, candidate, params, run.diagonal, ratios):
             moved = (f"shrank the rings by {drop:.4f} < {params.termination:g}" if drop >= 0
                      else f"widened the rings by {-drop:.4f}")
@@ -188,6 +188,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
 
         current, sizes, sizes0, wh = candidate[keep], new_sizes[keep], sizes0[keep], wh[keep]
         held = hold_curves(wl, current, run) if iteration == 1 else held[keep]
+        first_ratio = new_ratio if iteration == 1 else first_ratio
         start_sizes = rings.sizes(current) if len(current) < len(keep) else sizes
         share_removed = (len(ids) - len(current)) / n
         ids, owner, ratio = ids[keep], new_row[owner], new_ratio

@@ -317,7 +317,7 @@ def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -
 
 
 def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: np.ndarray, params: ContractionParams,
-                  diagonal: float, ratios: tuple[float, float] | None = None) -> bool:
+                  diagonal: float, ratios: tuple[float, float | None, float] | None = None) -> bool:
     """cloudcontr's stop rule, from the second step on: the step shrank the rings' total size by `drop` (a
     share of the input's), less than params.termination; except that while the rings still shrink, a step
     that goes_on is taken, and so is one that speeds up a contraction not yet under way (`under_way`)."""
@@ -325,15 +325,28 @@ def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: n
         drop >= 0 and (not under_way(drop, ratios, params) or goes_on(current, candidate, params, diagonal)))
 
 
-def under_way(drop: float, ratios: tuple[float, float] | None, params: ContractionParams) -> bool:
-    """Whether the contraction is under way for the stop rule, given a_t of the two states before the step
-    (`ratios`; None: it is): the rings have shrunk in all by params.termination, or the step shrank them no more
-    than the step before. cloudcontr's rule tells a contraction that has slowed down; a bulky ball's first steps
-    barely shrink it while W_L triples a step, each shrinking it more than the last."""
+def under_way(drop: float, ratios: tuple[float, float | None, float] | None, params: ContractionParams) -> bool:
+    """Whether the contraction is under way for the stop rule, given `ratios`: a_t after the first step, of the
+    state before the last (None when that is the input) and of the last (None: it is under way). It is once the
+    rings have shrunk by params.termination since the first step, or once a step shrinks them no more than the
+    step before. cloudcontr's rule tells a contraction that has slowed down; a bulky ball's first steps barely
+    shrink it while W_L triples a step, each shrinking it more than the last. The first step does not count: it
+    takes a scan's noise out of the rings, or pulls thin parts onto their axes in one go, and so shrinks a_t at
+    once while the bulk has not started (a ball with thin handles and 1% noise: 0.175, then 0.0065, and a run
+    that stopped there, one step in; a chain of thin rings at 1,000 points the same, and "not yet converged")."""
     if ratios is None:
         return True
-    earlier, last = ratios
-    return 1.0 - last >= params.termination or drop <= earlier - last
+    first, earlier, last = ratios
+    return first - last >= params.termination or (earlier is not None and drop <= earlier - last)
+
+
+def stall_ratios(first_ratio: float, earlier: IterationState | None, state: IterationState
+                 ) -> tuple[float, float | None, float] | None:
+    """`under_way`'s ratios before the step after `state` (preceded by `earlier`; None: `state` is the input),
+    `first_ratio` being a_t after the first step."""
+    if earlier is None:
+        return None
+    return first_ratio, (earlier.ring_ratio if earlier.iteration else None), state.ring_ratio
 
 
 def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
