@@ -167,8 +167,9 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       file path.
     method: "lbc" (Cao et al. 2010) or "glskeleton" (Wen et al. 2024).
     weights: (n,) positive per-point contraction weights (a multiplier of W_L per point: point i's
-      Laplacian row becomes W_L w_i L_i), one per point of the input (the rows loading keeps take theirs: a
-      repeated point its first row's) or one per point of a Cloud given.
+      Laplacian row becomes W_L w_i L_i): one per point of an array or a file (the rows loading keeps take
+      theirs: a repeated point its first row's; refused when a mesh's points are drawn anew), one per point of
+      a Cloud given.
     labels: per-point integer labels: an (n,) array, a label file or a PLY vertex property name; a PLY
       input's label property is read without asking. label_weights: {label: weight}; unnamed labels keep 1.
       Give `weights` or `label_weights`, not both.
@@ -211,7 +212,8 @@ def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weig
         raise ParameterError(f"parameter progress={progress!r}: must be a function of one line (such as print)")
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
-        points_or_path, labels = as_cloud(points_or_path, labels, options.drop_nonfinite, options.sample), None
+        cloud = as_cloud(points_or_path, labels, options.drop_nonfinite, options.sample)
+        points_or_path, labels, weights = cloud, None, io.weights_of(points_or_path, cloud, weights)
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
     return Result(computed.cloud, computed.states, computed.skeleton, computed.metrics, options, computed.weights,
@@ -277,13 +279,13 @@ def contract(points, method: str | None = None, *, weights=None, params: Contrac
         for state in skelcore.contract(points, max_iterations=3):
             print(state.iteration, state.ring_ratio)
 
-    points: an (n,3) array or a Cloud; weights: (n,) per-point contraction weights; params: a whole
-    ContractionParams (default: the defaults); method and **changes: parameters by name on top of it."""
+    points: an (n,3) array or a Cloud; weights: per-point contraction weights, as in `skeletonize`; params: a
+    whole ContractionParams (default: the defaults); method and **changes: parameters by name on top of it."""
     cloud = as_cloud(points)
     merged = {**(params or ContractionParams()).to_dict(), **changes}
     if method is not None:
         merged["method"] = method
-    weights = None if weights is None else io.point_weights(cloud, weights)
+    weights = io.weights_of(points, cloud, weights)
     return _contract(cloud.points, contraction_params(merged.pop("method"), merged), weights)
 
 
@@ -323,7 +325,6 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
         cloud = io.load(points_or_result, labels=labels)
     else:
         cloud = as_cloud(points_or_result, labels)
-    if weights is not None:
-        weights = io.point_weights(cloud, weights)
+    weights = io.weights_of(points_or_result, cloud, weights)
     return open_inspector(cloud, params, host=host, port=port or 0,
                           label_weights=check_label_weights(label_weights), weights=weights)

@@ -47,7 +47,7 @@ class Cloud:
     labels: np.ndarray | None = None  # (n,) int64 per-point labels (skelcore.labels), when the input has them
     scale: float = 1.0  # the file's coordinates are points * scale (a power of two; 1 unless extreme)
     # the input's row of every point, when validation kept input rows (None once resampled, and after cleaning),
-    # and how many rows the input had: per-point values given for the input follow the points kept (point_weights)
+    # and how many rows the input had: per-point values given for the input follow the points kept (input_weights)
     rows: np.ndarray | None = None
     input_rows: int = 0
 
@@ -262,24 +262,37 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
                  input_rows=input_rows)
 
 
-def point_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
-    """Per-point `weights` as the cloud's (n,) checked weights: given one per point, or one per row of the input it
-    was validated from, of which the rows kept are taken (a repeated point keeps its first row's, as labels do)."""
+def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:
+    """The per-point weights of `cloud`, made from `source`: a Cloud given is weighted point by point, an array or a
+    file row by row (input_weights)."""
+    if weights is None:
+        return None
+    return check_weights(weights, len(cloud.points)) if isinstance(source, Cloud) else input_weights(cloud, weights)
+
+
+def input_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
+    """`weights` given one per row of the input that `cloud` was validated from, as the cloud's (n,) checked
+    weights: the rows loading kept take theirs (a repeated point its first row's, as labels do; a left-out row's
+    weight is not read); one per point kept is taken as it is. Points drawn anew (sampled over a mesh's surface,
+    voxel-downsampled) have no input row, so weights given for the input are refused."""
     n = len(cloud.points)
-    try:
-        given = np.shape(weights)
-    except ValueError:  # ragged: check_weights names it
-        given = None
-    if given is None or cloud.input_rows == n or given == (n,):
-        return check_weights(weights, n, name)
-    if given != (cloud.input_rows,) or cloud.input_rows == 0:
-        input_rows = f" or per input row ({cloud.input_rows})" if cloud.input_rows and cloud.rows is not None else ""
-        raise ParameterError(f"parameter {name}: expected one weight per point ({n}){input_rows}, got shape {given}")
     if cloud.rows is None:
-        raise ParameterError(f"parameter {name}: given per input row, but the {n} points were drawn anew (over the "
-                             f"mesh's surface or in voxels): keep the input's points (sample=0, no voxel_size) or "
-                             f"give one weight per point drawn")
-    return check_weights(weights, cloud.input_rows, name)[cloud.rows]
+        raise ParameterError(f"parameter {name}: the input's points were replaced by {n:,} drawn anew (sampled over a "
+                             f"mesh's surface or voxel-downsampled), so weights given for the input do not apply: "
+                             f"load it first (skelcore.load) and give one weight per point of the cloud it returns")
+    try:
+        values = None if np.iscomplexobj(weights) else np.asarray(weights, dtype=np.float64)
+    except (TypeError, ValueError):
+        values = None
+    if values is None:
+        return check_weights(weights, n, name)  # which names the problem
+    if values.shape == (cloud.input_rows,):
+        values = values[cloud.rows]
+    elif values.shape != (n,):
+        kept = f" or per point kept ({n:,})" if n != cloud.input_rows else ""
+        raise ParameterError(f"parameter {name}: expected one weight per input point ({cloud.input_rows:,}){kept}, got "
+                             f"shape {values.shape}")
+    return check_weights(values, n, name)
 
 
 def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = None) -> InputError:

@@ -32,6 +32,8 @@ FLOAT_LABELS = 2 ** 53  # labels read as floats are exact integers up to this ma
 
 def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
     """`weights` as an (n,) float64 array of positive finite numbers, or a ParameterError."""
+    if np.iscomplexobj(weights):
+        raise ParameterError(f"parameter {name}: complex numbers; give their real parts (np.real)")
     try:
         values = np.asarray(weights, dtype=np.float64)
     except (TypeError, ValueError):

@@ -240,7 +240,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                         seed=options.seed, labels=options.labels if labels is None else labels,
                         drop_nonfinite=options.drop_nonfinite)
     clock.mark("load")
-    weights = None if weights is None else io.point_weights(cloud, weights)
+    weights = io.weights_of(source, cloud, weights)
     try:
         if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
             report = clean(cloud.points, options.cleaning)

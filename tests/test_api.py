@@ -81,7 +81,7 @@ def test_contract_steps_by_hand_and_retunes():
 
 def test_bad_arguments_give_one_line_errors():
     points = skelcore.load(REPO / "assets" / "capsule.ply").points
-    with pytest.raises(ParameterError, match="one weight per point"):
+    with pytest.raises(ParameterError, match=r"one weight per input point \(3,000\), got shape \(3,\)"):
         skelcore.skeletonize(points, weights=np.ones(3))
     with pytest.raises(ParameterError, match="not positive"):
         skelcore.skeletonize(points, weights=np.zeros(len(points)))
@@ -332,15 +332,31 @@ def test_weights_given_per_input_row_follow_the_points_loading_keeps():
     assert np.array_equal(result.weights, np.r_[weights[:3], weights[4:], 9.0])
     state = next(skelcore.contract(repeated, weights=given))
     assert len(state.points) == len(points)
-    with pytest.raises(ParameterError, match=rf"per point \({len(points)}\) or per input row \({len(repeated)}\)"):
+    with pytest.raises(ParameterError, match=rf"per input point \({len(repeated):,}\) or per point kept "
+                                             rf"\({len(points):,}\)"):
         skelcore.skeletonize(repeated, weights=given[:-1])
+    unread = given.copy()
+    unread[len(points):] = np.nan  # the repeats' rows are left out, and their weights with them
+    assert np.array_equal(skelcore.skeletonize(repeated, weights=unread, max_iterations=1, cleaning=False).weights,
+                          weights)
 
 
-def test_weights_for_a_mesh_drawn_anew_are_refused_in_words():
+def test_weights_for_points_drawn_anew_are_refused_in_words_even_when_the_counts_agree(tmp_path):
     trimesh = pytest.importorskip("trimesh")
     mesh = trimesh.creation.torus(1.0, 0.3)  # vertices on rings only: its surface is drawn over
-    with pytest.raises(ParameterError, match=r"drawn anew.*\(sample=0"):
-        skelcore.skeletonize(mesh, weights=np.ones(len(mesh.vertices)))
+    for count in (None, len(mesh.vertices)):  # as many points drawn as it has vertices: still not theirs
+        with pytest.raises(ParameterError, match=r"replaced by .* drawn anew.*skelcore\.load"):
+            skelcore.skeletonize(mesh, weights=np.ones(len(mesh.vertices)), sample=count)
+    points = skelcore.load(REPO / "assets" / "capsule.ply").points
+    np.savetxt(tmp_path / "capsule.xyz", points)
+    with pytest.raises(ParameterError, match="drawn anew"):  # voxels finer than the spacing: reordered, not merged
+        skelcore.skeletonize(tmp_path / "capsule.xyz", weights=np.ones(len(points)), voxel_size=1e-9)
+    cloud = skelcore.load(tmp_path / "capsule.xyz", voxel_size=1e-9)  # loaded first: weighted point by point
+    weights = np.linspace(1.0, 2.0, len(cloud.points))
+    assert np.array_equal(skelcore.skeletonize(cloud, weights=weights, max_iterations=1, cleaning=False).weights,
+                          weights)
+    with pytest.raises(ParameterError, match="complex numbers"):
+        skelcore.skeletonize(points, weights=np.ones(len(points)) * 1j)
 
 
 def test_result_report_is_one_page(tmp_path):
