@@ -16,7 +16,7 @@ import numpy as np
 
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
-from .labels import as_labels, check_weights, ply_label_property, read_labels, read_ply_labels
+from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import is_integer, is_real
 from .repeats import without_repeats
@@ -268,31 +268,6 @@ def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:
     if weights is None:
         return None
     return check_weights(weights, len(cloud.points)) if isinstance(source, Cloud) else input_weights(cloud, weights)
-
-
-def input_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
-    """`weights` given one per row of the input that `cloud` was validated from, as the cloud's (n,) checked
-    weights: the rows loading kept take theirs (a repeated point its first row's, as labels do; a left-out row's
-    weight is not read); one per point kept is taken as it is. Points drawn anew (sampled over a mesh's surface,
-    voxel-downsampled) have no input row, so weights given for the input are refused."""
-    n = len(cloud.points)
-    if cloud.rows is None:
-        raise ParameterError(f"parameter {name}: the input's points were replaced by {n:,} drawn anew (sampled over a "
-                             f"mesh's surface or voxel-downsampled), so weights given for the input do not apply: "
-                             f"load it first (skelcore.load) and give one weight per point of the cloud it returns")
-    try:
-        values = None if np.iscomplexobj(weights) else np.asarray(weights, dtype=np.float64)
-    except (TypeError, ValueError):
-        values = None
-    if values is None:
-        return check_weights(weights, n, name)  # which names the problem
-    if values.shape == (cloud.input_rows,):
-        values = values[cloud.rows]
-    elif values.shape != (n,):
-        kept = f" or per point kept ({n:,})" if n != cloud.input_rows else ""
-        raise ParameterError(f"parameter {name}: expected one weight per input point ({cloud.input_rows:,}){kept}, got "
-                             f"shape {values.shape}")
-    return check_weights(values, n, name)
 
 
 def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = None) -> InputError:

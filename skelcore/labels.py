@@ -15,12 +15,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import InputError, ParameterError
 from .params import is_integer, is_real
 from .readers import quiet_trimesh
+
+if TYPE_CHECKING:
+    from .io import Cloud
 
 # PLY vertex properties read as labels when present, in this order (case-insensitive)
 LABEL_PROPERTIES = ("label", "labels", "class", "classification", "scalar_label", "scalar_labels",
@@ -44,6 +48,31 @@ def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
     if bad:
         raise ParameterError(f"parameter {name}: {bad} of {n} weights are not positive finite numbers")
     return values
+
+
+def input_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
+    """`weights` given one per row of the input that `cloud` was validated from, as the cloud's (n,) checked
+    weights: the rows loading kept take theirs (a repeated point its first row's, as labels do; a left-out row's
+    weight is not read); one per point kept is taken as it is. Points drawn anew (sampled over a mesh's surface,
+    voxel-downsampled) have no input row, so weights given for the input are refused."""
+    n = len(cloud.points)
+    if cloud.rows is None:
+        raise ParameterError(f"parameter {name}: the input's points were replaced by {n:,} drawn anew (sampled over a "
+                             f"mesh's surface or voxel-downsampled), so weights given for the input do not apply: "
+                             f"load it first (skelcore.load) and give one weight per point of the cloud it returns")
+    try:
+        values = None if np.iscomplexobj(weights) else np.asarray(weights, dtype=np.float64)
+    except (TypeError, ValueError):
+        values = None
+    if values is None:
+        return check_weights(weights, n, name)  # which names the problem
+    if values.shape == (cloud.input_rows,):
+        values = values[cloud.rows]
+    elif values.shape != (n,):
+        kept = f" or per point kept ({n:,})" if n != cloud.input_rows else ""
+        raise ParameterError(f"parameter {name}: expected one weight per input point ({cloud.input_rows:,}){kept}, got "
+                             f"shape {values.shape}")
+    return check_weights(values, n, name)
 
 
 def check_label_weights(label_weights) -> dict[int, float]:

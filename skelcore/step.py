@@ -331,9 +331,8 @@ def under_way(drop: float, ratios: tuple[float, float | None, float] | None, par
     rings have shrunk by params.termination since the first step, or once a step shrinks them no more than the
     step before. cloudcontr's rule tells a contraction that has slowed down; a bulky ball's first steps barely
     shrink it while W_L triples a step, each shrinking it more than the last. The first step does not count: it
-    takes a scan's noise out of the rings, or pulls thin parts onto their axes in one go, and so shrinks a_t at
-    once while the bulk has not started (a ball with thin handles and 1% noise: 0.175, then 0.0065, and a run
-    that stopped there, one step in; a chain of thin rings at 1,000 points the same, and "not yet converged")."""
+    takes a scan's noise out of the rings, or pulls thin parts onto their axes, at once, while the bulk has not
+    started (a ball with thin handles and 1% noise: 0.175, then 0.0065, and a run that stopped one step in)."""
     if ratios is None:
         return True
     first, earlier, last = ratios
