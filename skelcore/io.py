@@ -267,7 +267,9 @@ def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:
     file row by row (input_weights)."""
     if weights is None:
         return None
-    return check_weights(weights, len(cloud.points)) if isinstance(source, Cloud) else input_weights(cloud, weights)
+    if isinstance(source, Cloud):
+        return check_weights(weights, len(cloud.points))
+    return input_weights(weights, len(cloud.points), cloud.rows, cloud.input_rows)
 
 
 def _too_few(name: str, distinct: int, dropped: int, voxel_size: float | None = None) -> InputError:

@@ -15,16 +15,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import InputError, ParameterError
 from .params import is_integer, is_real
 from .readers import quiet_trimesh
-
-if TYPE_CHECKING:
-    from .io import Cloud
 
 # PLY vertex properties read as labels when present, in this order (case-insensitive)
 LABEL_PROPERTIES = ("label", "labels", "class", "classification", "scalar_label", "scalar_labels",
@@ -50,13 +46,13 @@ def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
     return values
 
 
-def input_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
-    """`weights` given one per row of the input that `cloud` was validated from, as the cloud's (n,) checked
-    weights: the rows loading kept take theirs (a repeated point its first row's, as labels do; a left-out row's
-    weight is not read); one per point kept is taken as it is. Points drawn anew (sampled over a mesh's surface,
-    voxel-downsampled) have no input row, so weights given for the input are refused."""
-    n = len(cloud.points)
-    if cloud.rows is None:
+def input_weights(weights, n: int, rows: np.ndarray | None, input_rows: int, name: str = "weights") -> np.ndarray:
+    """`weights` given one per row of an input of `input_rows` rows, as the (n,) checked weights of the n points
+    loading kept from it, whose input `rows` are given (skelcore.io.Cloud.rows): the rows kept take theirs (a
+    repeated point its first row's, as labels do; a left-out row's weight is not read); one per point kept is
+    taken as it is. Points drawn anew (sampled over a mesh's surface, voxel-downsampled; `rows` None) have no
+    input row, so weights given for the input are refused."""
+    if rows is None:
         raise ParameterError(f"parameter {name}: the input's points were replaced by {n:,} drawn anew (sampled over a "
                              f"mesh's surface or voxel-downsampled), so weights given for the input do not apply: "
                              f"load it first (skelcore.load) and give one weight per point of the cloud it returns")
@@ -66,11 +62,11 @@ def input_weights(cloud: Cloud, weights, name: str = "weights") -> np.ndarray:
         values = None
     if values is None:
         return check_weights(weights, n, name)  # which names the problem
-    if values.shape == (cloud.input_rows,):
-        values = values[cloud.rows]
+    if values.shape == (input_rows,):
+        values = values[rows]
     elif values.shape != (n,):
-        kept = f" or per point kept ({n:,})" if n != cloud.input_rows else ""
-        raise ParameterError(f"parameter {name}: expected one weight per input point ({cloud.input_rows:,}){kept}, got "
+        kept = f" or per point kept ({n:,})" if n != input_rows else ""
+        raise ParameterError(f"parameter {name}: expected one weight per input point ({input_rows:,}){kept}, got "
                              f"shape {values.shape}")
     return check_weights(values, n, name)
 
