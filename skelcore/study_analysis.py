@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from .metrics import NORMAL_CONVENTIONS
-from .verdict import LABELS, MANY_PEAKS, StabilityThresholds, count_loops, count_pieces, features, judge
+from .verdict import (LABELS, MANY_PEAKS, StabilityThresholds, count_loops, features, judge, piece_range,
+                      pieces_agree)
 
 GOAL_PRECISION = 0.9  # "stable" must be right in this share of the runs it labels, on held-out shapes
 FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" costs 9 right ones
@@ -40,7 +41,8 @@ CANDIDATES = {
     "loop_death": [2.0, 3.0, 4.0, 6.0, 8.0],
 }
 # Not calibrated: piece_gap and loop_birth stay at 2 sample radii, the widest gap the skeleton's ball cover
-# (samples r apart, each covering r) bridges, so pieces and loops are counted at the skeleton's own scale;
+# (samples r apart, each covering r) bridges within a piece of the surface, so pieces and loops are counted at the
+# skeleton's own scale;
 # d_theta_tolerance stays at half the target (skelcore.verdict.StabilityThresholds says why).
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
 PERMISSIVE = {"max_peaks": MANY_PEAKS, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
@@ -199,7 +201,8 @@ def statistic_table(record: dict, convention: str) -> dict:
 def skeleton_agreement(record: dict, thresholds: StabilityThresholds) -> float:
     """1 when the run's skeleton passes every skeleton check (nodes, pieces, loops), else 0."""
     e = record["evidence"]
-    pieces = e["components"] == count_pieces(e["cloud_pieces"], thresholds) == count_pieces(e["input_pieces"], thresholds)
+    pieces = pieces_agree(e["components"], piece_range(e["cloud_pieces"], thresholds),
+                          piece_range(e["input_pieces"], thresholds))
     return float(pieces and e["cycles"] == count_loops(e["cloud_loops"], thresholds) and e["nodes"] >= 3)
 
 

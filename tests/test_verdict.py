@@ -4,7 +4,7 @@ import pytest
 
 from skelcore.errors import InputError, ParameterError
 from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, explanation_markdown, features, judge,
-                              run_verdict)
+                              piece_range, run_verdict)
 
 
 # Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
@@ -23,8 +23,9 @@ def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.
 
 def evidence(nodes=40, components=1, cycles=1, loops=((0.3, 25.0),), cloud_pieces=1, input_pieces=1):
     return {"nodes": nodes, "components": components, "cycles": cycles,
-            "cloud_pieces": {"1": 3, "2": cloud_pieces, "4": 1}, "cloud_loops": [list(loop) for loop in loops],
-            "input_pieces": {"1": 2, "2": input_pieces, "4": 1}}
+            "cloud_pieces": {"1": cloud_pieces, "2": cloud_pieces, "4": 1},
+            "cloud_loops": [list(loop) for loop in loops],
+            "input_pieces": {"1": input_pieces, "2": input_pieces, "4": 1}}
 
 
 def test_iteration_zero_has_no_verdict_and_later_ones_name_their_iteration():
@@ -113,6 +114,24 @@ def test_counts_of_pieces_and_loops():
     assert count_pieces(pieces, StabilityThresholds(piece_gap=0.5)) == 5
     assert count_loops([[0.3, 25.0], [0.2, 0.5], [12.0, 20.0]], t) == 1
     assert count_loops([], t) == 0
+
+
+def test_pieces_parted_by_a_gap_under_two_radii_may_stay_apart():
+    # a chain of three links whose surfaces pass 1.5 radii apart: one piece fewer at 2 radii, all three at 1.5
+    chain = {"1": 3, "1.5": 3, "2": 2, "3": 1}
+    assert piece_range(chain, T) == (2, 3)
+    assert piece_range({"1": 1, "1.5": 2, "2": 2}, T) == (2, 2)  # strays under 1% dropped at the narrowest gap
+    kept_apart = judge(features(entry(), {**evidence(components=3, cloud_pieces=3), "input_pieces": chain}), 3, T)
+    assert kept_apart["label"] == "stable", kept_apart["reasons"]
+    assert ("skeleton pieces: 3 (as many as the contracted cloud (3) and the input (2 to 3)): pass"
+            in [c["text"] for c in kept_apart["criteria"]])
+    # a skeleton split beyond what even the narrowest gap parts, or joined across a gap over two radii, is not
+    for components in (1, 4):
+        verdict = judge(features(entry(), {**evidence(components=components), "input_pieces": chain,
+                                           "cloud_pieces": chain}), 3, T)
+        assert verdict["label"] == "unstable"
+        assert (f"skeleton pieces: {components} (as many as the contracted cloud (2 to 3) and the input (2 to 3)): "
+                "fail") in verdict["reasons"]
 
 
 def test_run_verdict_judges_the_last_iteration():
