@@ -43,13 +43,17 @@ def pin(session) -> Pinned:
         found = session.skeleton(index, run)
         skeleton = (found.nodes_array(), found.edges_array())
     name = describe(state, "pinned")
-    return Pinned(run, name, report.run_summary(name, metrics), skeleton)
+    # the verdict the Histograms tab shows for it: with the skeleton's checks where it has a skeleton
+    judged = skeleton is not None or (index, session.skeleton_params) in run.evidence
+    verdict = session.verdict(index, run, with_skeleton=index > 0 and judged)
+    return Pinned(run, name, report.run_summary(name, metrics, verdict), skeleton)
 
 
-def comparison(pinned: Pinned, state, history) -> tuple[str, object, object, object]:
+def comparison(pinned: Pinned, state, history, verdict: dict | None = None) -> tuple[str, object, object, object]:
     """Markdown naming both runs, the overlaid convergence curves, the last histograms of both (D_theta,
-    delta_kappa); `history`: the current run's metrics up to the shown `state`."""
-    current = report.run_summary(describe(state, "current"), history)
+    delta_kappa); `history`: the current run's metrics up to the shown `state`; `verdict`: its verdict as the
+    Histograms tab shows it (with the skeleton's checks once made; None: from the metrics alone)."""
+    current = report.run_summary(describe(state, "current"), history, verdict)
     runs = [pinned.summary, current]
     note = (f"**{pinned.name}** (grey, verdict {runs[0]['verdict']['label']}) against **{current['name']}** "
             f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in green.")

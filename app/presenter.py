@@ -168,7 +168,7 @@ class Presenter:
                        if colour_by in COLOUR_RANGES else None)
             # the skeleton's checks, when the skeleton thread has already made them
             verdict = session.verdict(index, run, with_skeleton=(index, session.skeleton_params) in run.evidence)
-            comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run))
+            comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run), verdict)
                           if self.pinned is not None else None)
         points = viewer.drawn.get("points")
         if not self._plots_wanted(viewer, run, index, points):
@@ -208,8 +208,14 @@ class Presenter:
             if skeleton.gap > skeleton.radius:  # the notes say so once a skeleton has read the surface
                 self.update_status(viewer)
         verdict = self.session.verdict(index, run, with_skeleton=index > 0)  # the skeleton's checks complete it
+        pinned = self.pinned
+        comparison = (compare.comparison(pinned, state, self.session.metrics_upto(index, run), verdict)
+                      if pinned is not None else None)
         if viewer.showing(run, index):
-            viewer.show_verdict(verdict)
+            with viewer.client.atomic():
+                viewer.show_verdict(verdict)
+                if comparison is not None:  # the Compare tab names the same verdict
+                    viewer.show_comparison(*comparison)
             viewer.client.flush()
 
     # ------------------------------------------------------------------ status and legend

@@ -296,10 +296,12 @@ def final_histograms_figure(runs, measure: str, title: str | None = None, colour
     return figure
 
 
-def run_summary(name: str, metrics) -> dict:
-    """A run as the comparison figures take it, from its per-iteration metrics (objects or dicts)."""
+def run_summary(name: str, metrics, verdict: dict | None = None) -> dict:
+    """A run as the comparison figures take it, from its per-iteration metrics (objects or dicts). verdict: the
+    run's verdict when the caller has it with the skeleton's checks (skelcore.verdict.run_verdict with evidence);
+    None: judged from the metrics alone."""
     entries = _entries(metrics)
-    return {"name": name, "iterations": entries, "verdict": run_verdict(entries)}
+    return {"name": name, "iterations": entries, "verdict": verdict or run_verdict(entries)}
 
 
 def verdict_text(verdict: dict, max_reasons: int = 6) -> str:

@@ -128,6 +128,31 @@ def test_the_inputs_topology_is_computed_once_per_run(session, monkeypatch):
     assert verdicts[-1] == session.verdict(3, with_skeleton=True)
 
 
+def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch):
+    """The Histograms tab's verdict holds the skeleton's checks; the Compare tab's note named the verdict of the
+    metrics alone, so a run failed by its skeleton read "unstable" above the histograms and "stable" or "not yet
+    converged" beside the pinned run."""
+    import app.session as session_module
+    from app.compare import comparison, pin
+
+    real = session_module.skeleton_evidence
+    split = lambda *args: {**real(*args), "components": 5}  # a skeleton in more pieces than the clouds hold
+    monkeypatch.setattr(session_module, "skeleton_evidence", split)
+    session = Session(validate(make_shape("torus", 1500).points, name="torus.xyz"), ContractionParams())
+    for _ in range(2):  # iteration 2 of this torus is stable by its metrics
+        session.step()
+    index, state = len(session.history) - 1, session.latest
+    plain = session.verdict(index)
+    # a skeleton not yet drawn (provisional, not asked for): the tab shows the metrics' verdict, and so does the pin
+    assert plain["label"] != "unstable" and pin(session).summary["verdict"] == plain
+    judged = session.verdict(index, with_skeleton=True)  # as the presenter does once it draws the skeleton
+    assert judged["label"] == "unstable"
+    pinned = pin(session)
+    assert pinned.summary["verdict"] == judged
+    note = comparison(pinned, state, session.metrics_upto(index), judged)[0]
+    assert note.count("verdict unstable") == 2, note
+
+
 def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
     """A skeleton drawn after its metrics judges its loops on the metrics' inside test of the same points: the
     oriented normals of the cloud are computed once for both, and the result is the one the probe's own gives."""
