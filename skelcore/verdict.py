@@ -38,7 +38,7 @@ LABELS = ("stable", "not yet converged", "unstable")
 D_THETA_RANGE = (0.0, 1.0)
 DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
 MANY_PEAKS = 100  # max_peaks at least this: the peak criterion is off (no histogram the metrics draw holds so many)
-_OFF = "off (adds nothing in the study)"
+_OFF = "off (added nothing in the calibration study)"
 
 
 @dataclass(frozen=True)
@@ -286,6 +286,10 @@ def run_verdict(iterations, skeleton: dict | None = None,
     return verdict
 
 
+OFF_NOTE = ("*off*: the calibration study (`skelcore study`: runs on shapes whose skeletons are known, good "
+            "and deliberately broken) found that this criterion told right skeletons from wrong ones no better "
+            "than the others, so its value is shown and not judged.")
+
 # Why each criterion beyond the paper's is there (module docstring), shown under the table when it fails.
 WHY = {
     "contraction steps taken": "the paper's stability is a trend over iterations; after one step a cloud that was "
@@ -320,6 +324,8 @@ def explanation_markdown(verdict: dict) -> str:
     for c in verdict.get("criteria", []):
         result = "n/a" if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
         lines.append(f"| {c['name']} | {c['value']} | {c['threshold']} | {result} |")
+    if any(c["passed"] is None for c in verdict.get("criteria", [])):
+        lines += ["", OFF_NOTE]
     why = [f"- *{c['name']}*: {WHY[c['name']]}" for c in failed_criteria(verdict) if c["name"] in WHY]
     return "\n".join(lines + (["", "Why:"] + why if why else []))
 

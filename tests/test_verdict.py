@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from skelcore.errors import InputError, ParameterError
-from skelcore.verdict import (StabilityThresholds, count_loops, count_pieces, explanation_markdown, features, judge,
-                              piece_range, run_verdict)
+from skelcore.verdict import (OFF_NOTE, StabilityThresholds, count_loops, count_pieces, explanation_markdown, features,
+                              judge, piece_range, run_verdict)
 
 
 # Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
@@ -159,10 +159,12 @@ def test_a_criterion_at_its_loosest_is_shown_off_and_decides_nothing():
     verdict = judge(features(entry(d_mean=0.04, symmetry=0.1, growth=-0.99)), 4, loose)
     rows = {c["name"]: c for c in verdict["criteria"]}
     assert rows["mean D_theta"]["passed"] is None and rows["mean D_theta"]["value"] == "0.04"
-    assert rows["mean D_theta"]["threshold"] == "target 0.5; off (adds nothing in the study)"
+    assert rows["mean D_theta"]["threshold"] == "target 0.5; off (added nothing in the calibration study)"
     assert rows["D_theta symmetry"]["passed"] is None
     assert rows["spread change this step"]["threshold"] == "at most +1%" and rows["spread change this step"]["passed"]
-    assert "| mean D_theta | 0.04 | target 0.5; off (adds nothing in the study) | n/a |" in explanation_markdown(verdict)
+    table = explanation_markdown(verdict)
+    assert "| mean D_theta | 0.04 | target 0.5; off (added nothing in the calibration study) | n/a |" in table
+    assert OFF_NOTE in table  # what "off" means, said once under the table
     assert verdict["label"] == "stable"  # what would fail is off
     assert judge(features(entry(d_mean=0.04, growth=0.05)), 4, loose)["reasons"] == [
         "spread change this step: +5.0% (at most +1%): fail"]
