@@ -3,8 +3,10 @@ with manifold3d, each closed, its genus read from its mesh like the benchmark's 
 
 They are the shapes a user brings that no default benchmark shape stands for: flat plates with holes (wrench, key,
 L-bracket), hardware rings of every height (nut, washer, pipe), frames of thin rods (glasses, ladder, wheel),
-bodies with limbs (octopus, star) and plain primitives (capsule, pin, box). `skelcore bench-quality --parts` runs
-them; they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
+bodies with limbs (octopus, star) and plain primitives (capsule, pin, box). Eleven more were built to check the
+skeleton on objects no threshold was set on: containers with handles (kettle, trophy, cups), linked and fused rings,
+a wire hanger, scissors, a bulky body with arches and a branching tree. `skelcore bench-quality --parts` runs
+them all; they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
 """
 from __future__ import annotations
 
@@ -134,6 +136,129 @@ def octopus(arms: int = 8):
     return _union(parts)
 
 
+def _tube(path, radius, closed: bool = False):
+    """A round tube along a polyline: the hulls of balls on consecutive points (`radius`: one, or one per point)."""
+    m3d = _m3d()
+    path = np.asarray(path, dtype=float)
+    radii = np.broadcast_to(np.asarray(radius, dtype=float), (len(path),))
+    balls = [m3d.Manifold.sphere(float(r), 32).translate(tuple(p)) for p, r in zip(path, radii)]
+    pairs = list(zip(balls, balls[1:] + balls[:1] if closed else balls[1:]))
+    return _union(m3d.Manifold.batch_hull([a, b]) for a, b in pairs)
+
+
+def _arc(centre, radius: float, start: float, stop: float, plane: str = "xz", count: int = 40) -> np.ndarray:
+    """Points on a circular arc about `centre` from angle `start` to `stop` (degrees) in a coordinate plane."""
+    angle = np.radians(np.linspace(start, stop, count))
+    a, b, zero = radius * np.cos(angle), radius * np.sin(angle), np.zeros(count)
+    return {"xy": np.c_[a, b, zero], "xz": np.c_[a, zero, b], "yz": np.c_[zero, a, b]}[plane] + np.asarray(centre)
+
+
+def _cone(height: float, bottom: float, top: float, lift: float = 0.0):
+    """A cone frustum along z from z = lift, of radii `bottom` and `top`."""
+    return _m3d().Manifold.cylinder(height, bottom, top, SEGMENTS, False).translate((0.0, 0.0, lift))
+
+
+# Held-out shapes: built to check the skeleton on objects no threshold was set on (2026-12-05), kept here so
+# that the check can be run again. Each is closed, its genus and pieces read from its mesh.
+def bent_pretzel():
+    """A tube along a bowed row of three lobes that cross themselves twice, X-wise."""
+    t = np.linspace(0.0, 2 * np.pi, 240, endpoint=False)
+    return _tube(np.c_[1.5 * np.cos(t), 0.8 * np.sin(3 * t) + 0.4 * np.cos(2 * t), np.zeros_like(t)], 0.13, True)
+
+
+def scissors():
+    """Flat scissors: finger rings of two sizes on shanks, and two blades crossing at a pivot screw."""
+    m3d, thickness = _m3d(), 0.08
+    rings = [_plate_ring(0.32, 0.22, thickness).scale((1.0, 1.3, 1.0)).translate((-1.55, 0.45, 0.0)),
+             _plate_ring(0.26, 0.17, thickness, (-1.45, -0.45, 0.0))]
+    shanks = [_tube([(-1.25, 0.35 * side, 0.0), (-0.6, 0.15 * side, 0.0), (0.0, 0.0, 0.0)], 0.06) for side in (1, -1)]
+    half, tip = thickness / 2, thickness / 4
+    blade = m3d.Manifold.hull_points([(0.0, y, z) for y in (0.08, -0.05) for z in (half, -half)]
+                                     + [(1.9, y, z) for y in (-0.22, -0.26) for z in (tip, -tip)])
+    return _union([*rings, *shanks, blade, blade.mirror((0.0, 1.0, 0.0)), _cylinder(2 * thickness, 0.09)])
+
+
+def kettle():
+    """A bulky kettle: a flattened ball with a foot, a spout, a lid knob and a handle arching over the top."""
+    ball = _m3d().Manifold.sphere(1.0, SEGMENTS)
+    spout = _cone(1.1, 0.22, 0.08).rotate((0.0, 55.0, 0.0)).translate((0.65, 0.0, -0.2))
+    return _union([ball.scale((1.0, 1.0, 0.8)), _cone(0.2, 0.7, 0.7, -0.85), spout,
+                   _tube(_arc((0.0, 0.0, 0.55), 0.8, 200.0, -20.0, "yz"), 0.09),
+                   ball.scale((0.15, 0.15, 0.15)).translate((0.0, 0.0, 0.82))])
+
+
+def cup_and_saucer():
+    """A tapered cup with a ring handle standing just above a saucer with a raised rim: two pieces."""
+    cup = _cone(0.8, 0.3, 0.5) - _cone(0.8, 0.22, 0.43, 0.08)
+    handle = _tube(_arc((0.4, 0.0, 0.42), 0.22, -120.0, 120.0), 0.05) - _cone(0.8, 0.28, 0.47)
+    saucer = _cone(0.06, 0.9, 0.9) + (_cone(0.08, 0.9, 0.9, 0.04) - _cone(0.2, 0.78, 0.78, 0.04))
+    return (cup + handle).translate((0.0, 0.0, 0.23)) + saucer
+
+
+def trophy():
+    """A hollow bowl on a stem on a stepped base, with an arched handle on each side."""
+    ball = _m3d().Manifold.sphere(1.0, SEGMENTS)
+    inner = ball.scale((0.52, 0.52, 0.572)).translate((0.0, 0.0, 1.28))
+    bowl = ball.scale((0.6, 0.6, 0.66)).trim_by_plane((0.0, 0.0, -1.0), -0.3).translate((0.0, 0.0, 1.2)) - inner
+    handles = [_tube(_arc((0.5 * side, 0.0, 1.2), 0.3, start, start + 160.0), 0.06) - inner
+               for side, start in ((1, -80.0), (-1, 100.0))]
+    return _union([bowl, _cone(0.7, 0.08, 0.12, 0.25), _cone(0.12, 0.45, 0.45), _cone(0.15, 0.3, 0.3, 0.1),
+                   *handles])
+
+
+def ring_chain():
+    """Three linked rings of radius 1, 0.6 and 0.35 (tubes 0.12, 0.08, 0.05), upright and lying in turn."""
+    return _union([_ring(1.0, 0.12).rotate((-90.0, 0.0, 0.0)), _ring(0.6, 0.08).translate((1.0, 0.0, 0.0)),
+                   _ring(0.35, 0.05).rotate((-90.0, 0.0, 0.0)).translate((1.7, 0.0, 0.0))])
+
+
+def coat_hanger():
+    """A wire hanger 2 wide (wire radius 0.035): a triangle frame, a neck and an open hook."""
+    corners = np.array([(0.0, 0.0, 0.0), (1.0, 0.0, -0.75), (-1.0, 0.0, -0.75)])
+    frame = np.concatenate([np.linspace(a, b, 30, endpoint=False) for a, b in zip(corners, np.roll(corners, -1, 0))])
+    return _union([_tube(frame, 0.035, True), _tube([(0.0, 0.0, 0.0), (0.0, 0.0, 0.35)], 0.035),
+                   _tube(_arc((-0.15, 0.0, 0.35), 0.15, 0.0, 230.0), 0.035)])
+
+
+def double_torus():
+    """Two fat tori (ring 1, tube 0.45) fused broadly side by side: a figure-eight."""
+    ring = _ring(1.0, 0.45).rotate((-90.0, 0.0, 0.0))
+    return ring.translate((-0.95, 0.0, 0.0)) + ring.translate((0.95, 0.0, 0.0))
+
+
+def arched_body():
+    """A bulky body with a head, a thick arm arching off one side and back into it, a thin arch on the other."""
+    ball = _m3d().Manifold.sphere(1.0, SEGMENTS)
+    return _union([ball.scale((1.2, 0.8, 1.6)), ball.scale((0.55, 0.55, 0.55)).translate((0.0, 0.0, 1.75)),
+                   _tube(_arc((0.9, 0.0, 0.1), 0.85, -80.0, 80.0), 0.22),
+                   _tube(_arc((-1.0, 0.0, -0.2), 0.45, 110.0, 250.0), 0.10)])
+
+
+def thin_handled_cup():
+    """A thick-walled cup 1.2 high with a handle whose tube is 3% of its height."""
+    handle = _tube(_arc((0.45, 0.0, 0.62), 0.3, -95.0, 95.0), 0.036) - _cone(1.2, 0.42, 0.42)
+    return _cone(1.2, 0.5, 0.5) - _cone(1.2, 0.35, 0.35, 0.15) + handle
+
+
+def branching_tree():
+    """A tapering trunk that forks into three branches, each forking into two: six tips and a flared root."""
+    rng, parts = np.random.default_rng(3), []
+
+    def grow(start, direction, length, radius, forks):
+        direction = direction / np.linalg.norm(direction)
+        end = start + length * direction
+        parts.append(_tube([start, end], [radius, 0.7 * radius]))
+        side = np.cross(direction, [0.3, 0.5, 0.8])
+        side /= np.linalg.norm(side)
+        for k in range(forks):
+            turn = 2 * np.pi * k / forks + rng.uniform(-0.3, 0.3)
+            grow(end, direction + 0.9 * (np.cos(turn) * side + np.sin(turn) * np.cross(direction, side)),
+                 0.65 * length, 0.6 * radius, 2 if forks == 3 else 0)
+
+    grow(np.zeros(3), np.array([0.0, 0.0, 1.0]), 1.4, 0.16, 3)
+    return _union([*parts, _m3d().Manifold.sphere(1.0, SEGMENTS).scale((0.325, 0.325, 0.125))])
+
+
 # name -> (builder, ends of a correct skeleton or None when the shape does not fix them, description)
 PARTS: dict[str, tuple[Callable, int | None, str]] = {
     "wrench": (wrench, 2, "flat spanner: a ring end and an open jaw (genus 1)"),
@@ -151,4 +276,15 @@ PARTS: dict[str, tuple[Callable, int | None, str]] = {
     "box": (lambda: _box((2.0, 1.0, 0.6)), None, "box 2 x 1 x 0.6"),
     "star": (star, 5, "small ball with five arms in a plane"),
     "octopus": (octopus, 8, "ball with eight tapering tentacles"),
+    "bent_pretzel": (bent_pretzel, 0, "tube along three lobes crossing twice (genus 3)"),
+    "scissors": (scissors, None, "flat scissors: two finger rings, crossing blades (genus 2)"),
+    "kettle": (kettle, None, "bulky kettle with a spout and a handle over the top (genus 1)"),
+    "cup_and_saucer": (cup_and_saucer, None, "cup with a ring handle above a saucer (genus 1, 2 pieces)"),
+    "trophy": (trophy, None, "hollow bowl on a stem, a handle each side (genus 2)"),
+    "ring_chain": (ring_chain, 0, "three linked rings of different sizes (genus 3, 3 pieces)"),
+    "coat_hanger": (coat_hanger, 1, "wire hanger: triangle frame and open hook (genus 1)"),
+    "double_torus": (double_torus, 0, "two fat tori fused side by side (genus 2)"),
+    "arched_body": (arched_body, None, "bulky body, head, a thick and a thin arch (genus 2)"),
+    "thin_handled_cup": (thin_handled_cup, None, "thick-walled cup, handle tube 3% of its height (genus 1)"),
+    "branching_tree": (branching_tree, 7, "trunk forking into three branches and six tips"),
 }
