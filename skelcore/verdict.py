@@ -23,8 +23,8 @@ ones in `skelcore study` (its report gives the figures):
   statistics cannot see: a skeleton must hold as many pieces as the input and the contracted cloud (pieces
   parted by a gap narrower than piece_gap radii but wider than the narrowest gap read may be kept apart: the
   skeleton's balls cover each piece of the original surface on its own), as many loops as the contracted cloud,
-  and more than a couple of nodes, counting those GLSkeleton's light graph
-  leaves out of a straight stretch (it draws a rod as one edge, yet that skeleton has not collapsed).
+  and more than a couple of nodes, counting those GLSkeleton's light graph leaves out of a straight stretch (it
+  draws a rod as one edge, yet that skeleton has not collapsed).
 """
 from __future__ import annotations
 
