@@ -205,10 +205,12 @@ def build_parser() -> argparse.ArgumentParser:
     quality.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS), help="(default: both)")
     quality.add_argument("--shapes", nargs="+", default=None, metavar="NAME",
                          help="shapes to run (default: every solid, and the reference shapes when "
-                              "../shared/reference exists or --reference is given; the everyday parts by name)")
+                              "../shared/reference exists or --reference is given; the everyday parts and held-out "
+                              "shapes by name)")
     quality.add_argument("--parts", action="store_true",
-                         help="run the everyday parts (wrench, key, nut, pipe, ...: skelcore.parts), not in the "
-                              "default set, instead of the default shapes")
+                         help="run the everyday parts (wrench, key, nut, pipe, ...) and the held-out shapes (kettle, "
+                              "trophy, ring chain, ...: skelcore.parts), not in the default set, instead of the "
+                              "default shapes")
     quality.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS), metavar="VARIANT",
                          help=f"of: {' '.join(VARIANTS)} (default: all)")
     quality.add_argument("--points", type=_point_count, default=10_000, help="points per shape (default: %(default)s)")
