@@ -55,11 +55,16 @@ def comparison(pinned: Pinned, state, history, verdict: dict | None = None) -> t
     Histograms tab shows it (with the skeleton's checks once made; None: from the metrics alone)."""
     current = report.run_summary(describe(state, "current"), history, verdict)
     runs = [pinned.summary, current]
-    note = (f"**{pinned.name}** (grey, verdict {runs[0]['verdict']['label']}) against **{current['name']}** "
-            f"(red, verdict {current['verdict']['label']}); the pinned skeleton is drawn in green.")
     convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
                                                        colours=RUN_COLOURS).update_layout(CARD)
     theta, kappa = (report.final_histograms_figure(runs, key, title=f"{key_name}, last iteration", colours=RUN_COLOURS)
                     .update_layout(CARD, xaxis_title=None, legend=dict(y=-0.13, yanchor="top"))  # the title names it
                     for key, key_name in (("d_theta", "D_theta"), ("delta_kappa", "delta_kappa")))
-    return note, convergence, theta, kappa
+    return comparison_note(pinned, state, current["verdict"]), convergence, theta, kappa
+
+
+def comparison_note(pinned: Pinned, state, verdict: dict) -> str:
+    """Markdown naming the pinned run and the current one at `state`, each with its verdict."""
+    return (f"**{pinned.name}** (grey, verdict {pinned.summary['verdict']['label']}) against "
+            f"**{describe(state, 'current')}** (red, verdict {verdict['label']}); the pinned skeleton is drawn in "
+            f"green.")

@@ -209,13 +209,11 @@ class Presenter:
                 self.update_status(viewer)
         verdict = self.session.verdict(index, run, with_skeleton=index > 0)  # the skeleton's checks complete it
         pinned = self.pinned
-        comparison = (compare.comparison(pinned, state, self.session.metrics_upto(index, run), verdict)
-                      if pinned is not None else None)
         if viewer.showing(run, index):
             with viewer.client.atomic():
                 viewer.show_verdict(verdict)
-                if comparison is not None:  # the Compare tab names the same verdict
-                    viewer.show_comparison(*comparison)
+                if pinned is not None:  # the Compare tab names the same verdict; its figures stand
+                    viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict)
             viewer.client.flush()
 
     # ------------------------------------------------------------------ status and legend

@@ -133,7 +133,7 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     metrics alone, so a run failed by its skeleton read "unstable" above the histograms and "stable" or "not yet
     converged" beside the pinned run."""
     import app.session as session_module
-    from app.compare import comparison, pin
+    from app.compare import comparison, comparison_note, pin
 
     real = session_module.skeleton_evidence
     split = lambda *args: {**real(*args), "components": 5}  # a skeleton in more pieces than the clouds hold
@@ -151,6 +151,7 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     assert pinned.summary["verdict"] == judged
     note = comparison(pinned, state, session.metrics_upto(index), judged)[0]
     assert note.count("verdict unstable") == 2, note
+    assert comparison_note(pinned, state, judged) == note  # the note alone, as the presenter sends it with the checks
 
 
 def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
