@@ -194,7 +194,11 @@ class Inspector:
         self.worker.submit(lambda: self._step(viewer, event.client), event.client)
 
     def _on_play(self, event) -> None:
-        self.playback.toggle(lambda: self._tick(True), event.client)
+        viewer = self.presenter.viewer(event.client)
+        if self.session.finished and viewer is not None:  # nothing left to compute: play the run again
+            self.playback.toggle(lambda: self._replay_tick(viewer), event.client)
+        else:
+            self.playback.toggle(lambda: self._tick(True), event.client)
 
     def _on_restart(self, client) -> None:
         params = self.panel.parameters(client)
@@ -255,6 +259,21 @@ class Inspector:
         if state is not None:
             self._advance(full=full or not going)
         return going
+
+    def _replay_tick(self, viewer: Viewer) -> bool:
+        """One iteration of Play on a finished run, in the browser that asked: the next iteration it has not
+        shown, from the first when it shows the last; False ends the replay (at the last iteration, or once the
+        run or the browser is gone)."""
+        if not self.session.finished or viewer not in self.presenter.all():
+            self.playback.pause()
+            return False
+        newest = len(self.session.history) - 1
+        index = 0 if viewer.shown >= newest else viewer.shown + 1
+        viewer.look_at(index, newest)
+        self.presenter.show(viewer, index)
+        if index >= newest:
+            self.playback.pause()
+        return index < newest
 
     def _advance(self, full: bool) -> None:
         """A new state: the viewers that follow show it, the others learn the run is longer."""

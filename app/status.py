@@ -26,6 +26,8 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
     """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead)."""
     latest = history[-1]
     if playing:  # the Play button says Pause meanwhile (app.playback)
+        if latest.termination:  # Play on an ended run replays its iterations
+            return "replaying"
         return f"playing: {doing}…" if doing else "playing"
     if doing:
         return f"busy: {doing}…"

@@ -258,3 +258,45 @@ def test_scrubbed_back_the_convergence_shows_the_whole_run_with_the_iteration_ma
             (1, "line"), (1, "line")]
         newest = inspector.presenter.analyses.plots(run, len(run.history) - 1).figures[2]
         assert not [shape for shape in newest.layout.shapes if shape.yref.endswith("domain")]
+
+
+def test_play_on_an_ended_run_replays_its_iterations_in_the_browser_that_asked(cloud):
+    """Once the run has ended Play has nothing to compute: it shows the run's iterations again, from the first
+    when the browser shows the last, from the next one after an iteration scrubbed to, and stops at the last
+    with the Play button back (before, a click did nothing that could be seen)."""
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, ContractionParams(wl0=1.0, sl=3.0), look_ahead=False))
+    inspector.ui.run.interval.value = 0.0
+    browser = _Broadcast(server)
+    shown: list[int] = []
+    try:
+        inspector._connect(browser)
+        assert inspector.wait_idle(120)
+        inspector.playback.start(lambda: inspector._tick(False), None, full=False)  # Run to end
+        assert inspector.wait_idle(120) and inspector.session.finished
+        newest = len(inspector.session.history) - 1
+        assert newest >= 2
+        viewer = inspector.presenter.all()[0]
+        assert viewer.shown == newest
+        show = inspector.presenter.show
+        inspector.presenter.show = lambda v, index, full=True: (shown.append(index), show(v, index, full))
+        click = types.SimpleNamespace(client=browser)
+        inspector._on_play(click)
+        assert inspector.wait_idle(120) and not inspector.worker.playing
+        assert shown == list(range(newest + 1)) and viewer.shown == newest and viewer.following
+        assert inspector.ui.run.play.label == "Play"
+        shown.clear()
+        inspector._view_iteration(viewer, 1)
+        assert inspector.wait_idle(120)
+        inspector._on_play(click)
+        assert inspector.wait_idle(120)
+        assert shown == list(range(1, newest + 1))  # the scrub, then on from the iteration after it
+    finally:
+        inspector.close()
+        server.stop()

@@ -129,6 +129,8 @@ def test_the_status_says_the_run_plays_exactly_while_the_button_says_pause():
     assert run_state(history, "computing iteration 2", True) == "playing: computing iteration 2…"
     assert run_state(history, "computing iteration 2", False) == "busy: computing iteration 2…"
     assert run_state(history, "", False).startswith("paused")
+    ended = [*history[:1], types.SimpleNamespace(iteration=1, termination="ring_ratio", message="")]
+    assert run_state(ended, "", True) == "replaying"  # Play on an ended run replays it
 
 
 def test_parameter_changes_are_said_below_the_tabs_not_in_the_status(torus):
