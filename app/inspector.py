@@ -21,7 +21,9 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from . import compare, layout
+from skelcore.display import see_through_size
+
+from . import compare, layout, loop_events
 from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
@@ -30,7 +32,7 @@ from .panel import ParameterPanel
 from .playback import Playback
 from .presenter import Presenter
 from .progress import Activity
-from .scene import COLOUR_RANGES, auto_opacity, frame_camera
+from .scene import COLOUR_RANGES, POINT_SIZES, auto_opacity, frame_camera
 from .session import Session
 from .upload_guard import UploadGuard
 from .uploads import UploadNotices
@@ -45,6 +47,7 @@ PLAY_INTERVAL = 0.25  # seconds: a small cloud contracts in a blink; Play paces 
 class Inspector:
     def __init__(self, server: viser.ViserServer, session: Session, *, assets: dict[str, Path] | None = None,
                  save_dir: Path | None = None, max_upload_bytes: int = MAX_UPLOAD_BYTES):
+        loop_events.install(server)  # before any update goes out from the worker thread
         self.server = server
         self.session = session
         self.assets = dict(assets or {})
@@ -348,7 +351,7 @@ class Inspector:
                 self._unpin()
             opacity = auto_opacity(len(cloud.points))
             self.ui.view.opacity["original"].value = opacity
-            self.ui.view.size["original"].value = 1.0 if opacity == 1 else 0.7
+            self.ui.view.size["original"].value = see_through_size(cloud.points, opacity, POINT_SIZES["original"])
         frame_camera(self.server.initial_camera, cloud.points)
         self.loader.select_loaded()
         self.labels.refresh()

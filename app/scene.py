@@ -5,7 +5,8 @@ Positions go out as float32, and only what changed is sent. viser draws points o
 opacity is the share of its points drawn (a fixed random order, so the same points stay) with their
 colour faded toward the background: a dense original thinned this way lets the contracted points and
 the skeleton inside show through. Clouds above `display_cap` points are drawn from at most that many
-(display only: the engine keeps every point). Dense clouds start thinned (`auto_opacity`).
+(display only: the engine keeps every point). Dense clouds start thinned (`auto_opacity`), and an original
+starts with points small enough for its surface not to hide them (skelcore.display.see_through_size).
 """
 from __future__ import annotations
 
@@ -40,6 +41,7 @@ ISOLATED_COLOUR = (160, 60, 200)
 DISPLAY_CAP = 250_000
 DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
 POINT_LAYERS = ("original", "contracted", "removed")
+POINT_SIZES = {"original": 0.005, "contracted": 0.007, "removed": 0.006}  # diameters at size 1, of the diagonal
 INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside
 FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
 
@@ -138,8 +140,7 @@ class SceneView:
 
     # -- sizes in world units, from the bounding-box diagonal of the loaded cloud
     def _point_size(self, layer: str) -> float:
-        base = {"original": 0.005, "contracted": 0.007, "removed": 0.006}[layer]
-        return self.sizes[layer] * self.diagonal * base
+        return self.sizes[layer] * self.diagonal * POINT_SIZES[layer]
 
     def _node_radius(self) -> float:
         return self.sizes["skeleton"] * self.diagonal * 0.011

@@ -300,3 +300,65 @@ def test_play_on_an_ended_run_replays_its_iterations_in_the_browser_that_asked(c
     finally:
         inspector.close()
         server.stop()
+
+
+def test_a_dense_closed_cloud_opens_with_original_points_small_enough_to_see_through():
+    """The View tab's original size starts where skelcore.display.see_through_size puts it for the cloud loaded, so
+    the person sees the setting and can undo it; a sparse cloud starts at 1."""
+    import viser
+
+    from app.inspector import Inspector
+    from app.scene import POINT_SIZES
+    from skelcore.display import see_through_size
+
+    points = np.random.default_rng(0).normal(size=(12_000, 3))
+    dense = validate(points / np.linalg.norm(points, axis=1, keepdims=True), name="ball.xyz")
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(dense, ContractionParams(), look_ahead=False))
+    try:
+        inspector._connect(_Broadcast(server))
+        assert inspector.wait_idle(120)
+        size = float(inspector.ui.view.size["original"].value)
+        assert size == see_through_size(dense.points, 1.0, POINT_SIZES["original"]) and size < 1
+    finally:
+        inspector.close()
+        server.stop()
+
+
+def test_a_message_pushed_from_a_worker_thread_wakes_the_sender_from_the_loop_only():
+    """viser sets a buffer's wake-up event from the pushing thread and again on its loop; asyncio's Event is not
+    thread-safe (a set() off the loop walked the waiters while the loop changed them: "deque mutated during
+    iteration" out of a status update). After app.loop_events.install the off-loop set() leaves the waiters alone
+    and the loop's set() wakes them; every message buffer made afterwards, and the server's broadcast one, are so."""
+    import asyncio
+    import threading
+
+    import viser
+    from viser.infra._async_message_buffer import AsyncMessageBuffer
+
+    from app import loop_events
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        loop_events.install(server)
+        assert isinstance(server._websock_server._broadcast_buffer.message_event, loop_events._LoopOnlyEvent)
+        loop = asyncio.new_event_loop()
+        buffer = AsyncMessageBuffer(loop, persistent_messages=False)
+        event = buffer.message_event
+        assert isinstance(event, loop_events._LoopOnlyEvent)
+
+        async def woken() -> bool:
+            waiter = asyncio.ensure_future(event.wait())
+            await asyncio.sleep(0)  # the waiter is queued on the event
+            off_loop = threading.Thread(target=event.set)
+            off_loop.start()
+            off_loop.join()
+            still_waiting = not waiter.done() and not event.is_set()
+            loop.call_soon(event.set)  # what viser schedules after every push
+            await asyncio.wait_for(waiter, 5)
+            return still_waiting
+
+        assert loop.run_until_complete(woken())
+        loop.close()
+    finally:
+        server.stop()

@@ -127,3 +127,31 @@ def test_an_animation_of_a_few_large_frames_is_written_without_ffmpeg_chatter(ca
     files = export.animation_files(frames)
     assert files["mp4"] and files["gif"]
     assert "probesize" not in capfd.readouterr().err
+
+
+def _sphere(n: int, seed: int = 0) -> np.ndarray:
+    points = np.random.default_rng(seed).normal(size=(n, 3))
+    return points / np.linalg.norm(points, axis=1, keepdims=True)
+
+
+def test_an_original_is_drawn_small_enough_for_its_surface_not_to_hide_the_inside():
+    """A densely sampled closed surface starts with points about SEE_THROUGH of their spacing across (at the default
+    size they overlapped into a wall that hid the skeleton inside a bunny scan); a sparse one keeps the default, and
+    thinning (fewer points drawn) lets the points grow again."""
+    from scipy.spatial import cKDTree
+
+    from skelcore.display import SEE_THROUGH, SMALLEST_SIZE, see_through_size
+
+    default = 0.005
+    dense = _sphere(3_000)
+    spacing = float(np.median(cKDTree(dense).query(dense, k=2)[0][:, 1]))
+    diagonal = float(np.linalg.norm(np.ptp(dense, axis=0)))
+    factor = see_through_size(dense, 1.0, default)
+    assert SMALLEST_SIZE < factor < 1
+    assert abs(factor * default * diagonal - SEE_THROUGH * spacing) <= 0.05 * default * diagonal  # to the slider's 0.1
+    assert see_through_size(_sphere(300), 1.0, default) == 1.0  # points far apart: nothing to see through
+    assert see_through_size(dense, 0.5, default) > factor  # half of them drawn: 1.4 times the spacing
+    assert see_through_size(_sphere(12_000), 1.0, default) == SMALLEST_SIZE  # smaller would vanish
+    # a large cloud's spacing is measured on a sample and scaled: 0.75% of 400,000 drawn ~ 3,000 points
+    assert see_through_size(_sphere(400_000), 0.0075, default) == factor
+    assert see_through_size(np.zeros((5, 3)), 1.0, default) == 1.0
