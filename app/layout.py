@@ -183,7 +183,7 @@ def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *,
 def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     title = gui.add_markdown("")
     step = gui.add_button("Step", hint="one iteration (key N)")
-    play = gui.add_button(PLAY, hint="iterate until the run ends or Pause; on an ended run, replay its iterations (key P)")
+    play = gui.add_button(PLAY, hint="iterate until the run ends or Pause; once it has ended, replay it (key P)")
     # right under the Play it paces, not under Reset and the per-browser widgets that follow it
     interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
                               hint="least time between two iterations during Play, to watch them")
