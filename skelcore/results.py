@@ -84,8 +84,9 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
                   metrics: list[IterationMetrics], options: RunOptions, *, input_path=None,
                   elapsed: float | None = None, weights: np.ndarray | None = None,
                   reduction: multires.Reduction | None = None, evidence: dict | None = None) -> dict:
-    """Write the five result files, each atomically (a temporary file renamed into place). evidence: the final
-    state's skeleton_evidence, when the caller has it already."""
+    """Write the five result files together (write_together: an earlier run's results are replaced only once all
+    five are written, and its batch files then removed). evidence: the final state's skeleton_evidence, when the
+    caller has it already."""
     from .export import skeleton_document, write_points_ply, write_skeleton_ply
 
     out_dir = Path(out_dir)
@@ -100,14 +101,15 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
         summary["elapsed_seconds"] = elapsed
     labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
     contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
-    write_atomic(out_dir / "contracted.ply", lambda path: write_points_ply(path, contracted, labels=labels))
-    write_atomic(out_dir / "skeleton.ply", lambda path: write_skeleton_ply(path, skeleton))
-    # compact: its correspondence lists every input point, which an indented layout puts one per line through
-    # json's pure-Python encoder (4x slower: 0.3 s instead of 0.08 s at 1M points)
-    write_atomic(out_dir / "skeleton.json", lambda path: _write_json(path, skeleton_document(skeleton), indent=None))
-    write_atomic(out_dir / "metrics.json", lambda path: _write_json(path, summary))
-    write_atomic(out_dir / "params.json",
-                 lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)))
+    write_together(out_dir, {
+        "contracted.ply": lambda path: write_points_ply(path, contracted, labels=labels),
+        "skeleton.ply": lambda path: write_skeleton_ply(path, skeleton),
+        # compact: its correspondence lists every input point, which an indented layout puts one per line
+        # through json's pure-Python encoder (4x slower: 0.3 s instead of 0.08 s at 1M points)
+        "skeleton.json": lambda path: _write_json(path, skeleton_document(skeleton), indent=None),
+        "metrics.json": lambda path: _write_json(path, summary),
+        "params.json": lambda path: _write_json(path, params_document(cloud, states, options, input_path, weights)),
+    }, stale=(*EARLIER_RUN_FILES, *(path.name for path in out_dir.glob(".*.tmp"))))  # a crashed run's temporaries
     return summary
 
 
@@ -126,18 +128,32 @@ def _at_scale(skeleton: Skeleton, scale: float) -> Skeleton:
 def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
     """write(temporary) then rename it to `path`: a failure (a full disk) leaves the file as it was and
     raises an OutputError naming it."""
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    write_together(path.parent, {path.name: write}, kept="the files written before it are kept")
+
+
+def write_together(folder: Path, writers: dict[str, Callable[[Path], None]], stale: tuple[str, ...] = (),
+                   kept: str = "the folder's files are as they were") -> None:
+    """Each writer(temporary) beside its file, and only once every one has succeeded, each temporary renamed to
+    its name in `folder` and the `stale` files removed: a failure (a full disk) replaces nothing, removes the
+    temporaries and raises an OutputError naming the file (a rename that fails, rarer, leaves those renamed
+    before it in place). `kept`: what the message says was kept."""
+    temporaries = {name: folder / f".{name}.{os.getpid()}.tmp" for name in writers}
+    name = None
     try:
-        write(temporary)
-        os.replace(temporary, path)
+        for name, write in writers.items():
+            write(temporaries[name])
+        for name, temporary in temporaries.items():
+            os.replace(temporary, folder / name)
+        for name in stale:
+            (folder / name).unlink(missing_ok=True)
     except OSError as error:
         reason = "the disk is full" if error.errno in (errno.ENOSPC, errno.EDQUOT) else error.strerror or "error"
-        raise OutputError(f"{path}: cannot write ({reason}); the files written before it are kept") from None
+        raise OutputError(f"{folder / name}: cannot write ({reason}); {kept}") from None
     except SkelError as error:  # a writer's own message, about the temporary file
-        raise OutputError(f"{str(error).replace(str(temporary), str(path))}; the files written before it "
-                          f"are kept") from None
+        raise OutputError(f"{str(error).replace(str(temporaries[name]), str(folder / name))}; {kept}") from None
     finally:
-        temporary.unlink(missing_ok=True)
+        for temporary in temporaries.values():
+            temporary.unlink(missing_ok=True)
 
 
 def check_output(out_dir, force: bool = False, *, what: str = "--out", replace: str = "pass --force") -> list[Path]:
@@ -155,13 +171,12 @@ def check_output(out_dir, force: bool = False, *, what: str = "--out", replace: 
 
 def prepare_output(out_dir, force: bool = False, **terms) -> Path:
     """The output folder, created, once the new results are ready to write (check_output first, before the
-    work): with `force` an earlier run's files are removed (other files stay), so none is left beside the
-    new ones, and a run that fails leaves the earlier results as they were. `terms`: check_output's."""
+    work). With `force` an earlier run's files stay until the new ones are all written (write_results: then
+    they are replaced, a batch's files beside them removed, other files stay), so a run or a write that fails
+    leaves the earlier results as they were. `terms`: check_output's."""
     out_dir = Path(out_dir)
-    earlier = check_output(out_dir, force, **terms)
+    check_output(out_dir, force, **terms)
     try:
-        for path in earlier:
-            path.unlink()
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise OutputError(f"{out_dir}: cannot prepare the output folder ({error.strerror})") from None

@@ -201,6 +201,30 @@ def test_a_full_disk_during_a_run_is_one_line_and_keeps_what_was_written(tmp_pat
     assert not list(out.glob(".*.tmp"))  # no half-written file left behind
 
 
+def test_a_full_disk_while_force_writes_new_results_keeps_the_earlier_ones_whole(tmp_path, capsys, monkeypatch):
+    """--force replaces an earlier run's results only once the new ones are all written: a disk that fills while
+    they are written (here at the last file) leaves every earlier file as it was, a batch's done.json beside them
+    too, and no temporary (they used to be removed first, so the folder was left empty)."""
+    path, out = small_cloud(tmp_path), tmp_path / "out"
+    args = ["run", str(path), "--out", str(out), "--quiet", "--max-iterations", "2"]
+    assert main(args) == 0
+    (out / "done.json").write_text("{}")
+    earlier = {name: (out / name).read_bytes() for name in (*results.RESULT_FILES, "done.json")}
+    real = results._write_json
+
+    def full(path, document, indent=1):
+        if ".params.json." in Path(path).name:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(path, document, indent)
+
+    monkeypatch.setattr(results, "_write_json", full)
+    assert main(args + ["--force", "--max-iterations", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "params.json" in err and "disk is full" in err and "as they were" in err
+    assert {name: (out / name).read_bytes() for name in earlier} == earlier
+    assert not list(out.glob(".*.tmp"))
+
+
 def test_a_full_disk_when_the_batch_summary_is_written_is_one_line(tmp_path, capsys, monkeypatch):
     path, out = small_cloud(tmp_path), tmp_path / "batch"
     full_disk_after(monkeypatch, results, "summary.json")
