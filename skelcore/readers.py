@@ -5,7 +5,8 @@ for the rest.
 properties (in any case; any others are skipped), followed by nothing or by a `face` element of triangles; anything else
 falls back to trimesh. Reading a million-point binary PLY this way takes milliseconds; importing trimesh alone
 takes longer. OBJ files without faces are point clouds, read here (trimesh finds no mesh in them); OFF files
-here too, a header-less one of bare vertex rows as a text cloud.
+here too, a header-less one of bare vertex rows as a text cloud. PCD files with binary or ascii data are read by
+their header's field layout (skelcore.pcd), binary_compressed ones by open3d.
 
 Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
 (`#`, `//`), one line of column names or a .pts point count, values separated by blanks, commas or
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .pcd import read_pcd
 from .sizing import PLY_ENDIAN, PLY_TYPES, is_number, off_layout
 
 DECIMAL_COMMAS = re.compile(rb"-?\d+,\d+[ \t]+-?\d+,\d+[ \t]+-?\d+,\d+")  # three numbers with decimal commas
@@ -190,6 +192,9 @@ def _read_ply(path: Path):
 
 
 def _read_pcd(path: Path):
+    points = read_pcd(path)
+    if points is not None:
+        return points, None
     import open3d as o3d
 
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):  # its warning is ours to word

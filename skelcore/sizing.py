@@ -135,9 +135,14 @@ def _ply(path: Path, size: int) -> int:
     return vertices
 
 
-def _pcd(path: Path, size: int) -> int:
+def pcd_header(path: Path) -> tuple[dict[str, list[str]], int]:
+    """A PCD header's values by keyword (FIELDS, SIZE, TYPE, COUNT, POINTS, DATA, ...) and its length in bytes."""
     lines, header = _header(path, b"DATA")
-    fields = {line.split()[0].upper(): line.split()[1:] for line in lines if line.split() and line[0] != "#"}
+    return {line.split()[0].upper(): line.split()[1:] for line in lines if line.split() and line[0] != "#"}, header
+
+
+def _pcd(path: Path, size: int) -> int:
+    fields, header = pcd_header(path)
     names = [name.lower() for name in fields.get("FIELDS", [])]
     if names and not {"x", "y", "z"} <= set(names):
         raise InputError(f"{path}: the PCD fields ({' '.join(names)[:60]}) hold no x, y and z")

@@ -177,3 +177,44 @@ def test_a_binary_ply_holding_more_vertices_than_its_header_counts_is_refused(tm
         io.load(path)
     path.write_bytes(header.format(500).encode() + points.tobytes() + b"\n")
     assert len(readers.read_ply(path)[0]) == 500
+
+
+def _pcd(path, fields, data: str, body: bytes, points: int) -> None:
+    """A PCD file of `fields` [(name, size, type, count)]."""
+    names, sizes, types, counts = zip(*fields)
+    header = (f"# .PCD v0.7\nVERSION 0.7\nFIELDS {' '.join(names)}\nSIZE {' '.join(map(str, sizes))}\n"
+              f"TYPE {' '.join(types)}\nCOUNT {' '.join(map(str, counts))}\nWIDTH {points}\nHEIGHT 1\n"
+              f"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {points}\nDATA {data}\n")
+    path.write_bytes(header.encode() + body)
+
+
+@pytest.mark.parametrize("kinds", [("<f8", "<f8", "<f8"), ("<f4", "<f4", "<f8"), ("<i2", "<i2", "<i2")])
+def test_binary_pcd_fields_of_every_width_are_read_as_written(tmp_path, cloud, kinds):
+    """open3d read 8-byte binary fields as zeros: z of F4 F4 F8 came out 0 and the run went on with a flat cloud;
+    each field is now read as its SIZE and TYPE say, beside an rgb and a normal of three values."""
+    values = np.round(cloud[0] * 100) if kinds[0] == "<i2" else cloud[0]
+    layout = np.dtype([("x", kinds[0]), ("rgb", "<u4"), ("y", kinds[1]), ("normal", "<f4", (3,)), ("z", kinds[2])])
+    records = np.zeros(len(values), layout)
+    records["x"], records["y"], records["z"] = values.T
+    fields = [("x", int(kinds[0][-1]), kinds[0][1].upper(), 1), ("rgb", 4, "U", 1),
+              ("y", int(kinds[1][-1]), kinds[1][1].upper(), 1), ("normal", 4, "F", 3),
+              ("z", int(kinds[2][-1]), kinds[2][1].upper(), 1)]
+    path = tmp_path / "cloud.pcd"
+    _pcd(path, fields, "binary", records.tobytes(), len(values))
+    expected = np.column_stack([records["x"], records["y"], records["z"]]).astype(np.float64)
+    np.testing.assert_array_equal(readers.READERS[".pcd"](path)[0], expected)
+
+
+def test_ascii_pcd_is_read_by_its_fields_and_refused_when_its_rows_fall_short(tmp_path, cloud):
+    path, cloud = tmp_path / "cloud.pcd", cloud[0]
+    rows = "".join(f"{i} {x:.17g} {y:.17g} {z:.17g}\n" for i, (x, y, z) in enumerate(cloud))
+    _pcd(path, [("id", 4, "U", 1), ("x", 8, "F", 1), ("y", 8, "F", 1), ("z", 8, "F", 1)], "ascii", rows.encode(),
+         len(cloud))
+    np.testing.assert_array_equal(readers.READERS[".pcd"](path)[0], cloud)
+    xyz = "".join(f"{x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in cloud)
+    _pcd(path, [("x", 4, "F", 2), ("y", 4, "F", 1), ("z", 4, "F", 1)], "ascii", xyz.encode(), len(cloud))
+    with pytest.raises(io.InputError, match="points of 4"):  # open3d read 3/4 of the points, garbled
+        readers.READERS[".pcd"](path)
+    _pcd(path, [("x", 8, "F", 1), ("y", 8, "F", 1), ("z", 8, "F", 1)], "binary_compressed", b"\0" * 16, len(cloud))
+    with pytest.raises(io.InputError, match="8-byte coordinates is not supported"):
+        readers.READERS[".pcd"](path)
