@@ -77,8 +77,8 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, hold_curves,
-                   free_points, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
+from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, free_points,
+                   grown, hold_curves, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
                    stall_ratios, start_run, stopped, torn)
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
@@ -168,7 +168,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if reducing:
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
-            force = (params.wl0 or auto_wl0) * params.sl ** (iteration + 1)
+            force = grown(params.wl0 or auto_wl0, params.sl, iteration + 1)
             qualified = np.flatnonzero(merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control,
                                                   force, params.gl_merge, params.gl_merge_share))
             absorbers = qualified[curve_like_points(candidate, SkeletonParams.sample_radius * run.diagonal,

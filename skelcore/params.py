@@ -11,9 +11,11 @@ from .errors import ParameterError
 METHODS = ("lbc", "glskeleton")
 # Accepted values of the numeric parameters: name -> (low, high, low included); `validated` checks them
 # and the inspector's widgets take their ranges from here, so every valid value can be entered.
+# Weights enter eq. 2's normal equations squared (W_L^2 L^T L + W_H^2): past WEIGHT_MAX their squares leave float range.
+WEIGHT_MAX = 1e100
 LIMITS = {
-    "k": (3, 200, True), "wl0": (0.0, math.inf, False), "wh0": (0.0, math.inf, False), "sl": (1.0, math.inf, True),
-    "wl_max": (0.0, math.inf, False), "wh_max": (0.0, math.inf, False), "max_iterations": (1, 1000, True),
+    "k": (3, 200, True), "wl0": (0.0, WEIGHT_MAX, False), "wh0": (0.0, WEIGHT_MAX, False), "sl": (1.0, math.inf, True),
+    "wl_max": (0.0, WEIGHT_MAX, False), "wh_max": (0.0, WEIGHT_MAX, False), "max_iterations": (1, 1000, True),
     "termination": (0.0, math.inf, False), "bbox_growth": (1.0, math.inf, False), "collapse": (0.0, 0.99, True),
     "curve_share": (0.0, 1.0, True),
     "gl_merge": (0.0, math.inf, False), "gl_covariance": (0.0, math.inf, False), "gl_merge_share": (0.0, 1.0, False),

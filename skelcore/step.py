@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Generator
@@ -192,10 +193,18 @@ def torn(iteration: int, sizes: np.ndarray, new_sizes: np.ndarray) -> tuple[str,
     return None
 
 
+def grown(start: float, factor: float, steps: int) -> float:
+    """start * factor^steps, inf past the float range (where Python's ** raises): a large s_L after many steps."""
+    try:
+        return start * factor ** steps
+    except OverflowError:
+        return math.inf
+
+
 def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,
              sizes: np.ndarray) -> tuple[float, np.ndarray]:
     """W_L = W_L0 s_L^(t-1), capped; W_H,i = W_H0 s_i^0 / s_i^t, capped (cloudcontr's schedule)."""
-    wl = min((params.wl0 or auto_wl0) * params.sl ** (iteration - 1), params.wl_max)
+    wl = min(grown(params.wl0 or auto_wl0, params.sl, iteration - 1), params.wl_max)
     return wl, np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
 
 

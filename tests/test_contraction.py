@@ -528,3 +528,21 @@ def test_a_far_stray_left_in_the_cloud_does_not_set_the_contraction_s_pace(metho
                   contract(np.vstack([torus, [[300.0, 0.0, 0.0]]]), ContractionParams(method=method))]
     assert with_stray[1][0] == pytest.approx(alone[1][0], rel=0.01)  # W_L of the first step
     assert len(with_stray) == len(alone) and with_stray[-1][1] == pytest.approx(alone[-1][1], rel=0.1)
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_weights_whose_squares_leave_float_range_are_refused_and_a_huge_s_l_runs(method):
+    """W_L and W_H enter eq. 2's normal equations squared: --wl0 1e160 --wl-max 1e308 overflowed there (an internal
+    error). Weights above WEIGHT_MAX are refused by name; a huge s_L only reaches the cap (W_L0 s_L^t overflowed
+    Python's ** after two steps)."""
+    from skelcore.params import WEIGHT_MAX
+    from skelcore.step import grown
+
+    for name in ("wl0", "wh0", "wl_max", "wh_max"):
+        with pytest.raises(ParameterError, match=name):
+            ContractionParams(**{name: WEIGHT_MAX * 10}).validated()
+        ContractionParams(**{name: WEIGHT_MAX}).validated()
+    assert grown(2.0, 1e308, 3) == np.inf and grown(2.0, 3.0, 2) == 18.0
+    points = make_shape("torus", 600, seed=0).points
+    states = run_contraction(points, ContractionParams(method=method, sl=1e308, max_iterations=5))
+    assert np.isfinite(states[-1].points).all()
