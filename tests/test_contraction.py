@@ -546,3 +546,18 @@ def test_weights_whose_squares_leave_float_range_are_refused_and_a_huge_s_l_runs
     points = make_shape("torus", 600, seed=0).points
     states = run_contraction(points, ContractionParams(method=method, sl=1e308, max_iterations=5))
     assert np.isfinite(states[-1].points).all()
+
+
+def test_density_balancing_averages_in_no_more_passes_than_there_are_points(monkeypatch):
+    """Ten clumps 1e-12 across asked the density averaging for (sample radius / spacing)^2 ~ 1e20 passes, a run
+    that never ended; a walk of as many passes as there are points reaches every point it can."""
+    import skelcore.step as step
+
+    rng = np.random.default_rng(0)
+    clumps = (rng.random((10, 1, 3)) + 1e-12 * rng.random((10, 10, 3))).reshape(-1, 3)
+    taken = []
+    real = step.density_weights
+    monkeypatch.setattr(step, "density_weights", lambda rings, points, passes: (taken.append(passes),
+                                                                                 real(rings, points, passes))[1])
+    states = run_contraction(clumps, ContractionParams(balance_density=True, max_iterations=1))
+    assert taken == [len(clumps)] and np.isfinite(states[-1].points).all()
