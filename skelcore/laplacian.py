@@ -63,9 +63,11 @@ class LaplacianSystem:
     def laplacian_values(self, points: np.ndarray) -> np.ndarray:
         """The values of L (eq. 1) at `points`, in the order of its fixed sparsity pattern."""
         _, _, weights = cotangent_weights(points, self._triangles)
-        row_sum = np.bincount(self._rows, weights=weights, minlength=self.n)
+        # float even without a triangle (numpy's bincount of nothing is of integers)
+        row_sum = np.bincount(self._rows, weights=weights, minlength=self.n).astype(np.float64, copy=False)
         scale = np.where(np.abs(row_sum) > ROW_LIMIT, ROW_LIMIT / np.maximum(np.abs(row_sum), 1e-300), 1.0)
-        values = np.bincount(self._weight_slots, weights=weights * scale[self._rows], minlength=len(self._l_indices))
+        values = np.bincount(self._weight_slots, weights=weights * scale[self._rows],
+                             minlength=len(self._l_indices)).astype(np.float64, copy=False)
         values[self._diagonal_slots] -= row_sum * scale
         return values
 

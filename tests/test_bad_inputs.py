@@ -290,3 +290,15 @@ def test_faces_that_repeat_a_corner_leave_a_cloud(tmp_path, capsys):
     path.write_bytes(b"OFF\n600 2 0\n" + _rows(points).encode() + b"3 0 0 0\n3 1 1 2\n")
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     assert json.loads((tmp_path / "out" / "skeleton.json").read_text())["topology"]["cycles"] == 1
+
+
+def test_a_contraction_of_points_that_share_no_triangle_runs_to_a_verdict():
+    """A small ball around (1e6, 1e6, 1e6) and one point at the origin, cleaning off and a point budget of 50: the
+    far point stretches the voxels until two centroids are left, which share no one-ring triangle, and numpy's
+    bincount of no weights gave L integer values (an internal error); now the run ends and says it is unstable."""
+    import skelcore
+
+    rng = np.random.default_rng(0)
+    points = np.vstack([1e6 + rng.random((99, 3)), [[0.0, 0.0, 0.0]]])
+    result = skelcore.skeletonize(points, cleaning=False, point_budget=50)
+    assert result.verdict["label"] == "unstable" and np.isfinite(result.contracted).all()
