@@ -59,15 +59,16 @@ def file_digest(path) -> str:
 
 
 def done_row(job: Job, key: str) -> dict | None:
-    """The summary row stored by a finished run of this job with this key, or None."""
+    """The summary row stored by a finished run of this job with this key, or None (also for a marker that is
+    not the object this module writes: the object is run again)."""
     folder = Path(job.out_dir)
     try:
         marker = json.loads((folder / DONE_FILE).read_text())
     except (OSError, ValueError):
         return None
-    if marker.get("key") != key or not all((folder / name).is_file() for name in RESULT_FILES):
+    if not isinstance(marker, dict) or not isinstance(marker.get("row"), dict) or marker.get("key") != key:
         return None
-    return marker.get("row")
+    return marker["row"] if all((folder / name).is_file() for name in RESULT_FILES) else None
 
 
 def run_object(job: Job) -> dict:

@@ -184,6 +184,12 @@ def test_resume_rules(shapes_dir, tmp_path):
     write_shapes(data, ["torus"], 800, seed=5)  # an edited input
     assert main(args) == 0
     assert {row["name"]: row["reused"] for row in summary(out)} == {"capsule": True, "torus": False}
+    # markers that are JSON but not what a batch writes (they stopped the batch with an internal error): redone
+    marker = json.loads((out / "torus" / batch.DONE_FILE).read_text())
+    (out / "capsule" / batch.DONE_FILE).write_text("[1]")
+    (out / "torus" / batch.DONE_FILE).write_text(json.dumps(dict(marker, row="x")))
+    assert main(args) == 0
+    assert {row["name"]: row["reused"] for row in summary(out)} == {"capsule": False, "torus": False}
 
 
 def test_inputs_and_unique_names(tmp_path):
