@@ -133,6 +133,7 @@ class Result:
         from .export import write_points_ply
         from .report import write_report
 
+        path = io.as_path(path, "path")
         with tempfile.TemporaryDirectory(prefix="skelcore-report-") as tmp:
             folder = Path(tmp) / (Path(self.cloud.name).stem or "cloud")
             source = self.input_path
@@ -212,7 +213,8 @@ def run(points_or_path, options: RunOptions = RunOptions(), *, labels=None, weig
         raise ParameterError(f"parameter progress={progress!r}: must be a function of one line (such as print)")
     input_path = str(points_or_path) if isinstance(points_or_path, (str, Path)) else None
     if input_path is None:
-        cloud = as_cloud(points_or_path, labels, options.drop_nonfinite, options.sample)
+        cloud = as_cloud(points_or_path, labels, options.drop_nonfinite, options.sample, options.voxel_size,
+                         options.max_points)
         points_or_path, labels, weights = cloud, None, io.weights_of(points_or_path, cloud, weights)
         options = dataclasses.replace(options, sample=None, voxel_size=None, labels=None)  # for files only
     computed = pipeline.compute(points_or_path, options, progress, labels=labels, weights=weights)
@@ -240,20 +242,22 @@ def contraction_params(method: str, params: dict) -> ContractionParams:
     return ContractionParams(method=method, **params).validated()
 
 
-def as_cloud(points_or_cloud, labels=None, drop_nonfinite: bool = False, sample: int | None = None) -> io.Cloud:
+def as_cloud(points_or_cloud, labels=None, drop_nonfinite: bool = False, sample: int | None = None,
+             voxel_size: float | None = None, max_points: int = io.MAX_POINTS) -> io.Cloud:
     """A Cloud from an (n,3) array or an open3d/trimesh cloud or mesh (checked as a loaded file is) or a Cloud;
     `labels` replace its labels. An array with repeated points loses the repeats (and their labels), as a file
     does; with `drop_nonfinite` its NaN or Inf rows are left out (else refused). sample: for a mesh, as in
-    `load` (ignored for points)."""
+    `load` (ignored for points); voxel_size, max_points: as in `load` (not for a Cloud, loaded already)."""
     if isinstance(points_or_cloud, io.Cloud):
+        cloud = io.checked(points_or_cloud, drop_nonfinite)  # a Cloud made by hand is checked as an array is
         if labels is None:
-            return points_or_cloud
-        return dataclasses.replace(points_or_cloud, labels=as_labels(labels, len(points_or_cloud.points), "labels"))
+            return cloud
+        return dataclasses.replace(cloud, labels=as_labels(labels, len(cloud.points), "labels"))
     if isinstance(labels, (str, Path)):
         raise ParameterError("parameter labels: for an array input, give the labels as an array")
     points, faces, name = library_geometry(points_or_cloud)
     return io.validate(points, faces, name=name, labels=labels, drop_nonfinite=drop_nonfinite,
-                       sample=None if faces is None else sample)
+                       sample=None if faces is None else sample, voxel_size=voxel_size, max_points=max_points)
 
 
 def library_geometry(value) -> tuple:
@@ -281,6 +285,9 @@ def contract(points, method: str | None = None, *, weights=None, params: Contrac
 
     points: an (n,3) array or a Cloud; weights: per-point contraction weights, as in `skeletonize`; params: a
     whole ContractionParams (default: the defaults); method and **changes: parameters by name on top of it."""
+    if params is not None and not isinstance(params, ContractionParams):
+        raise ParameterError(f"parameter params={params!r}: must be a ContractionParams (parameters by name go as "
+                             "keywords: contract(points, k=8))")
     cloud = as_cloud(points)
     merged = {**(params or ContractionParams()).to_dict(), **changes}
     if method is not None:

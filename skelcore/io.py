@@ -5,8 +5,10 @@ problem; recoverable oddities (duplicate points) are fixed and reported in `Clou
 """
 from __future__ import annotations
 
+import dataclasses
 import errno
 import functools
+import os
 import re
 import tempfile
 from dataclasses import dataclass, field
@@ -18,7 +20,7 @@ from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
-from .params import is_integer, is_real
+from .params import check_flag, is_integer, is_real
 from .repeats import without_repeats
 from .surface_sampling import points_to_draw, sample_surface
 
@@ -72,9 +74,12 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
     the file is sized before it is parsed, and the cloud's points are checked against it.
     """
     check_sampling(sample=sample, voxel_size=voxel_size, max_points=max_points, seed=seed)  # before reading
-    if not str(path).strip():  # Path("") is the working folder
+    check_flag("drop_nonfinite", drop_nonfinite)
+    if isinstance(path, np.ndarray):
+        raise ParameterError("load reads a file; an array of points goes to skeletonize or contract as it is")
+    if isinstance(path, (str, os.PathLike)) and not isinstance(path, bytes) and not str(path).strip():
         raise InputError("input: give a file name (the path is empty)")
-    path = Path(path)
+    path = as_path(path, "input")
     budget = memory.budget_bytes() if budget is None else budget
     suffix = path.suffix.lower()
     try:
@@ -159,12 +164,22 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
     return cloud
 
 
+def as_path(value, what: str) -> Path:
+    """`value` (a str or os.PathLike) as a Path, or a ParameterError naming `what` when it is of another type or
+    holds a NUL byte, an OutputError when it is blank (Path("") is the working folder)."""
+    if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
+        raise ParameterError(f"{what}={value!r}: must be a path (a str or pathlib.Path)")
+    if "\0" in str(value):
+        raise ParameterError(f"{what}={str(value)!r}: a path cannot hold a NUL byte")
+    if not str(value).strip():
+        raise OutputError(f"{what}: give a name (the path is empty)")
+    return Path(value)
+
+
 def writable_folder(folder, what: str) -> Path:
     """`folder` as a Path, or an OutputError naming `what` when it is blank, a file, under a file, or where no
     folder can be made (checked before any work, so that no result is lost to a path that cannot hold it)."""
-    if not str(folder).strip():
-        raise OutputError(f"{what}: give a folder name")
-    folder = Path(folder)
+    folder = as_path(folder, what)
     if any(part.is_file() for part in (folder, *folder.parents)):
         raise OutputError(f"{what} {folder}: is a file, or under one, not a folder")
     existing = next(part for part in (folder, *folder.parents, Path(".")) if part.exists())
@@ -260,6 +275,20 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale, rows=rows,
                  input_rows=input_rows)
+
+
+def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
+    """`cloud` itself when it holds what `validate` makes: (n,3) finite float64 points, at least MIN_POINTS of
+    them spanning more than a point, labels one per point; else (a Cloud made by hand) `validate` of its points,
+    faces and labels, its notes kept, so that it is refused in words as an array would be."""
+    points, labels = cloud.points, cloud.labels
+    if (isinstance(points, np.ndarray) and points.dtype == np.float64 and points.ndim == 2
+            and points.shape[1] == 3 and len(points) >= MIN_POINTS and np.isfinite(points).all()
+            and np.ptp(points, axis=0).max() > 0
+            and (labels is None or isinstance(labels, np.ndarray) and labels.shape == (len(points),))):
+        return cloud
+    fresh = validate(points, cloud.faces, name=cloud.name, labels=labels, drop_nonfinite=drop_nonfinite)
+    return dataclasses.replace(fresh, notes=[*cloud.notes, *fresh.notes])
 
 
 def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:

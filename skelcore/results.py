@@ -174,8 +174,8 @@ def prepare_output(out_dir, force: bool = False, **terms) -> Path:
     work). With `force` an earlier run's files stay until the new ones are all written (write_results: then
     they are replaced, a batch's files beside them removed, other files stay), so a run or a write that fails
     leaves the earlier results as they were. `terms`: check_output's."""
+    check_output(out_dir, force, **terms)  # the path as given: Path("") would be the working folder
     out_dir = Path(out_dir)
-    check_output(out_dir, force, **terms)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:

@@ -422,6 +422,8 @@ def retune(current: ContractionParams, sent: ContractionParams | None) -> tuple[
     the run's, with a note naming what changed."""
     if sent is None:
         return current, []
+    if not isinstance(sent, ContractionParams):
+        raise ParameterError(f"sent {sent!r}: send a ContractionParams (or Redo of one, or None)")
     sent = sent.validated()
     changed = [name for name in current.to_dict() if getattr(sent, name) != getattr(current, name)]
     blocked = [name for name in changed if name in RESTART_FIELDS]

@@ -405,3 +405,38 @@ def test_open3d_and_trimesh_clouds_and_meshes_are_taken_as_they_come():
         skelcore.skeletonize(points.astype(complex))
     with pytest.raises(InputError, match=r"^array: coordinates are not numbers \(got dict\)$"):
         skelcore.skeletonize({"x": 1})
+
+
+def test_a_cloud_made_by_hand_and_arguments_of_the_wrong_type_are_refused_in_words(tmp_path, monkeypatch):
+    """skelcore.Cloud is public: one made by hand with NaN, identical points, two columns or labels of another
+    length raised ValueError, ZeroDivisionError or IndexError from deep inside; paths of other types, a NUL byte,
+    params as a dict, and an empty folder for save (which wrote the five files into the working folder) likewise."""
+    from skelcore.errors import SkelError
+
+    points = np.random.default_rng(0).normal(size=(300, 3))
+    for cloud in (skelcore.Cloud(points=np.full((30, 3), np.nan)), skelcore.Cloud(points=np.ones((100, 3))),
+                  skelcore.Cloud(points=points[:, :2]), skelcore.Cloud(points=points, labels=np.zeros(3, int))):
+        with pytest.raises(SkelError):
+            skelcore.skeletonize(cloud)
+        with pytest.raises(SkelError):
+            next(iter(skelcore.contract(cloud)))
+    assert len(skelcore.skeletonize(skelcore.Cloud(points=points.tolist()), max_iterations=1).cloud.points) > 250
+    for call in (lambda: skelcore.load(None), lambda: skelcore.load(points),
+                 lambda: skelcore.load("assets/torus.ply", drop_nonfinite="x"),
+                 lambda: skelcore.contract(points, params={"k": 8})):
+        with pytest.raises(SkelError):
+            call()
+    generator = skelcore.contract(points)
+    next(generator)
+    with pytest.raises(SkelError, match="ContractionParams"):
+        generator.send({"k": 8})
+    result = skelcore.skeletonize(points, max_iterations=2)
+    monkeypatch.chdir(tmp_path)
+    for bad in (None, 5, b"/tmp/x", "a\0b", "", " "):
+        with pytest.raises(SkelError):
+            result.save(bad)
+        with pytest.raises(SkelError):
+            result.report(bad)
+    assert not list(tmp_path.iterdir())
+    thinned = skelcore.skeletonize(points, voxel_size=0.5, max_iterations=1)  # an array's loading options count
+    assert len(thinned.cloud.points) < 300 and any("voxel" in note for note in thinned.cloud.notes)
