@@ -328,6 +328,8 @@ def entry_problem(entry) -> str | None:
     and verdict), or None."""
     if not isinstance(entry, dict):
         return "is not an object"
+    if "iteration" in entry and (not isinstance(entry["iteration"], int) or isinstance(entry["iteration"], bool)):
+        return f"has an iteration that is no whole number ({entry['iteration']!r:.30})"
     for key in ("d_theta", "delta_kappa"):
         stats = entry.get(key)
         if not isinstance(stats, dict):
@@ -337,6 +339,12 @@ def entry_problem(entry) -> str | None:
                 or not isinstance(histogram.get("counts"), list)
                 or len(histogram["edges"]) != len(histogram["counts"]) + 1):
             return f"{key} has no histogram with edges and counts"
+        try:
+            edges, counts = np.asarray(histogram["edges"], float), np.asarray(histogram["counts"], float)
+        except (TypeError, ValueError):
+            edges = counts = np.array([np.nan])
+        if not (np.isfinite(edges).all() and np.isfinite(counts).all() and (np.diff(edges) > 0).all()):
+            return f"{key} has histogram edges or counts that are not increasing finite numbers"
         missing = [field for field in ("mean", "median", "skewness", "kurtosis", "symmetry", "unimodality", "n")
                    if field not in stats]
         if missing or not isinstance(stats.get("peaks"), dict):

@@ -348,6 +348,8 @@ def _read_json(folder: Path, name: str, required: bool = False):
         return json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as error:
         raise InputError(f"{path}: invalid JSON (line {error.lineno}: {error.msg})") from None
+    except RecursionError:
+        raise InputError(f"{path}: nested too deeply for a skelcore file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot read ({error})") from None
 

@@ -159,8 +159,24 @@ def test_bad_run_dirs_give_one_line_errors(run_dir, tmp_path):
     partial = tmp_path / "partial"
     partial.mkdir()
     (partial / "metrics.json").write_text(json.dumps({"iterations": [{"d_theta": {}}]}))
+    # damage that a check let through to plotly or a comparison (internal errors): NaN edges, an iteration in
+    # words, nesting past Python's recursion limit
+    good = json.loads((run_dir / "metrics.json").read_text())
+    damaged = []
+    for name, change in (("nan_edges", lambda m: m["iterations"][0]["d_theta"]["histogram"]["edges"].__setitem__(
+                              0, float("nan"))),
+                         ("worded", lambda m: m["iterations"][0].__setitem__("iteration", "one"))):
+        folder, metrics = tmp_path / name, json.loads(json.dumps(good))
+        change(metrics)
+        folder.mkdir()
+        (folder / "metrics.json").write_text(json.dumps(metrics))
+        damaged.append(folder)
+    deep = tmp_path / "deep"
+    deep.mkdir()
+    (deep / "metrics.json").write_text("[" * 100_000 + "]" * 100_000)
     cases = [(tmp_path / "missing", "no such directory"), (empty, "no metrics.json"),
-             (broken, "invalid JSON"), (partial, "d_theta has no histogram")]
+             (broken, "invalid JSON"), (partial, "d_theta has no histogram"),
+             (damaged[0], "not increasing finite numbers"), (damaged[1], "no whole number"), (deep, "nested")]
     for folder, problem in cases:
         with pytest.raises(SkelError) as caught:
             report.write_report([run_dir, folder], tmp_path / "r.html")
