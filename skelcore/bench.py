@@ -25,7 +25,6 @@ makes either impractical past --baseline-max points.
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys
@@ -53,8 +52,8 @@ def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int =
 
     if not is_integer(baseline_max) or baseline_max < 0:
         raise ParameterError(f"bench: baseline_max={baseline_max!r} must be a whole number of points >= 0 (0: never)")
-    if not is_real(noise) or not 0 <= noise < math.inf:
-        raise ParameterError(f"bench: noise={noise!r} must be a finite number >= 0")
+    if not is_real(noise) or not 0 <= noise <= 1:  # a fraction of the diagonal: past 1 the tori are gone
+        raise ParameterError(f"bench: noise={noise!r} must be a fraction of the diagonal in [0, 1]")
 
     peer = _pc_skeletor_interpreter(pc_skeletor)
     compiled = compile_package()

@@ -325,6 +325,8 @@ def _bench_quality(args: argparse.Namespace) -> int:
         writable_folder(Path(args.json).resolve().parent, "--json")
         if Path(args.json).is_dir():
             raise OutputError(f"--json {args.json}: is a folder, not a file")
+    if args.out is not None:  # else every run would fail to write there and the table say ERROR
+        writable_folder(args.out, "--out")
     if args.reference is not None and not Path(args.reference).is_dir():  # else: silently no reference shapes
         raise InputError(f"--reference {args.reference}: no such folder")
     if args.parts:

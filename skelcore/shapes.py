@@ -58,8 +58,8 @@ def make_shape(name: str, n: int = 3000, *, seed: int = 0, noise: float = 0.0,
         raise ParameterError(f"shape {name!r}: unknown (choose from {', '.join(SHAPES)})")
     if int(n) != n or n < 20:
         raise ParameterError(f"parameter n={n!r}: must be an integer >= 20")
-    if not np.isfinite(noise) or noise < 0:
-        raise ParameterError(f"parameter noise={noise!r}: must be a finite number >= 0")
+    if not np.isfinite(noise) or not 0 <= noise <= 1:  # a fraction of the diagonal: past 1 the shape is gone
+        raise ParameterError(f"parameter noise={noise!r}: must be a fraction of the diagonal in [0, 1]")
     if not np.isfinite(nonuniform) or not 0 <= nonuniform < 1:
         raise ParameterError(f"parameter nonuniform={nonuniform!r}: must be in [0, 1)")
     nodes, edges, radii = centreline(name)

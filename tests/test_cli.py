@@ -192,3 +192,19 @@ def test_a_cloud_sparser_than_the_skeletons_balls_is_said_to_be(tmp_path, assets
     assert len(said) == 1 and "more than the skeleton's sample radius (2.0%)" in said[0]
     assert main(["run", str(assets_dir / "torus.ply"), "--out", str(tmp_path / "dense")]) == 0
     assert "a sparse cloud" not in capsys.readouterr().out
+
+
+def test_noise_past_the_diagonal_and_a_bench_quality_out_that_is_a_file_are_refused_before_the_work(tmp_path,
+                                                                                                    capsys):
+    """shapes --noise 1e300 wrote a cloud of Inf points and exited 0, bench --noise 1e308 failed inside a child
+    (an internal error), bench-quality --out FILE ran every case to an ERROR and exited 0."""
+    taken = tmp_path / "taken"
+    taken.write_text("mine")
+    for args in (["shapes", "--out", str(tmp_path / "s"), "--names", "torus", "--noise", "1e300"],
+                 ["bench", "--points", "20", "--noise", "1e308", "--method", "lbc", "--baseline-max", "0"],
+                 ["bench-quality", "--shapes", "capsule", "--variants", "clean", "--points", "500", "--out",
+                  str(taken)]):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and ("noise" in err or "is a file" in err)
+    assert not (tmp_path / "s").exists() and taken.read_text() == "mine"
