@@ -335,9 +335,11 @@ def _scaled(points: np.ndarray, name: str) -> tuple[np.ndarray, float]:
         if reach.max() > EXTREME * half:
             far, count = int(np.argmax(reach)), int((reach > EXTREME * half).sum())
             which = "a point lies" if count == 1 else f"{count} points lie, the farthest"
+            ratio = float(reach[far]) / half
+            times = f"{ratio:.3g} times" if np.isfinite(ratio) else "more times than float64 counts"
             raise InputError(f"{name}: {which} absurdly far from the rest of the cloud: at "
                              f"({', '.join(f'{value:.3g}' for value in strays[far])}), "
-                             f"{float(reach[far]) / half:.3g} times the extent of the rest; remove "
+                             f"{times} the extent of the rest; remove "
                              f"{'it' if count == 1 else 'them'} from the file")
     scale = 1.0
     if half < 0.5 / EXTREME or magnitude >= EXTREME:

@@ -50,8 +50,9 @@ def half_extent(points: np.ndarray) -> float:
 
 
 def binary_unit(length: float) -> float:
-    """The power of two in (length, 2 length]: coordinates divided by it (exactly) bring `length` to [0.5, 1)."""
-    return float(np.ldexp(1.0, np.frexp(length)[1]))
+    """The power of two in (length, 2 length]: coordinates divided by it (exactly) bring `length` to [0.5, 1);
+    from 2^1023 on, where that power would be inf, 2^1023 itself (`length` to [1, 2))."""
+    return float(np.ldexp(1.0, min(int(np.frexp(length)[1]), 1023)))
 
 
 ROBUST_SHARE = 0.01  # the share of points each side that a robust extent ignores
