@@ -20,7 +20,7 @@ from pathlib import Path
 
 from skelcore.cli import OneLineParser
 from skelcore.errors import SkelError, TooLargeError
-from skelcore.io import Cloud, load, validate
+from skelcore.io import Cloud, check_sampling, load, validate, writable_folder
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
@@ -163,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
               + ("anyone who reaches it can drive the session (--no-token)" if token is None else
                  "the page and its websocket require the token in the URL below"), file=sys.stderr, flush=True)
     try:
+        check_sampling(sample=args.sample, voxel_size=args.voxel_size)  # without INPUT too: never silently dropped
+        if args.save_dir is not None:  # checked before serving: a click on "Also save on server" is too late
+            writable_folder(args.save_dir, "--save-dir")
         cloud = (load(args.input, sample=args.sample, voxel_size=args.voxel_size,
                       budget=budget_bytes(INSPECTOR_SHARE)) if args.input
                  else default_cloud(bundled_assets()))

@@ -31,6 +31,18 @@ def test_bad_port_is_refused(capsys):
     assert "--port" in capsys.readouterr().err
 
 
+def test_loading_options_without_input_and_a_save_dir_that_is_a_file_are_refused_before_serving(capsys, tmp_path):
+    """Without INPUT, --sample -5 and --voxel-size nan were dropped silently (the bundled torus served); a --save-dir
+    that is a file was taken, to fail only when "Also save on server" was clicked."""
+    taken = tmp_path / "taken"
+    taken.write_text("mine")
+    for args in (["--sample", "-5"], ["--voxel-size", "nan"], ["--save-dir", str(taken)],
+                 ["--save-dir", str(taken / "sub")]):
+        assert main([*args, "--port", "0"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and ("sample" in err or "voxel_size" in err or "--save-dir" in err)
+
+
 def test_bad_host_is_refused(capsys):
     assert main(["--host", "999.1.1.1"]) != 0
     assert "--host 999.1.1.1" in capsys.readouterr().err
