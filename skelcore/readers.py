@@ -142,9 +142,10 @@ def read_off(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     triangles = []
     for row, fields in enumerate(body[n_vertices:n_vertices + n_faces], start=1):
         size = int(fields[0])
-        if size < 3 or len(fields) < 1 + size:
-            raise InputError(f"{path}: OFF face {row} has {min(size, len(fields) - 1)} vertex indices; "
-                             f"a face needs at least 3")
+        if size < 3:
+            raise InputError(f"{path}: OFF face {row} has {size} vertex indices; a face needs at least 3")
+        if len(fields) < 1 + size:
+            raise InputError(f"{path}: OFF face {row} counts {size} vertex indices but lists {len(fields) - 1}")
         polygon = [int(value) for value in fields[1:1 + size]]
         triangles.extend([polygon[0], polygon[i], polygon[i + 1]] for i in range(1, len(polygon) - 1))
     return points, (np.asarray(triangles, dtype=np.int64) if triangles else None)

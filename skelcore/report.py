@@ -66,7 +66,7 @@ def load_run(run_dir, clouds: bool = True) -> dict:
     clouds=False leaves the original and contracted clouds unread (None), for the table and comparison only."""
     folder = Path(run_dir)
     if not folder.is_dir():
-        raise InputError(f"{folder}: not a run folder (no such directory)")
+        raise InputError(f"{folder}: not a run folder ({'a file' if folder.exists() else 'no such directory'})")
     metrics = _read_json(folder, "metrics.json", required=True)
     iterations = metrics.get("iterations") if isinstance(metrics, dict) else None
     if not isinstance(iterations, list) or not iterations:

@@ -218,3 +218,11 @@ def test_ascii_pcd_is_read_by_its_fields_and_refused_when_its_rows_fall_short(tm
     _pcd(path, [("x", 8, "F", 1), ("y", 8, "F", 1), ("z", 8, "F", 1)], "binary_compressed", b"\0" * 16, len(cloud))
     with pytest.raises(io.InputError, match="8-byte coordinates is not supported"):
         readers.READERS[".pcd"](path)
+
+
+def test_an_off_face_whose_count_exceeds_its_indices_says_so(tmp_path):
+    """A face line "1000000000 0 1 2" was said to have "3 vertex indices; a face needs at least 3"."""
+    path = tmp_path / "faces.off"
+    path.write_text("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1000000000 0 1 2\n")
+    with pytest.raises(io.InputError, match="counts 1000000000 vertex indices but lists 3"):
+        readers.READERS[".off"](path)

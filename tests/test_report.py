@@ -174,7 +174,9 @@ def test_bad_run_dirs_give_one_line_errors(run_dir, tmp_path):
     deep = tmp_path / "deep"
     deep.mkdir()
     (deep / "metrics.json").write_text("[" * 100_000 + "]" * 100_000)
-    cases = [(tmp_path / "missing", "no such directory"), (empty, "no metrics.json"),
+    a_file = tmp_path / "a_file"
+    a_file.write_text("mine")
+    cases = [(tmp_path / "missing", "no such directory"), (a_file, "(a file)"), (empty, "no metrics.json"),
              (broken, "invalid JSON"), (partial, "d_theta has no histogram"),
              (damaged[0], "not increasing finite numbers"), (damaged[1], "no whole number"), (deep, "nested")]
     for folder, problem in cases:
