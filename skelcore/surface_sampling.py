@@ -53,9 +53,9 @@ def uncovered_share(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> f
     from every vertex."""
     from scipy.spatial import cKDTree
 
-    mesh, unit = _unit_mesh(vertices, faces)
+    mesh, _ = _unit_mesh(vertices, faces)
     probes, _ = quiet_trimesh().sample.sample_surface(mesh, COVERAGE_PROBES, seed=seed)
-    radius = SAMPLE_RADIUS * object_diagonal(vertices) / unit
+    radius = SAMPLE_RADIUS * object_diagonal(mesh.vertices)  # at the unit scale: 1e300 coordinates' would overflow
     distance, _ = cKDTree(mesh.vertices).query(probes, workers=-1)
     return float(np.mean(distance > radius))
 

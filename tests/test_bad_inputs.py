@@ -302,3 +302,16 @@ def test_a_contraction_of_points_that_share_no_triangle_runs_to_a_verdict():
     points = np.vstack([1e6 + rng.random((99, 3)), [[0.0, 0.0, 0.0]]])
     result = skelcore.skeletonize(points, cleaning=False, point_budget=50)
     assert result.verdict["label"] == "unstable" and np.isfinite(result.contracted).all()
+
+
+def test_a_large_facet_at_extreme_coordinates_is_judged_without_overflow(tmp_path):
+    """A triangle with corners 1e300 apart: the coverage check measured the diagonal in file units, where its
+    square overflowed (numpy's warning reached the user); it is measured at the unit scale now."""
+    import skelcore
+
+    path = tmp_path / "facet.obj"
+    path.write_text("v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nf 1 2 3\nf 1 3 4\nf 1 2 4\nf 2 3 4\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cloud = skelcore.load(path)
+    assert len(cloud.points) >= 20 and any("drawn evenly" in note for note in cloud.notes)
