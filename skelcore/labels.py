@@ -127,10 +127,12 @@ def as_labels(values, n: int | None, name: str) -> np.ndarray:
     are, within int64; others are read as floats, exact integers only within +-2^53 (FLOAT_LABELS)."""
     try:
         array = np.asarray(values).ravel()
-        if array.dtype.kind not in "iu":
+        if array.dtype.kind not in "iuc":
             array = array.astype(np.float64)
     except (TypeError, ValueError, OverflowError):
         raise InputError(f"{name}: labels are not numbers") from None
+    if array.dtype.kind == "c":  # a float conversion would drop the imaginary parts with only a warning
+        raise InputError(f"{name}: labels are complex numbers; labels are integers")
     if n is not None and len(array) != n:
         raise InputError(f"{name}: {len(array)} labels for {n} points")
     if array.dtype.kind == "f" and (not np.isfinite(array).all() or (array != np.round(array)).any()):
@@ -184,6 +186,8 @@ def read_ply_labels(path, prop: str, n: int | None = None) -> np.ndarray:
 
 
 def _read_label_file(path: Path, n: int | None) -> np.ndarray:
+    if path.stat().st_size == 0:  # numpy reads an empty text file as no labels, with a warning
+        raise InputError(f"{path}: the label file is empty")
     try:
         if path.suffix.lower() == ".npy":
             values = np.load(path, allow_pickle=False)

@@ -7,6 +7,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -271,6 +272,14 @@ def test_label_files_and_bad_labels(tmp_path):
     np.savetxt(tmp_path / "half.txt", np.arange(40) / 2)
     with pytest.raises(InputError, match="integers"):
         skelcore.load(tmp_path / "p.ply", labels=tmp_path / "half.txt")
+    # complex labels lost their imaginary parts with a warning; an empty file read as no labels with one
+    np.save(tmp_path / "complex.npy", np.arange(40) + 1j)
+    (tmp_path / "empty.txt").write_text("")
+    for path, problem in (("complex.npy", "complex numbers"), ("empty.txt", "empty")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(InputError, match=problem):
+                skelcore.load(tmp_path / "p.ply", labels=tmp_path / path)
 
 
 def test_cli_labels_and_label_weights_are_recorded(tmp_path, capsys):
