@@ -20,7 +20,8 @@ from pathlib import Path
 
 from skelcore.cli import OneLineParser
 from skelcore.errors import SkelError, TooLargeError
-from skelcore.io import Cloud, check_sampling, load, validate, writable_folder
+from skelcore.io import Cloud, check_sampling, load, validate
+from skelcore.paths import writable_folder
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape

@@ -28,6 +28,7 @@ from .labels import as_labels, check_label_weights
 from .metrics import IterationMetrics
 from .options import RunOptions
 from .params import CleaningParams, ContractionParams, check_flag
+from .paths import as_path
 from .results import prepare_output, write_results
 from .skeleton import Skeleton
 from .verdict import run_verdict
@@ -133,7 +134,7 @@ class Result:
         from .export import write_points_ply
         from .report import write_report
 
-        path = io.as_path(path, "path")
+        path = as_path(path, "path")
         with tempfile.TemporaryDirectory(prefix="skelcore-report-") as tmp:
             folder = Path(tmp) / (Path(self.cloud.name).stem or "cloud")
             source = self.input_path

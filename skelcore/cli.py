@@ -319,7 +319,7 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
     from .errors import InputError, OutputError, ParameterError
     from .quality_bench import format_table, run_quality_bench, summarise, write_json
-    from .io import writable_folder
+    from .paths import writable_folder
 
     if args.json is not None:  # checked before the runs: a bad path would otherwise lose them at the end
         writable_folder(Path(args.json).resolve().parent, "--json")
@@ -351,7 +351,7 @@ def _bench_quality(args: argparse.Namespace) -> int:
 
 def _shapes(args: argparse.Namespace) -> int:
     from .errors import OutputError
-    from .io import writable_folder
+    from .paths import writable_folder
     from .shapes import write_shapes
 
     out = writable_folder(args.out, "--out")

@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from . import memory, readers, sizing
-from .errors import InputError, NonFiniteError, OutputError, ParameterError, TooLargeError
+from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import check_flag, is_integer, is_real
+from .paths import as_path
 from .repeats import without_repeats
 from .surface_sampling import points_to_draw, sample_surface
 
@@ -162,32 +163,6 @@ def load_bytes(data: bytes, filename: str, **options) -> Cloud:
             raise error from None
     cloud.name = display
     return cloud
-
-
-def as_path(value, what: str) -> Path:
-    """`value` (a str or os.PathLike) as a Path, or a ParameterError naming `what` when it is of another type or
-    holds a NUL byte, an OutputError when it is blank (Path("") is the working folder)."""
-    if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
-        raise ParameterError(f"{what}={value!r}: must be a path (a str or pathlib.Path)")
-    if "\0" in str(value):
-        raise ParameterError(f"{what}={str(value)!r}: a path cannot hold a NUL byte")
-    if not str(value).strip():
-        raise OutputError(f"{what}: give a name (the path is empty)")
-    return Path(value)
-
-
-def writable_folder(folder, what: str) -> Path:
-    """`folder` as a Path, or an OutputError naming `what` when it is blank, a file, under a file, or where no
-    folder can be made (checked before any work, so that no result is lost to a path that cannot hold it)."""
-    folder = as_path(folder, what)
-    if any(part.is_file() for part in (folder, *folder.parents)):
-        raise OutputError(f"{what} {folder}: is a file, or under one, not a folder")
-    existing = next(part for part in (folder, *folder.parents, Path(".")) if part.exists())
-    try:  # a folder made and removed at once: permissions alone do not tell (root may not write in /proc)
-        tempfile.TemporaryDirectory(dir=existing, prefix=".skelcore-probe-").cleanup()
-    except OSError as error:
-        raise OutputError(f"{what} {folder}: cannot be written ({error.strerror or error} in {existing})") from None
-    return folder
 
 
 def check_sampling(*, sample=None, voxel_size=None, max_points=MAX_POINTS, seed=0) -> None:

@@ -17,6 +17,7 @@ from .evidence import skeleton_evidence
 from .metrics import IterationMetrics
 from .options import RunOptions
 from .params import default_k
+from .paths import writable_folder
 from .skeleton import Skeleton
 from .solver import backend
 from .step import TERMINATION_MESSAGES, IterationState
@@ -160,7 +161,7 @@ def check_output(out_dir, force: bool = False, *, what: str = "--out", replace: 
     """The files of an earlier run in the output folder, checked before any work: a folder holding them is
     refused unless `force`, a path that is a file always (nothing is created or removed here). `what` names
     the folder and `replace` says how to replace them, in the caller's terms (the command line's by default)."""
-    out_dir = io.writable_folder(out_dir, what)
+    out_dir = writable_folder(out_dir, what)
     earlier = [out_dir / name for name in (*RESULT_FILES, *EARLIER_RUN_FILES) if (out_dir / name).exists()]
     earlier += list(out_dir.glob(".*.tmp")) if out_dir.is_dir() else []
     if earlier and not force:

@@ -19,10 +19,10 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .clean import clean
-from . import io
 from .errors import ParameterError
 from .metrics import NORMAL_CONVENTIONS, MetricsReference
 from .params import CleaningParams, ContractionParams, is_integer
+from .paths import writable_folder
 
 # name -> (changes to ContractionParams, W_L0 multiplier of the automatic W_L0)
 SETTINGS = {
@@ -187,7 +187,7 @@ def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS),
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown:
         raise ParameterError(f"settings {unknown}: unknown (choose from {', '.join(SETTINGS)})")
-    out_dir = io.writable_folder(out_dir, "study folder")
+    out_dir = writable_folder(out_dir, "study folder")
     out_dir.mkdir(parents=True, exist_ok=True)
     runs_path = out_dir / RUNS_FILE
     done = load_runs(runs_path)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skelcore import io, memory, results
+from skelcore import io, memory, paths, results
 from skelcore.cli import main
 from skelcore.errors import TooLargeError
 from skelcore.export import write_points_ply
@@ -175,7 +175,7 @@ def test_an_output_folder_that_cannot_be_made_is_refused_before_the_work(tmp_pat
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "/proc/skelcore-test/out: cannot be written" in err, err
     before = sorted(tmp_path.iterdir())
-    io.writable_folder(tmp_path / "new" / "folder", "--out")
+    paths.writable_folder(tmp_path / "new" / "folder", "--out")
     assert sorted(tmp_path.iterdir()) == before
 
 
