@@ -166,11 +166,17 @@ def read_labels(source, cloud_path=None, n: int | None = None) -> np.ndarray:
     path = Path(source)
     if path.suffix.lower() in LABEL_FILE_FORMATS and path.is_file():
         return _read_label_file(path, n)
+    what = "no such file" if not path.exists() else "is a folder" if path.is_dir() else "not a label file"
     if path.suffix.lower() in LABEL_FILE_FORMATS or len(path.parts) > 1:  # a path, not a property's name
-        what = "no such file" if not path.exists() else "is a folder" if path.is_dir() else "not a label file"
         raise InputError(f"labels {source}: {what} (label files: {' '.join(LABEL_FILE_FORMATS)})")
     if cloud_path is not None and Path(cloud_path).suffix.lower() == ".ply":
-        return read_ply_labels(cloud_path, ply_label_property(cloud_path, str(source)), n)
+        try:
+            prop = ply_label_property(cloud_path, str(source))
+        except InputError:
+            if not path.exists():
+                raise
+            raise InputError(f"labels {source}: {what}, and no vertex property of the PLY input") from None
+        return read_ply_labels(cloud_path, prop, n)
     raise InputError(f"labels {source}: neither a label file ({' '.join(LABEL_FILE_FORMATS)}) nor a vertex "
                      f"property of a PLY input")
 

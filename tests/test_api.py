@@ -264,6 +264,14 @@ def test_label_files_and_bad_labels(tmp_path):
         skelcore.load(tmp_path / "p.ply", labels=tmp_path / "short.txt")
     with pytest.raises(InputError, match="no vertex property 'class'"):
         skelcore.load(tmp_path / "p.ply", labels="class")
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(InputError, match="is a folder, and no vertex property"):  # it said "no vertex property"
+        cwd = os.getcwd()
+        try:
+            os.chdir(tmp_path)
+            skelcore.load(tmp_path / "p.ply", labels="folder")
+        finally:
+            os.chdir(cwd)
     (tmp_path / "l.dat").write_text("0\n")
     for path, problem in (("gone.txt", "no such file"), (tmp_path / "gone", "no such file"),
                           (tmp_path, "is a folder"), (tmp_path / "l.dat", "not a label file")):
