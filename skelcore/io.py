@@ -259,7 +259,7 @@ def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
     points, labels = cloud.points, cloud.labels
     if (isinstance(points, np.ndarray) and points.dtype == np.float64 and points.ndim == 2
             and points.shape[1] == 3 and len(points) >= MIN_POINTS and np.isfinite(points).all()
-            and np.ptp(points, axis=0).max() > 0
+            and (points.max(axis=0) > points.min(axis=0)).any()  # no subtraction: it could overflow
             and (labels is None or isinstance(labels, np.ndarray) and labels.shape == (len(points),))):
         return cloud
     fresh = validate(points, cloud.faces, name=cloud.name, labels=labels, drop_nonfinite=drop_nonfinite)
