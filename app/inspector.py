@@ -325,6 +325,12 @@ class Inspector:
         self.presenter.update_statuses()
 
     def _apply_view(self) -> None:
+        for handle in (*self.ui.view.size.values(), *self.ui.view.opacity.values()):
+            # the box beside a slider takes any number: a size of 1000 froze every browser drawing it
+            value = float(handle.value)
+            kept = min(max(value, handle.min), handle.max) if value == value else 1.0  # NaN: as every layer starts
+            if kept != value:
+                handle.value = kept
         settings = self.presenter.view_settings()
         for viewer in self.presenter.all():
             view = viewer.view

@@ -362,3 +362,27 @@ def test_a_message_pushed_from_a_worker_thread_wakes_the_sender_from_the_loop_on
         loop.close()
     finally:
         server.stop()
+
+
+def test_view_sizes_and_opacities_typed_past_their_sliders_are_put_back_within_them(cloud):
+    """The box beside a slider takes any number: a contracted size of 1000 froze every browser drawing it, -1 hid a
+    layer, an opacity of -1 drew one black dot. Values are kept within the slider's range, and the box shows it."""
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, ContractionParams(), look_ahead=False))
+    try:
+        inspector._connect(_Broadcast(server))
+        assert inspector.wait_idle(120)
+        size, opacity = inspector.ui.view.size, inspector.ui.view.opacity
+        size["contracted"].value, size["original"].value, opacity["original"].value = 1000.0, -1.0, float("nan")
+        inspector._apply_view()
+        assert (size["contracted"].value, size["original"].value, opacity["original"].value) == (
+            size["contracted"].max, size["original"].min, 1.0)
+        view = inspector.presenter.all()[0].view
+        assert view.sizes["contracted"] == size["contracted"].max and view.opacity["original"] == 1.0
+    finally:
+        inspector.close()
+        server.stop()
