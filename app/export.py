@@ -26,11 +26,13 @@ LABEL_SIZE = 1 / 26  # burned-in text height, of the image's shorter side: 23 px
 
 
 def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
-    """get_render's camera arguments framing `points` along a client camera's viewing direction."""
+    """get_render's camera arguments framing the original cloud `points` along a client camera's viewing direction,
+    in the scene's coordinates (from the cloud's display_origin, as app.scene draws it)."""
     import viser.transforms as tf
 
-    framing = display.sphere_framing_camera(points, camera.look_at - camera.position, PICTURE_FOV, width / height,
-                                            PICTURE_FILL, up=camera.up_direction)
+    direction = camera.look_at - camera.position
+    framing = display.sphere_framing_camera(points - display.display_origin(points), direction, PICTURE_FOV,
+                                            width / height, PICTURE_FILL, up=camera.up_direction)
     return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": PICTURE_FOV}
 
 

@@ -293,7 +293,9 @@ class Presenter:
         points = self.session.cloud.points
         if viewer is not None and 0 < viewer.shown < len(run.history):
             points = np.concatenate([points, run.state(viewer.shown).points])
-        framing = display.framing_camera(points, camera.look_at - camera.position, camera.fov,
+        origin = display.display_origin(self.session.cloud.points)  # the scene's, from the original (app.scene)
+        framing = display.framing_camera(points - origin, camera.look_at - camera.position, camera.fov,
                                          camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction)
+        camera.near, camera.far = display.clipping_planes(points)
         camera.position = framing.position
         camera.look_at = framing.look_at

@@ -1,10 +1,10 @@
 """The 3-D scene: original cloud, contracted points of the shown iteration, curve-skeleton graph, the
 pinned run's skeleton as a ghost.
 
-Positions go out as float32, and only what changed is sent. viser draws points opaque, so a layer's
-opacity is the share of its points drawn (a fixed random order, so the same points stay) with their
-colour faded toward the background: a dense original thinned this way lets the contracted points and
-the skeleton inside show through. Clouds above `display_cap` points are drawn from at most that many
+Positions go out as float32, relative to the scene's origin (skelcore.display.display_origin), and only what
+changed is sent. viser draws points opaque, so a layer's opacity is the share of its points drawn (a fixed
+random order, so the same points stay) with their colour faded toward the background: a dense original thinned
+this way lets the contracted points and the skeleton inside show through. Clouds above `display_cap` points are drawn from at most that many
 (display only: the engine keeps every point). Dense clouds start thinned (`auto_opacity`), and an original
 starts with points small enough for its surface not to hide them (skelcore.display.see_through_size).
 """
@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 import viser
 
-from skelcore.display import framing_camera
+from skelcore.display import clipping_planes, display_origin, framing_camera
 from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
 
 BACKGROUND = np.array([255, 255, 255], float)
@@ -124,7 +124,7 @@ class SceneView:
         self.sizes = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0, "removed": 1.0}  # x the defaults
         self.opacity = {"original": 1.0, "contracted": 1.0, "skeleton": 1.0, "removed": 1.0}
         self.diagonal = 1.0
-        self.centre = np.zeros(3)
+        self.origin = np.zeros(3)  # display_origin of the original: where the scene's 0 sits in its coordinates
         self._source = None  # the array the original cloud was drawn from
         self._points: dict[str, np.ndarray | None] = dict.fromkeys(POINT_LAYERS)  # what each layer shows
         self._colours: dict[str, np.ndarray | None] = dict.fromkeys(POINT_LAYERS)  # per point, or plain
@@ -170,7 +170,7 @@ class SceneView:
         self._source = original
         low, high = original.min(axis=0), original.max(axis=0)
         self.diagonal = float(np.linalg.norm(high - low)) or 1.0
-        self.centre = (low + high) / 2
+        self.origin = display_origin(original)
         self._orders.clear()
         for layer in POINT_LAYERS:
             self._remove(layer)
@@ -205,7 +205,7 @@ class SceneView:
         if colours_only and handle is not None:
             handle.colors = np.broadcast_to(colours, (len(handle.points), 3)).astype(np.uint8)
             return
-        shown = (points if rows is None else points[rows]).astype(np.float32)
+        shown = self._local(points if rows is None else points[rows])
         if handle is None or len(handle.points) != len(shown):
             if handle is not None:
                 handle.remove()
@@ -259,8 +259,15 @@ class SceneView:
         return None if handle is None else np.broadcast_to(handle.colors, (len(handle.points), 3))
 
     def drawn_points(self, layer: str) -> np.ndarray | None:
+        """The points a layer draws, in the cloud's coordinates."""
         handle = self._handles[layer]
-        return None if handle is None else handle.points
+        if handle is None:
+            return None
+        return handle.points + self.origin if self.origin.any() else handle.points
+
+    def _local(self, positions: np.ndarray) -> np.ndarray:
+        """Positions as the scene takes them: float32, from its origin."""
+        return (positions - self.origin if self.origin.any() else positions).astype(np.float32)
 
     @_locked
     def show_skeleton(self, nodes: np.ndarray, edges: np.ndarray, degrees: np.ndarray,
@@ -272,7 +279,7 @@ class SceneView:
         visible = self.visible["skeleton"]
         opacity = self.opacity["skeleton"]
         if len(edges):
-            segments = nodes[edges].astype(np.float32)  # (e,2,3)
+            segments = self._local(nodes[edges])  # (e,2,3)
             self._edges = self.scene.add_line_segments(
                 "/skeleton/edges", points=segments, colors=PROVISIONAL_EDGE_COLOUR if provisional else EDGE_COLOUR,
                 thickness=EDGE_THICKNESS * self._node_radius(), visible=visible)
@@ -287,13 +294,13 @@ class SceneView:
             self._nodes = self.scene.add_batched_meshes_simple(
                 "/skeleton/nodes", vertices=vertices * self._node_radius(), faces=faces,
                 batched_wxyzs=np.tile(np.array([1.0, 0, 0, 0], np.float32), (len(nodes), 1)),
-                batched_positions=nodes.astype(np.float32), batched_scales=scales, batched_colors=colours,
+                batched_positions=self._local(nodes), batched_scales=scales, batched_colors=colours,
                 material="toon3", cast_shadow=False, receive_shadow=False, visible=visible,
                 opacity=None if opacity >= 1 else opacity)
             if provisional:
                 top = nodes[np.argmax(nodes[:, 2])]
                 self._label = self.scene.add_label("/skeleton/provisional", "provisional skeleton",
-                                                   position=top.astype(np.float32), visible=visible)
+                                                   position=self._local(top), visible=visible)
 
     @_locked
     def clear_skeleton(self) -> None:
@@ -327,7 +334,7 @@ class SceneView:
             self._ghost = None
         if nodes is not None and len(edges):
             self._ghost = self.scene.add_line_segments(
-                "/pinned/skeleton", points=nodes[edges].astype(np.float32), colors=GHOST_COLOUR,
+                "/pinned/skeleton", points=self._local(nodes[edges]), colors=GHOST_COLOUR,
                 thickness=GHOST_THICKNESS * self._node_radius())
 
     @property
@@ -367,7 +374,9 @@ class SceneView:
 
 def frame_camera(camera, points: np.ndarray, aspect: float = 0.75) -> None:
     """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
-    between two panels, so taller than wide) at the whole cloud, from above and aside."""
-    framing = framing_camera(points, INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL)
+    between two panels, so taller than wide) at the whole cloud `points` (the original: the scene's origin is
+    its display_origin), from above and aside."""
+    framing = framing_camera(points - display_origin(points), INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL)
+    camera.near, camera.far = clipping_planes(points)
     camera.position = framing.position
     camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

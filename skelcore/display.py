@@ -5,7 +5,8 @@ every point, `values_for_all_points` gives each point the value of the nearest m
 same iteration (a measured point keeps its own). `framing_camera` places a perspective camera along a
 given viewing direction so that the object's bounding box fills a chosen share of the shorter image side;
 `sphere_framing_camera` so that its bounding sphere does, which leaves room around the object from any side.
-`see_through_size` scales an original cloud's points down until its surface no longer hides what lies inside.
+`see_through_size` scales an original cloud's points down until its surface no longer hides what lies inside;
+`display_origin` places a scene of float32 positions near the cloud.
 """
 from __future__ import annotations
 
@@ -85,6 +86,27 @@ def see_through_size(points: np.ndarray, drawn_share: float, default_size: float
     drawn_spacing = spacing * math.sqrt(len(sample) / len(points) / drawn_share)
     share = SEE_THROUGH * drawn_spacing / (default_size * diagonal)
     return float(np.clip(round(share, 1), SMALLEST_SIZE, 1.0))
+
+
+def display_origin(points: np.ndarray) -> np.ndarray:
+    """(3,) where the scene's 0 sits in the coordinates of the cloud `points`: 0 itself, unless the cloud lies
+    farther from it than its own size; then the centre of its bounding box. The scene holds float32 positions,
+    whose steps are a ten-millionth of their magnitude: a tree trunk 0.3 m across in map coordinates (5e6 m) was
+    drawn as a few lines of points, and at 1e18 the camera's position equalled the point it looked at."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = low / 2 + high / 2
+    return centre if np.abs(centre).max() > np.abs(high / 2 - low / 2).max() * 2 else np.zeros(3)
+
+
+CLIPPING = 1e3  # a camera's near and far planes, the cloud's diagonal over and times this
+
+
+def clipping_planes(points: np.ndarray) -> tuple[float, float]:
+    """(near, far) clipping distances for a camera on the cloud `points`: its diagonal / CLIPPING and x CLIPPING.
+    A browser's camera clips at 0.01 and 1000 by default: a scan in millimetres 2 m long, framed from about its
+    own size away, lay past the far plane and the view stayed blank."""
+    diagonal = float(np.linalg.norm(np.ptp(points / 2, axis=0))) * 2 or 1.0  # halves: no overflow
+    return diagonal / CLIPPING, diagonal * CLIPPING
 
 
 def _checked(points: np.ndarray, fov: float, aspect: float, fill: float) -> np.ndarray:

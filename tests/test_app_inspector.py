@@ -386,3 +386,31 @@ def test_view_sizes_and_opacities_typed_past_their_sliders_are_put_back_within_t
     finally:
         inspector.close()
         server.stop()
+
+
+def test_a_cloud_in_map_coordinates_is_drawn_from_its_own_centre():
+    """The scene's positions are float32 from the cloud's display origin (a trunk at 5e6 m was drawn as a few
+    lines of points), read back in the cloud's coordinates, and the first camera clips around the cloud's size."""
+    import viser
+
+    from app.inspector import Inspector
+    from skelcore.display import clipping_planes
+
+    rng = np.random.default_rng(0)
+    angle, height = rng.random(3000) * 2 * np.pi, rng.random(3000) * 4.0
+    trunk = np.column_stack([0.3 * np.cos(angle), 0.3 * np.sin(angle), height]) + [512345.0, 5412345.0, 120.0]
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(validate(trunk, name="trunk.xyz"), ContractionParams(), look_ahead=False))
+    try:
+        inspector._connect(_Broadcast(server))
+        assert inspector.wait_idle(120)
+        view = inspector.presenter.all()[0].view
+        drawn = view._handles["original"].points
+        assert np.abs(drawn).max() < 3  # from the trunk's centre, not 5e6 away
+        points = inspector.session.cloud.points
+        rows = view.rows(len(points), "original")
+        np.testing.assert_allclose(view.drawn_points("original"), points if rows is None else points[rows], atol=1e-5)
+        assert (server.initial_camera.near, server.initial_camera.far) == clipping_planes(inspector.session.cloud.points)
+    finally:
+        inspector.close()
+        server.stop()

@@ -43,14 +43,17 @@ def test_pictures_take_the_whole_cloud_through_a_narrow_lens_whatever_the_browse
     the object's box, made near points loom and cut nothing off only by luck."""
     import viser.transforms as tf
 
+    from skelcore.display import display_origin
+
     points = make_shape("y_branch", 3000).points * 4.0 + 20.0
     for position in ((30.0, 10.0, 25.0), (20.0, 20.0, 40.0), (5.0, 21.0, 20.5)):
         browser = types.SimpleNamespace(position=np.array(position), look_at=np.array([20.0, 20.0, 20.0]),
                                         fov=np.radians(75), up_direction=np.array([0.0, 0.0, 1.0]))
+        origin = display_origin(points)  # the scene's coordinates: from the cloud's centre, 20 away here
         camera = export.framed_camera(points, browser, width, height)
         assert camera["fov"] <= np.radians(35)
         rotation = tf.SO3(np.asarray(camera["wxyz"])).as_matrix()
-        pixels = _project(points, camera["position"], rotation, camera["fov"], width, height)
+        pixels = _project(points - origin, camera["position"], rotation, camera["fov"], width, height)
         margin = 0.04 * min(width, height)
         assert (pixels.min(axis=0) >= margin).all() and (pixels.max(axis=0) <= (width - margin, height - margin)).all()
         assert np.ptp(pixels, axis=0).max() >= 0.5 * min(width, height)  # not lost in the middle either
@@ -155,3 +158,27 @@ def test_an_original_is_drawn_small_enough_for_its_surface_not_to_hide_the_insid
     # a large cloud's spacing is measured on a sample and scaled: 0.75% of 400,000 drawn ~ 3,000 points
     assert see_through_size(_sphere(400_000), 0.0075, default) == factor
     assert see_through_size(np.zeros((5, 3)), 1.0, default) == 1.0
+
+
+def test_a_cloud_far_from_the_origin_or_in_millimetres_is_drawn_from_near_it_and_within_the_cameras_planes():
+    """float32 positions step by a ten-millionth of their magnitude: a trunk 0.6 m across at map coordinates (5e6 m)
+    was drawn as a few lines of points, and at 1e18 the camera's position equalled the point it looked at; a scan
+    in millimetres 2.8 m long lay past the browser camera's far plane (1000) and the view stayed blank."""
+    from skelcore.display import CLIPPING, clipping_planes, display_origin, framing_camera
+
+    trunk = _sphere(2000) * [0.3, 0.3, 2.0] + [512345.0, 5412345.0, 120.0]
+    origin = display_origin(trunk)
+    np.testing.assert_allclose(origin, [512345.0, 5412345.0, 120.0], atol=0.5)
+    local = (trunk - origin).astype(np.float32)
+    assert np.abs(local.astype(np.float64) + origin - trunk).max() < 1e-6  # float32 keeps the micrometres
+    assert not display_origin(_sphere(300) + [0.5, 0, 0]).any()  # near 0: drawn as it is
+    millimetres = _sphere(2000) * 1400.0
+    framing = framing_camera(millimetres, (-0.7, 0.7, -0.5), 1.2, 0.75, 0.8)
+    near, far = clipping_planes(millimetres)
+    distance = np.linalg.norm(framing.position - framing.look_at)
+    assert near * 100 < distance < far / 100
+    assert far / near == CLIPPING ** 2
+    huge = _sphere(2000) * 1e6 + 1e18
+    assert np.isfinite(clipping_planes(huge)).all()
+    framing = framing_camera(huge - display_origin(huge), (-0.7, 0.7, -0.5), 1.2, 0.75, 0.8)
+    assert np.linalg.norm(framing.position - framing.look_at) > 1e6
