@@ -4,9 +4,10 @@ pinned run's skeleton as a ghost.
 Positions go out as float32, relative to the scene's origin (skelcore.display.display_origin), and only what
 changed is sent. viser draws points opaque, so a layer's opacity is the share of its points drawn (a fixed
 random order, so the same points stay) with their colour faded toward the background: a dense original thinned
-this way lets the contracted points and the skeleton inside show through. Clouds above `display_cap` points are drawn from at most that many
-(display only: the engine keeps every point). Dense clouds start thinned (`auto_opacity`), and an original
-starts with points small enough for its surface not to hide them (skelcore.display.see_through_size).
+this way lets the contracted points and the skeleton inside show through. Clouds above `display_cap` points
+are drawn from at most that many (display only: the engine keeps every point). Dense clouds start thinned
+(`auto_opacity`), and an original starts with points small enough for its surface not to hide them
+(skelcore.display.see_through_size). Cameras clip at the cloud's scale (skelcore.display.clipping_planes).
 """
 from __future__ import annotations
 

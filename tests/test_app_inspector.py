@@ -410,7 +410,8 @@ def test_a_cloud_in_map_coordinates_is_drawn_from_its_own_centre():
         points = inspector.session.cloud.points
         rows = view.rows(len(points), "original")
         np.testing.assert_allclose(view.drawn_points("original"), points if rows is None else points[rows], atol=1e-5)
-        assert (server.initial_camera.near, server.initial_camera.far) == clipping_planes(inspector.session.cloud.points)
+        camera = server.initial_camera
+        assert (camera.near, camera.far) == clipping_planes(inspector.session.cloud.points)
     finally:
         inspector.close()
         server.stop()
