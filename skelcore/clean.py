@@ -67,8 +67,10 @@ class CleaningReport:
 
     def note(self) -> str:
         """One line for the cloud's notes."""
-        return (f"cleaning removed {len(self.outliers):,} outliers and {len(self.stray):,} points of stray pieces "
-                f"({self.input_points:,} -> {self.input_points - len(self.outliers) - len(self.stray):,} points)")
+        outliers, stray = len(self.outliers), len(self.stray)
+        return (f"cleaning removed {outliers:,} outlier{'' if outliers == 1 else 's'} and {stray:,} "
+                f"point{'' if stray == 1 else 's'} of stray pieces "
+                f"({self.input_points:,} -> {self.input_points - outliers - stray:,} points)")
 
 
 MIN_KEPT = 20  # cleaning never leaves fewer points than the engine needs

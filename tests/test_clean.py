@@ -179,3 +179,13 @@ def test_a_large_sparse_surface_beside_a_far_denser_part_is_no_stray():
     sphere *= 0.06 / np.linalg.norm(sphere, axis=1, keepdims=True)
     noisy = clean(np.vstack([sphere, rng.uniform(-1.5, 1.5, (1500, 3))]))
     assert (noisy.kept < 6000).all() and len(noisy.kept) > 5900
+
+
+def test_the_cleaning_note_counts_in_words_that_agree():
+    """"Cleaning removed 1 outliers" (a walk-through)."""
+    from skelcore.clean import CleaningReport
+
+    assert CleaningReport(10, np.array([1]), np.array([2])).note().startswith(
+        "cleaning removed 1 outlier and 1 point of stray pieces")
+    assert CleaningReport(10, np.array([1, 3]), np.zeros(0, int)).note().startswith(
+        "cleaning removed 2 outliers and 0 points of stray pieces")
