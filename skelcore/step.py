@@ -157,8 +157,7 @@ def start_run(points: np.ndarray, params: ContractionParams) -> RunStart:
     # density at the scale the skeleton resolves: averaged over about one sample radius (a random walk of
     # `passes` ring steps spreads over sqrt(passes) ring spacings), in no more passes than there are points (a walk
     # that long reaches every point it can; clumps 1e-12 across asked for 1e20 passes)
-    passes = min(int(np.ceil(min((SkeletonParams.sample_radius * diagonal / max(spacing, 1e-300)) ** 2, 1e18))),
-                 len(points))
+    passes = int(min(np.ceil((SkeletonParams.sample_radius * diagonal / max(spacing, 1e-300)) ** 2), len(points)))
     areas = density_weights(rings, unit, passes) if params.balance_density else np.ones(len(unit))
     return RunStart(normalisation, unit, rings, builder, rings.sizes(unit), auto_wl0, areas, robust_extent(unit),
                     diagonal, state, core)
