@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .sizing import pcd_header
+from .sizing import pcd_header, pcd_points
 
 _KINDS = {"F": "f", "I": "i", "U": "u"}
 
@@ -34,12 +34,11 @@ def read_pcd(path: Path) -> np.ndarray | None:
                          "DATA binary or ascii")
     if data not in ("binary", "ascii"):
         return None
+    n = pcd_points(path, header)
     try:
         widths = [int(count) for count in counts]
         layout = np.dtype([(f"field{i}", f"<{_KINDS[kind]}{size}", (width,))
                            for i, (size, kind, width) in enumerate(zip(sizes, types, widths))])
-        n = (int(header["POINTS"][0]) if header.get("POINTS")
-             else int(header.get("WIDTH", ["0"])[0]) * int(header.get("HEIGHT", ["1"])[0]))
         if min(widths[fields.index(axis)] for axis in "xyz") < 1:
             raise ValueError
     except (KeyError, TypeError, ValueError):
@@ -49,7 +48,7 @@ def read_pcd(path: Path) -> np.ndarray | None:
         with open(path, "rb") as handle:
             handle.seek(offset)
             words = handle.read().split()
-        if n < 0 or len(words) < n * sum(widths):
+        if len(words) < n * sum(widths):
             raise InputError(f"{path}: PCD ascii data holds {len(words):,} values, its header says {n:,} points of "
                              f"{sum(widths)}")
         try:
@@ -60,7 +59,7 @@ def read_pcd(path: Path) -> np.ndarray | None:
         starts = np.cumsum([0, *widths])
         return values[:, [starts[fields.index(axis)] for axis in "xyz"]]
     body = path.stat().st_size - offset
-    if n < 0 or n * layout.itemsize > body:
+    if n * layout.itemsize > body:
         raise InputError(f"{path}: PCD data holds {max(body, 0) // layout.itemsize:,} of the {n:,} points its "
                          "header says (truncated?)")
     records = np.fromfile(path, dtype=layout, count=n, offset=offset)

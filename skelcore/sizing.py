@@ -141,16 +141,20 @@ def pcd_header(path: Path) -> tuple[dict[str, list[str]], int]:
     return {line.split()[0].upper(): line.split()[1:] for line in lines if line.split() and line[0] != "#"}, header
 
 
+def pcd_points(path: Path, fields: dict[str, list[str]]) -> int:
+    """The number of points a PCD header (pcd_header's values) promises: POINTS, else WIDTH x HEIGHT."""
+    if fields.get("POINTS"):
+        return _count(path, fields["POINTS"][0], "POINTS")
+    return (_count(path, (fields.get("WIDTH") or ["0"])[0], "WIDTH")
+            * _count(path, (fields.get("HEIGHT") or ["1"])[0], "HEIGHT"))
+
+
 def _pcd(path: Path, size: int) -> int:
     fields, header = pcd_header(path)
     names = [name.lower() for name in fields.get("FIELDS", [])]
     if names and not {"x", "y", "z"} <= set(names):
         raise InputError(f"{path}: the PCD fields ({' '.join(names)[:60]}) hold no x, y and z")
-    if fields.get("POINTS"):
-        count = _count(path, fields["POINTS"][0], "POINTS")
-    else:
-        count = (_count(path, (fields.get("WIDTH") or ["0"])[0], "WIDTH")
-                 * _count(path, (fields.get("HEIGHT") or ["1"])[0], "HEIGHT"))
+    count = pcd_points(path, fields)
     data = (fields.get("DATA") or ["ascii"])[0].lower()
     if data == "binary":
         record = sum(_count(path, s, "SIZE") * _count(path, c, "COUNT")
