@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import errno
 import functools
-import os
 import re
 import tempfile
 from dataclasses import dataclass, field
@@ -78,9 +77,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
     check_flag("drop_nonfinite", drop_nonfinite)
     if isinstance(path, np.ndarray):
         raise ParameterError("load reads a file; an array of points goes to skeletonize or contract as it is")
-    if isinstance(path, (str, os.PathLike)) and not isinstance(path, bytes) and not str(path).strip():
-        raise InputError("input: give a file name (the path is empty)")
-    path = as_path(path, "input")
+    path = as_path(path, "input", blank=InputError("input: give a file name (the path is empty)"))
     budget = memory.budget_bytes() if budget is None else budget
     suffix = path.suffix.lower()
     try:

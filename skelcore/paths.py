@@ -6,18 +6,18 @@ import os
 import tempfile
 from pathlib import Path
 
-from .errors import OutputError, ParameterError
+from .errors import OutputError, ParameterError, SkelError
 
 
-def as_path(value, what: str) -> Path:
+def as_path(value, what: str, blank: SkelError | None = None) -> Path:
     """`value` (a str or os.PathLike) as a Path, or a ParameterError naming `what` when it is of another type or
-    holds a NUL byte, an OutputError when it is blank (Path("") is the working folder)."""
+    holds a NUL byte; when it is blank (Path("") is the working folder) `blank`, by default an OutputError."""
     if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
         raise ParameterError(f"{what}={value!r}: must be a path (a str or pathlib.Path)")
     if "\0" in str(value):
         raise ParameterError(f"{what}={str(value)!r}: a path cannot hold a NUL byte")
     if not str(value).strip():
-        raise OutputError(f"{what}: give a name (the path is empty)")
+        raise blank or OutputError(f"{what}: give a name (the path is empty)")
     return Path(value)
 
 
