@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import traceback
 
@@ -147,6 +148,18 @@ def _point_count(text: str) -> int:
     if not MIN_POINTS <= value <= MAX_POINTS:
         raise argparse.ArgumentTypeError(f"{value} points: give between {MIN_POINTS} and {MAX_POINTS:,}")
     return value
+
+
+def _negative_labels_attached(argv: list[str]) -> list[str]:
+    """argv with `--label-weight -5=2` written as `--label-weight=-5=2`: argparse reads a value that starts with a
+    dash and is no plain negative number as an option, so it would stop at "expected one argument"."""
+    joined = []
+    for token in argv:
+        if joined and joined[-1] == "--label-weight" and re.match(r"-\d", token):
+            joined[-1] = f"--label-weight={token}"
+        else:
+            joined.append(token)
+    return joined
 
 
 def _label_weight(text: str) -> tuple[int, float]:
@@ -406,7 +419,7 @@ def main(argv: list[str] | None = None) -> int:
     if own_process:
         startup.begin()
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_negative_labels_attached(sys.argv[1:] if argv is None else argv))
     if own_process:
         if args.command in ("run", "batch"):
             from . import pipeline  # noqa: F401 -- the run's modules, loaded before the collector runs again

@@ -118,6 +118,21 @@ def test_label_weights_on_a_resampled_cloud_say_the_labels_were_dropped(tmp_path
     assert err.count("\n") == 1 and "dropped the labels" in err
 
 
+def test_a_negative_label_is_weighted_as_written(tmp_path, capsys):
+    """`--label-weight -5=2`: argparse alone reads `-5=2` as an unknown option ("expected one argument")."""
+    from skelcore.export import write_points_ply
+
+    points = make_shape("torus", 2000).points
+    path = write_points_ply(tmp_path / "labelled.ply", points, labels=np.where(points[:, 0] > 0, -5, 3))
+    with pytest.raises(SystemExit):  # a label without a weight is still refused, in the argument's words
+        main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--label-weight", "-5", "--wl0", "0.5"])
+    assert "argument --label-weight: '-5': no '='" in capsys.readouterr().err
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet", "--label-weight", "-5=2",
+                 "--label-weight", "3=1", "--max-iterations", "1"]) == 0
+    params = json.loads((tmp_path / "out" / "params.json").read_text())
+    assert params["weights"]["label_weights"] == {"-5": 2.0, "3": 1.0}
+
+
 def test_results_that_appear_during_a_run_are_refused_in_the_command_lines_words(tmp_path, assets_dir, capsys,
                                                                                    monkeypatch):
     """`--out` is checked before the work and again as the results are written: another run's results written
