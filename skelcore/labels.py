@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, ParameterError
-from .params import is_integer, is_real
+from .params import WEIGHT_MAX, is_integer, is_real
 from .readers import quiet_trimesh
 
 # PLY vertex properties read as labels when present, in this order (case-insensitive)
@@ -31,7 +31,8 @@ FLOAT_LABELS = 2 ** 53  # labels read as floats are exact integers up to this ma
 
 
 def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
-    """`weights` as an (n,) float64 array of positive finite numbers, or a ParameterError."""
+    """`weights` as an (n,) float64 array of positive numbers up to WEIGHT_MAX, or a ParameterError. A weight
+    multiplies W_L on its point's row, so it meets the same float range as W_L (skelcore.params.WEIGHT_MAX)."""
     if np.iscomplexobj(weights):
         raise ParameterError(f"parameter {name}: complex numbers; give their real parts (np.real)")
     try:
@@ -40,9 +41,9 @@ def check_weights(weights, n: int, name: str = "weights") -> np.ndarray:
         raise ParameterError(f"parameter {name}: not numbers") from None
     if values.shape != (n,):
         raise ParameterError(f"parameter {name}: expected one weight per point ({n}), got shape {values.shape}")
-    bad = int((~np.isfinite(values) | (values <= 0)).sum())
+    bad = int((~(values > 0) | ~(values <= WEIGHT_MAX)).sum())
     if bad:
-        raise ParameterError(f"parameter {name}: {bad} of {n} weights are not positive finite numbers")
+        raise ParameterError(f"parameter {name}: {bad} of {n} weights are not positive numbers up to {WEIGHT_MAX:g}")
     return values
 
 
@@ -72,12 +73,13 @@ def input_weights(weights, n: int, rows: np.ndarray | None, input_rows: int, nam
 
 
 def check_label_weights(label_weights) -> dict[int, float]:
-    """{label: weight} with integer labels and positive finite weights (numbers, not text), or a ParameterError."""
+    """{label: weight} with integer labels and positive weights up to WEIGHT_MAX (numbers, not text), or a
+    ParameterError."""
     checked = {}
     for label, weight in dict(label_weights or {}).items():
-        if not is_real(weight) or not 0 < weight < math.inf:
+        if not is_real(weight) or not 0 < weight <= WEIGHT_MAX:
             raise ParameterError(f"parameter label_weights: weight {weight!r} of label {label!r} must be a positive "
-                                 f"finite number")
+                                 f"number up to {WEIGHT_MAX:g}")
         checked[as_label(label, "label_weights")] = float(weight)
     return checked
 

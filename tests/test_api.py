@@ -395,9 +395,20 @@ def test_a_run_whose_first_step_fails_is_an_error_not_a_result():
 
     points = make_shape("torus", 800).points
     with pytest.raises(skelcore.SkelError, match="first contraction step failed") as failure:
-        skelcore.skeletonize(points, weights=np.full(len(points), 1e300))
+        skelcore.skeletonize(points, weights=np.full(len(points), 1e20))
     # the cause, not the words of a run that kept a good state: there is none
-    assert "(the solve produced NaN)" in str(failure.value) and "kept" not in str(failure.value)
+    assert "(the sparse solver failed" in str(failure.value) and "kept" not in str(failure.value)
+
+
+def test_weights_past_w_l_s_range_are_refused_in_words():
+    """A weight multiplies W_L on its row: past WEIGHT_MAX the normal equations' squares overflowed (numpy's warning
+    reached the user before the solver's refusal)."""
+    points = np.random.default_rng(0).random((40, 3))
+    for weight in (1.7e308, 1e101):
+        with pytest.raises(ParameterError, match="1 of 40 weights are not positive numbers up to 1e\\+100"):
+            skelcore.skeletonize(points, weights=np.r_[np.ones(39), weight])
+        with pytest.raises(ParameterError, match="must be a positive number up to 1e\\+100"):
+            skelcore.skeletonize(points, labels=np.ones(40, dtype=int), label_weights={1: weight})
 
 
 def test_open3d_and_trimesh_clouds_and_meshes_are_taken_as_they_come():
