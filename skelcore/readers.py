@@ -215,9 +215,14 @@ def _read_obj(path: Path):
 def _read_mesh(path: Path):
     trimesh = quiet_trimesh()
     loaded = trimesh.load(path, process=False, force="mesh")
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.vertices) == 0:
-        raise InputError(f"{path}: the file holds no mesh geometry")
-    return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+    if isinstance(loaded, trimesh.Trimesh) and len(loaded.vertices):
+        return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+    if path.suffix.lower() == ".glb":  # a scan kept as a glTF POINTS primitive: no triangles, so no mesh
+        scene = trimesh.load(path, process=False, force="scene")
+        clouds = [g for g in scene.dump(concatenate=False) if isinstance(g, trimesh.PointCloud) and len(g.vertices)]
+        if clouds:  # dump() placed each where the scene's transforms put it
+            return np.vstack([np.asarray(c.vertices) for c in clouds]), None
+    raise InputError(f"{path}: the file holds no mesh geometry and no points")
 
 
 def _read_text(path: Path):

@@ -226,3 +226,13 @@ def test_an_off_face_whose_count_exceeds_its_indices_says_so(tmp_path):
     path.write_text("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1000000000 0 1 2\n")
     with pytest.raises(io.InputError, match="counts 1000000000 vertex indices but lists 3"):
         readers.READERS[".off"](path)
+
+
+def test_a_glb_point_cloud_is_read_where_its_scene_places_it(tmp_path):
+    """A scan exported as a glTF POINTS primitive has no triangles: it was refused as "no mesh geometry"."""
+    points = np.random.default_rng(0).random((300, 3))
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.PointCloud(points), transform=trimesh.transformations.translation_matrix([5, 0, 0]))
+    scene.export(tmp_path / "scan.glb")
+    read = io.load(tmp_path / "scan.glb").points
+    assert np.allclose(np.sort(read, axis=0), np.sort(points + [5, 0, 0], axis=0), atol=1e-6)
