@@ -136,6 +136,8 @@ def _parser_words(error: Exception) -> str:
         return "an index refers to an element that does not exist"
     if type(error).__name__ == "JSONDecodeError":
         return "its JSON part is damaged"
+    if outside := re.search(r"'([^']*)' escapes resolver root", text):  # trimesh's advice names its own API
+        return f"it names {outside.group(1)!r}, outside its own folder, which is not read"
     if isinstance(error, (ValueError, TypeError)) and not re.search(r"[\\/]\w+\.\w+|\bline \d+, in\b", text):
         return f"damaged or not in this format: {text}"
     return "damaged or not in this format"

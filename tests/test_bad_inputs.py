@@ -315,3 +315,22 @@ def test_a_large_facet_at_extreme_coordinates_is_judged_without_overflow(tmp_pat
         warnings.simplefilter("error")
         cloud = skelcore.load(path)
     assert len(cloud.points) >= 20 and any("drawn evenly" in note for note in cloud.notes)
+
+
+def test_a_glb_that_names_a_file_outside_its_folder_says_so(tmp_path, capsys):
+    """trimesh refuses it with advice on its own API (`FilePathResolver(..., allow_anywhere=True)`), which a
+    command-line user cannot follow."""
+    doc = {"asset": {"version": "2.0"}, "buffers": [{"uri": "../outside.bin", "byteLength": 36}],
+           "bufferViews": [{"buffer": 0, "byteLength": 36}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}],
+           "scenes": [{"nodes": [0]}], "scene": 0}
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    (tmp_path / "outside.bin").write_bytes(np.eye(3, dtype="<f4").tobytes())
+    (tmp_path / "scene").mkdir()
+    path = tmp_path / "scene" / "part.glb"
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(text)) + struct.pack("<I", len(text)) + b"JSON" + text)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "names '../outside.bin', outside its own folder, which is not read" in err and "Resolver" not in err
