@@ -232,7 +232,7 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
         sl = _number(gui, "sl", params.sl, 0.1)
         restart = gui.add_button("Restart with these parameters")
     with tabs.add_tab("More"):
-        wl_max = _number(gui, "wl_max", params.wl_max, 1.0)
+        wl_max = _number(gui, "wl_max", params.wl_max, 0.1)  # step 1 rounded a typed 2.5 to 2
         k = gui.add_number(box_label("k"), initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
                            hint="applies on Restart")
         max_iterations = _number(gui, "max_iterations", params.max_iterations, 1)

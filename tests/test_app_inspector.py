@@ -415,3 +415,23 @@ def test_a_cloud_in_map_coordinates_is_drawn_from_its_own_centre():
     finally:
         inspector.close()
         server.stop()
+
+
+def test_every_box_of_a_fractional_parameter_keeps_a_typed_tenth():
+    """The browser rounds a number box to its step's decimals: the W_L cap's step of 1 turned a typed 2.5 into 2."""
+    import dataclasses
+
+    import viser
+
+    from app.layout import build_parameters
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        params = ContractionParams()
+        widgets = build_parameters(server.gui, server.gui.add_tab_group(), params, 0.02)
+        fractional = [f.name for f in dataclasses.fields(params) if f.type in ("float", "float | None")]
+        boxes = {name: getattr(widgets, name) for name in fractional if hasattr(widgets, name)}
+        assert {"wl0", "wh0", "sl", "wl_max", "termination"} <= set(boxes)
+        assert {name: box.step for name, box in boxes.items() if not box.step <= 0.1} == {}
+    finally:
+        server.stop()
