@@ -170,6 +170,18 @@ def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tm
     cloud = io.load(tmp_path / "ball.ply")
     assert cloud.faces is not None and len(cloud.points) == len(fine.vertices) and not cloud.notes
 
+    # a tube meshed in rings 1.8 sample radii apart, each dense: every point of it lies within a radius of a vertex,
+    # but within a radius each vertex sees only its own ring, a curve (pyvista's airplane: 3-4 false loops)
+    angle, z = np.meshgrid(np.linspace(0, 2 * np.pi, 128, endpoint=False), np.arange(0, 1.0001, 0.038))
+    rings = np.c_[0.1 * np.cos(angle).ravel(), 0.1 * np.sin(angle).ravel(), z.ravel()]
+    ring, step = np.meshgrid(np.arange(len(z) - 1) * 128, np.arange(128))
+    a, b = (ring + step).ravel(), (ring + (step + 1) % 128).ravel()
+    tube_faces = np.r_[np.c_[a, b, a + 128], np.c_[b, b + 128, a + 128]]
+    assert surface_sampling.uncovered_share(rings, tube_faces) == 0
+    assert surface_sampling.curve_like_share(rings) > 0.1
+    tube = io.validate(rings, tube_faces, name="tube")
+    assert tube.faces is None and len(tube.points) == SURFACE_POINTS and "lie in rows" in tube.notes[0]
+
     labelled = io.validate(vertices, faces, name="block", labels=np.arange(len(vertices)) % 2)
     assert labelled.faces is not None and labelled.labels is not None and "kept for their labels" in labelled.notes[0]
     few_faces = io.validate(np.vstack([vertices, sphere(500) * 3]), faces, name="cloud with a block")
