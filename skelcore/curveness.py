@@ -32,7 +32,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from . import density
-from .skeleton import SkeletonParams
+from .normalise import SAMPLE_RADIUS
 
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
 PROBES = 2000  # points whose neighbourhoods are measured (a fixed random subset; all when fewer)
@@ -110,7 +110,7 @@ def skeleton_scale_share(points: np.ndarray, diagonal: float, seed: int = 0) -> 
     """curve_share of `points` at the skeleton's default sample radius, taken as that fraction of `diagonal`,
     the input cloud's object diagonal (skelcore.normalise.object_diagonal): the scale at which the skeleton
     samples the contracted cloud."""
-    return curve_share(points, SkeletonParams.sample_radius * diagonal, seed)
+    return curve_share(points, SAMPLE_RADIUS * diagonal, seed)
 
 
 def thin_parts(contracted: np.ndarray, original: np.ndarray, radius: float) -> np.ndarray:
