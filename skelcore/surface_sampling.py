@@ -36,6 +36,8 @@ most 2% (cloudcontr's corn and 9-handle torus), most of them under 0.1%.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .errors import InputError
@@ -125,16 +127,18 @@ def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap:
         return None, None  # a cloud with a few faces among its points: they are not its surface
     if not _unit_mesh(vertices, faces)[0].area > 0:
         return None, None  # faces without area: points stored as a mesh, with no surface to draw from
+    # the even sample both comparisons below read, drawn once and only when one of them needs it
+    drawn = functools.cache(lambda: sample_surface(vertices, faces, SURFACE_POINTS, seed)[0])
     uncovered = uncovered_share(vertices, faces, seed)
     if uncovered > MAX_UNCOVERED:
         why = f"leave {uncovered:.0%} of its surface farther than the skeleton's sample radius from any vertex"
     elif ((stray := stray_share(vertices, seed)) > MAX_UNCOVERED
-          and (even := stray_share(sample_surface(vertices, faces, SURFACE_POINTS, seed)[0])) <= MAX_UNCOVERED):
+          and (even := stray_share(drawn())) <= MAX_UNCOVERED):
         # an even sample keeping what the vertices lose: their spread is to blame, not small separate parts
         why = (f"are spread so unevenly that cleaning would cut {stray:.0%} of them away as stray pieces (of "
                f"points drawn evenly over it, {even:.0%})")
     elif ((rows := curve_like_share(vertices, seed)) > IN_ROWS
-          and (even := curve_like_share(sample_surface(vertices, faces, SURFACE_POINTS, seed)[0])) <= MAX_UNCOVERED):
+          and (even := curve_like_share(drawn())) <= MAX_UNCOVERED):
         why = (f"lie in rows: {rows:.0%} of them read as curves at the skeleton's scale before any contraction (of "
                f"points drawn evenly over it, {even:.0%})")
     else:
