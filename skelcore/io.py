@@ -88,7 +88,7 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
         if most * sizing.PARSE_BYTES_PER_POINT[suffix] > budget:
             raise InputError(f"{path}: may hold up to {most:,} points, too many to read within the memory "
                              f"budget of {memory.describe(budget)}; thin it out before loading")
-        points, faces = readers.READERS[suffix](path)
+        points, faces, *left_out = readers.READERS[suffix](path)  # a reader may add notes on what it left out
     except InputError:
         raise
     except MemoryError:
@@ -104,8 +104,10 @@ def load(path, *, sample: int | None = None, voxel_size: float | None = None,
         labels = read_labels(labels, path, len(points))
     elif suffix == ".ply" and (prop := ply_label_property(path)) is not None:
         labels = read_ply_labels(path, prop, len(points))
-    return validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
-                    max_points=max_points, budget=budget, seed=seed, labels=labels, drop_nonfinite=drop_nonfinite)
+    cloud = validate(points, faces, name=str(path), sample=sample, voxel_size=voxel_size,
+                     max_points=max_points, budget=budget, seed=seed, labels=labels, drop_nonfinite=drop_nonfinite)
+    left_out = left_out[0] if left_out else []
+    return dataclasses.replace(cloud, notes=[*left_out, *cloud.notes]) if left_out else cloud
 
 
 def _check_file(path: Path) -> None:

@@ -214,14 +214,22 @@ def _read_obj(path: Path):
 
 def _read_mesh(path: Path):
     trimesh = quiet_trimesh()
-    loaded = trimesh.load(path, process=False, force="mesh")
-    if isinstance(loaded, trimesh.Trimesh) and len(loaded.vertices):
-        return np.asarray(loaded.vertices), np.asarray(loaded.faces)
-    if path.suffix.lower() == ".glb":  # a scan kept as a glTF POINTS primitive: no triangles, so no mesh
-        scene = trimesh.load(path, process=False, force="scene")
-        clouds = [g for g in scene.dump(concatenate=False) if isinstance(g, trimesh.PointCloud) and len(g.vertices)]
-        if clouds:  # dump() placed each where the scene's transforms put it
-            return np.vstack([np.asarray(c.vertices) for c in clouds]), None
+    if path.suffix.lower() != ".glb":
+        loaded = trimesh.load(path, process=False, force="mesh")
+        if isinstance(loaded, trimesh.Trimesh) and len(loaded.vertices):
+            return np.asarray(loaded.vertices), np.asarray(loaded.faces)
+        raise InputError(f"{path}: the file holds no mesh geometry and no points")
+    # dump() places each geometry where the scene's transforms put it
+    geometry = trimesh.load(path, process=False, force="scene").dump(concatenate=False)
+    meshes = [g for g in geometry if isinstance(g, trimesh.Trimesh) and len(g.vertices)]
+    clouds = [np.asarray(g.vertices) for g in geometry if isinstance(g, trimesh.PointCloud) and len(g.vertices)]
+    if meshes:
+        mesh = trimesh.util.concatenate(meshes)
+        notes = [f"its glTF POINTS primitive ({sum(map(len, clouds)):,} points) is left out: the mesh is read"
+                 ] if clouds else []
+        return np.asarray(mesh.vertices), np.asarray(mesh.faces), notes
+    if clouds:  # a scan kept as a glTF POINTS primitive: no triangles, so no mesh
+        return np.vstack(clouds), None
     raise InputError(f"{path}: the file holds no mesh geometry and no points")
 
 
@@ -229,7 +237,7 @@ def _read_text(path: Path):
     return read_text(path), None
 
 
-READERS = {  # suffix -> reader of (points, faces or None)
+READERS = {  # suffix -> reader of (points, faces or None[, notes on what was left out])
     ".off": read_off,
     ".xyz": _read_text,
     ".pts": _read_text,

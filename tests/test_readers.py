@@ -236,3 +236,16 @@ def test_a_glb_point_cloud_is_read_where_its_scene_places_it(tmp_path):
     scene.export(tmp_path / "scan.glb")
     read = io.load(tmp_path / "scan.glb").points
     assert np.allclose(np.sort(read, axis=0), np.sort(points + [5, 0, 0], axis=0), atol=1e-6)
+
+
+def test_a_glb_holding_a_mesh_and_points_reads_the_mesh_and_says_the_points_are_left_out(tmp_path):
+    """They were dropped without a word."""
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    scene = trimesh.Scene()
+    scene.add_geometry(mesh, transform=trimesh.transformations.translation_matrix([0, 2, 0]))
+    scene.add_geometry(trimesh.PointCloud(np.random.default_rng(0).random((50, 3))))
+    scene.export(tmp_path / "both.glb")
+    cloud = io.load(tmp_path / "both.glb", sample=0)
+    assert len(cloud.faces) == len(mesh.faces)
+    assert np.allclose(np.sort(cloud.points, axis=0), np.sort(mesh.vertices + [0, 2, 0], axis=0), atol=1e-6)
+    assert "glTF POINTS primitive (50 points) is left out" in cloud.notes[0]
