@@ -87,7 +87,7 @@ class Loader:
                 except NonFiniteError as error:
                     self._offer_to_drop(client, error, _dropping(read), what)
                     return
-                self.session.load(cloud)
+                kept = self.session.load(cloud)
         except TooLargeError as error:
             self.offer = (error.voxel_size, read)
             self.files.downsample.label = f"Load downsampled (voxel {error.voxel_size:g})"
@@ -96,8 +96,9 @@ class Loader:
         self.offer = None
         self.files.downsample.visible = False
         self.loaded()
-        if cloud.notes:
-            self.messages.notify(client, f"Loaded {Path(cloud.name).name}", "; ".join(cloud.notes), color="blue")
+        said = [*cloud.notes, kept] if kept else cloud.notes
+        if said:
+            self.messages.notify(client, f"Loaded {Path(cloud.name).name}", "; ".join(said), color="blue")
 
     def _offer_to_drop(self, client, error: NonFiniteError, read, what: str) -> None:
         """A file with a few NaN/Inf rows, which `read` leaves out: ask the person who loaded it whether to load it

@@ -20,7 +20,7 @@ from .analysis import Analyses
 from .labels import LabelPanel
 from .layout import Layout
 from .progress import Activity
-from .scene import COLOUR_RANGES, FRAME_FILL
+from .scene import COLOUR_RANGES, FRAME_FILL, legend_share
 from .session import Session
 from .viewer import Viewer
 from .worker import ErrorHandler, Latest, Worker
@@ -295,7 +295,8 @@ class Presenter:
             points = np.concatenate([points, run.state(viewer.shown).points])
         origin = display.display_origin(self.session.cloud.points)  # the scene's, from the original (app.scene)
         framing = display.framing_camera(points - origin, camera.look_at - camera.position, camera.fov,
-                                         camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction)
+                                         camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction,
+                                         bottom=legend_share(camera.image_height))
         camera.near, camera.far = display.clipping_planes(points)
         camera.position = framing.position
         camera.look_at = framing.look_at

@@ -45,6 +45,16 @@ POINT_LAYERS = ("original", "contracted", "removed")
 POINT_SIZES = {"original": 0.005, "contracted": 0.007, "removed": 0.006}  # diameters at size 1, of the diagonal
 INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside
 FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
+# Pixels the Legend panel covers at the 3-D view's foot (two or three lines, its margin included): a framed view
+# leaves them free. The first view, before a browser says its canvas size, leaves them of the smallest window's
+# canvas (720 pixels high), so a tall object clears the Legend there and sits a little high in a taller one.
+LEGEND_HEIGHT = 130
+SMALLEST_CANVAS_HEIGHT = 720
+
+
+def legend_share(image_height: int | None) -> float:
+    """The share of a canvas `image_height` pixels high that the Legend covers (of the smallest one if unknown)."""
+    return min(LEGEND_HEIGHT / (image_height or SMALLEST_CANVAS_HEIGHT), 0.5)
 
 # Per-point colouring over each quantity's full range, so colours stay comparable across iterations:
 # a diverging map whose centre, the quantity's target, is dark, so the best points stand out on the
@@ -377,7 +387,8 @@ def frame_camera(camera, points: np.ndarray, aspect: float = 0.75) -> None:
     """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
     between two panels, so taller than wide) at the whole cloud `points` (the original: the scene's origin is
     its display_origin), from above and aside."""
-    framing = framing_camera(points - display_origin(points), INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL)
+    framing = framing_camera(points - display_origin(points), INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL,
+                             bottom=legend_share(None))
     camera.near, camera.far = clipping_planes(points)
     camera.position = framing.position
     camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

@@ -122,15 +122,24 @@ class Session:
         """Start the run again from iteration 0 (with new parameters when given)."""
         self._start(self.cloud, params or self.latest.params)
 
-    def load(self, cloud: Cloud) -> None:
+    def load(self, cloud: Cloud) -> str:
         """Start a run on a new cloud with the parameters last tuned, those waiting for a restart included (the
-        panel's), else the run's (automatic k and W_L0 stay automatic)."""
+        panel's), else the run's (automatic k and W_L0 stay automatic). Returns, in words, those of them that
+        differ from the defaults ("" when none do): a new object runs with them, which the person may not expect."""
         point_weights, self._point_weights = self._point_weights, None
+        params = self._tuned or self.latest.params
         try:
-            self._start(self._cleaned(cloud), self._tuned or self.latest.params)
+            self._start(self._cleaned(cloud), params)
         except Exception:
             self._point_weights = point_weights
             raise
+        defaults = ContractionParams()
+        kept = [name for name in PARAMETER_LABELS if getattr(params, name) != getattr(defaults, name)]
+        if not kept:
+            return ""
+        words = f"parameters {assignments(params, kept)} kept from before (defaults: {assignments(defaults, kept)})"
+        self.note(words)
+        return words
 
     def _cleaned(self, cloud: Cloud) -> Cloud:
         """The cloud as `skelcore run` contracts it: outliers and stray pieces out, denoised (its notes say

@@ -131,11 +131,14 @@ def _axes(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
-                   up=(0.0, 0.0, 1.0)) -> Camera:
+                   up=(0.0, 0.0, 1.0), bottom: float = 0.0) -> Camera:
     """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
     point fit in `fill` of the image: the projected bounding box of the points spans `fill` of the image
-    height or width, whichever binds. fov: vertical field of view in radians; aspect: width / height."""
+    height or width, whichever binds. fov: vertical field of view in radians; aspect: width / height.
+    bottom: the share of the image height at its foot that a panel covers; the points are framed in the rest."""
     points = _checked(points, fov, aspect, fill)
+    if not 0 <= bottom < 1:
+        raise ParameterError(f"framing: need 0 <= bottom < 1 (got {bottom})")
     low, high = points.min(axis=0), points.max(axis=0)
     centre = (low + high) / 2
     right, down, forward = _axes(direction, up)
@@ -146,10 +149,13 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
         x, y, z = local @ right, local @ down, local @ forward
         # Pinhole: a point at depth D + z projects to x / ((D + z) tan(fov/2) aspect) of the half-width;
         # each point and axis gives the least distance D that keeps it inside `fill` (the tightest binds).
-        distance = max(np.max(-z + np.abs(x) / (fill * half * aspect)), np.max(-z + np.abs(y) / (fill * half)))
+        distance = max(np.max(-z + np.abs(x) / (fill * half * aspect)),
+                       np.max(-z + np.abs(y) / (fill * (1 - bottom) * half)))
         distance = max(distance, 1e-9 + np.max(-z))  # in front of every point
         u, v = x / (distance + z), y / (distance + z)
         centre = centre + distance * ((u.max() + u.min()) / 2 * right + (v.max() + v.min()) / 2 * down)
+    # aim below the points' middle by half the covered share, so that they sit in the middle of the free part
+    centre = centre + bottom * half * distance * down
     rotation = np.column_stack([right, down, forward])
     return Camera(centre - forward * distance, centre, rotation)
 

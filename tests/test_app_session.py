@@ -195,9 +195,17 @@ def test_load_uses_the_parameters_waiting_for_a_restart(session):
     while session.step() is not None:
         pass
     session.tune(session.params.replace(sl=2.0, method="glskeleton"))  # the run has ended: both wait for a restart
-    session.load(validate(make_shape("capsule", 500).points, name="capsule.xyz"))
+    kept = session.load(validate(make_shape("capsule", 500).points, name="capsule.xyz"))
     assert session.params.sl == 2.0 and session.params.method == "glskeleton" and session.pending == ""
-    assert "s_L 2" in session.log[-1] and "Method GLSkeleton" in session.log[-1]
+    assert "s_L 2" in session.log[-2] and "Method GLSkeleton" in session.log[-2]  # the run's start
+    # a new object runs with them: said, as the panel alone does not tell tuned values from defaults
+    assert kept == "parameters Method GLSkeleton, s_L 2 kept from before (defaults: Method LBC, s_L 3)"
+    assert session.log[-1] == kept
+
+
+def test_a_load_with_the_default_parameters_says_nothing_of_them(session):
+    assert session.load(validate(make_shape("capsule", 500).points, name="capsule.xyz")) == ""
+    assert session.log[-1].startswith("start: capsule.xyz")
 
 
 def test_bad_parameter_is_refused(session):
@@ -491,6 +499,20 @@ def test_framing_camera_fills_the_shorter_side():
         assert 0.5 <= share <= 1.0 / min(width, height) * max(width, height)
         local = (points - camera.position) @ camera.rotation
         assert (local[:, 2] > 0).all()  # everything in front of the camera
+
+
+def test_a_framed_view_keeps_the_legends_share_of_the_image_free():
+    """At 1280x720 the Legend covered the foot of a tall object."""
+    from skelcore.display import framing_camera
+
+    fov = np.radians(50)
+    tall = make_shape("capsule", 800).points * [1, 1, 4]
+    for bottom in (0.0, 0.18):
+        camera = framing_camera(tall, (1, -1, -0.3), fov=fov, aspect=0.75, fill=0.8, bottom=bottom)
+        local = (tall - camera.position) @ camera.rotation
+        v = local[:, 1] / local[:, 2] / np.tan(fov / 2)  # image height from -1 (top) to 1 (foot)
+        assert v.max() <= 1 - 2 * bottom - 0.05  # clear of the panel, with room
+        assert v.max() - v.min() == pytest.approx(0.8 * 2 * (1 - bottom), rel=0.05)  # the free part, filled
 
 
 def test_every_point_gets_a_value_when_metrics_are_sampled():
