@@ -13,6 +13,7 @@ import traceback
 
 from . import startup
 from .errors import NonFiniteError, SkelError, TooLargeError
+from .formats import FORMATS
 from .params import CleaningParams, ContractionParams
 
 EXIT_INPUT = 2
@@ -185,7 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     run = commands.add_parser("run", help="contract one cloud and extract its curve skeleton")
-    run.add_argument("input", help="point cloud or mesh (.ply .pcd .xyz .pts .txt .off .obj .stl .glb)")
+    run.add_argument("input", help=f"point cloud or mesh ({' '.join(FORMATS)})")
     run.add_argument("--out", required=True, help="output folder")
     run.add_argument("--quiet", action="store_true", help="no progress lines")
     run.add_argument("--force", action="store_true",

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import memory, readers, sizing
 from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
+from .formats import FORMATS
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import check_flag, is_integer, is_real
@@ -24,9 +25,6 @@ from .paths import as_path
 from .repeats import without_repeats
 from .surface_sampling import points_to_draw, sample_surface
 
-POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off")
-MESH_FORMATS = (".obj", ".stl", ".glb")
-FORMATS = POINT_FORMATS + MESH_FORMATS
 MIN_POINTS = 20
 LABELS_DROPPED = "labels dropped: they belong to the input points, not to a resampled cloud"  # a Cloud note
 MAX_POINTS = 2_000_000

@@ -6,7 +6,8 @@ properties (in any case; any others are skipped), followed by nothing or by a `f
 falls back to trimesh. Reading a million-point binary PLY this way takes milliseconds; importing trimesh alone
 takes longer. OBJ files without faces are point clouds, read here (trimesh finds no mesh in them); OFF files
 here too, a header-less one of bare vertex rows as a text cloud. PCD files with binary or ascii data are read by
-their header's field layout (skelcore.pcd), binary_compressed ones by open3d.
+their header's field layout (skelcore.pcd), binary_compressed ones by open3d. LAS and LAZ (airborne and
+terrestrial laser scans) by laspy.
 
 Text clouds (`read_text`) are read as their writers make them: a UTF-8 byte order mark, leading comment lines
 (`#`, `//`), one line of column names or a .pts point count, values separated by blanks, commas or
@@ -237,6 +238,13 @@ def _read_text(path: Path):
     return read_text(path), None
 
 
+def _read_las(path: Path):
+    """LAS, or LAZ (laspy with its lazrs backend): x, y, z with the header's scale and offset applied."""
+    import laspy
+
+    return np.asarray(laspy.read(path).xyz, dtype=np.float64), None
+
+
 READERS = {  # suffix -> reader of (points, faces or None[, notes on what was left out])
     ".off": read_off,
     ".xyz": _read_text,
@@ -247,6 +255,8 @@ READERS = {  # suffix -> reader of (points, faces or None[, notes on what was le
     ".obj": _read_obj,
     ".stl": _read_mesh,
     ".glb": _read_mesh,
+    ".las": _read_las,
+    ".laz": _read_las,
 }
 
 

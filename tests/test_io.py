@@ -213,10 +213,10 @@ def test_missing_file(tmp_path):
 
 
 def test_unknown_format(tmp_path):
-    (tmp_path / "cloud.las").write_text("1 2 3")
+    (tmp_path / "cloud.e57").write_text("1 2 3")
     with pytest.raises(InputError) as error:
-        io.load(tmp_path / "cloud.las")
-    assert_one_line(error, "cloud.las", "unknown format", ".las")
+        io.load(tmp_path / "cloud.e57")
+    assert_one_line(error, "cloud.e57", "unknown format", ".e57")
 
 
 def test_unreadable_garbage(tmp_path):

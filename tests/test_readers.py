@@ -249,3 +249,46 @@ def test_a_glb_holding_a_mesh_and_points_reads_the_mesh_and_says_the_points_are_
     assert len(cloud.faces) == len(mesh.faces)
     assert np.allclose(np.sort(cloud.points, axis=0), np.sort(mesh.vertices + [0, 2, 0], axis=0), atol=1e-6)
     assert "glTF POINTS primitive (50 points) is left out" in cloud.notes[0]
+
+
+def _write_las(path, points, scale=0.001):
+    import laspy
+
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.offsets, header.scales = points.min(axis=0), [scale] * 3
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.write(path)
+
+
+@pytest.mark.parametrize("suffix", [".las", ".laz"])
+def test_a_laser_scan_in_las_or_laz_is_read_in_its_map_coordinates_and_skeletonised(tmp_path, suffix):
+    """Airborne and terrestrial scans (trees, above all) come as LAS or LAZ: they were refused as an unknown
+    format. A scan in UTM metres keeps its coordinates to the file's millimetre and keeps the torus' loop."""
+    import skelcore
+    from skelcore.shapes import make_shape
+
+    torus = make_shape("torus", 4000).points * 5.0 + [480_000.0, 5_400_000.0, 300.0]
+    _write_las(tmp_path / f"scan{suffix}", torus)
+    cloud = io.load(tmp_path / f"scan{suffix}")
+    assert cloud.points.shape == torus.shape and np.abs(cloud.points - torus).max() <= 0.0006
+    assert skelcore.skeletonize(tmp_path / f"scan{suffix}").skeleton.topology()["cycles"] == 1
+
+
+def test_a_las_header_counting_more_points_than_the_budget_is_refused_before_reading(tmp_path):
+    _write_las(tmp_path / "big.las", np.random.default_rng(0).random((5000, 3)))
+    with pytest.raises(io.InputError, match="may hold up to 5,000 points, too many to read"):
+        io.load(tmp_path / "big.las", budget=1000)
+
+
+def test_a_file_named_las_that_is_not_one_is_refused_in_one_line(tmp_path):
+    (tmp_path / "scan.las").write_bytes(b"ply\nformat ascii 1.0\n")
+    with pytest.raises(io.InputError, match=r"scan.las: cannot parse as LAS") as error:
+        io.load(tmp_path / "scan.las")
+    assert "\n" not in str(error.value)
+
+
+def test_every_format_the_loader_accepts_has_a_reader():
+    from skelcore.formats import FORMATS
+
+    assert sorted(readers.READERS) == sorted(FORMATS)
