@@ -2,5 +2,5 @@
 that the command line names them without importing the readers."""
 
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off", ".las", ".laz")
-MESH_FORMATS = (".obj", ".stl", ".glb")
+MESH_FORMATS = (".obj", ".stl", ".glb", ".gltf")
 FORMATS = POINT_FORMATS + MESH_FORMATS

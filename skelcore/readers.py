@@ -215,13 +215,16 @@ def _read_obj(path: Path):
 
 def _read_mesh(path: Path):
     trimesh = quiet_trimesh()
-    if path.suffix.lower() != ".glb":
+    if path.suffix.lower() not in (".glb", ".gltf"):
         loaded = trimesh.load(path, process=False, force="mesh")
         if isinstance(loaded, trimesh.Trimesh) and len(loaded.vertices):
             return np.asarray(loaded.vertices), np.asarray(loaded.faces)
         raise InputError(f"{path}: the file holds no mesh geometry and no points")
-    # dump() places each geometry where the scene's transforms put it
-    geometry = trimesh.load(path, process=False, force="scene").dump(concatenate=False)
+    try:  # dump() places each geometry where the scene's transforms put it
+        geometry = trimesh.load(path, process=False, force="scene").dump(concatenate=False)
+    except FileNotFoundError as error:  # trimesh's resolver names the file it did not find, and no more
+        raise InputError(f"{path}: its buffer file '{error.args[0]}' is missing (a .gltf reads its buffers from "
+                         f"files beside it; a .glb holds its own)") from None
     meshes = [g for g in geometry if isinstance(g, trimesh.Trimesh) and len(g.vertices)]
     clouds = [np.asarray(g.vertices) for g in geometry if isinstance(g, trimesh.PointCloud) and len(g.vertices)]
     if meshes:
@@ -255,6 +258,7 @@ READERS = {  # suffix -> reader of (points, faces or None[, notes on what was le
     ".obj": _read_obj,
     ".stl": _read_mesh,
     ".glb": _read_mesh,
+    ".gltf": _read_mesh,  # its buffers in data URIs or in files beside it
     ".las": _read_las,
     ".laz": _read_las,
 }

@@ -7,6 +7,7 @@ files whose size is known to fit the memory budget.
 """
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -20,7 +21,7 @@ MAX_LINE_BYTES = 1 << 14  # no text format needs a longer line
 OFF_KEYWORD = re.compile(r"^(ST)?C?N?n?OFF(_\w+)?$", re.IGNORECASE)
 # Bytes the readers take per point while parsing (text: Python rows of strings; binary: arrays).
 PARSE_BYTES_PER_POINT = {".xyz": 400, ".pts": 400, ".txt": 400, ".off": 400, ".obj": 400,
-                         ".ply": 120, ".pcd": 120, ".stl": 200, ".glb": 200, ".las": 120, ".laz": 120}
+                         ".ply": 120, ".pcd": 120, ".stl": 200, ".glb": 200, ".gltf": 200, ".las": 120, ".laz": 120}
 PLY_TYPES = {  # PLY's property types as numpy kinds (skelcore.readers reads them; here their sizes count)
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
     "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
@@ -43,6 +44,8 @@ def points_in(path: Path, suffix: str) -> int:
         return _stl(path, size)
     if suffix == ".glb":
         return size // 12  # at most one float32 vertex per 12 bytes
+    if suffix == ".gltf":  # the same of the buffers it declares
+        return sum(int(buffer.get("byteLength", 0)) for buffer in json.loads(path.read_bytes()).get("buffers", ())) // 12
     if suffix in (".las", ".laz"):
         import laspy
 

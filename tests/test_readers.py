@@ -292,3 +292,23 @@ def test_every_format_the_loader_accepts_has_a_reader():
     from skelcore.formats import FORMATS
 
     assert sorted(readers.READERS) == sorted(FORMATS)
+
+
+def test_a_gltf_is_read_with_its_buffers_beside_it_or_embedded_and_a_missing_one_is_named(tmp_path):
+    """glTF's text form was refused as an unknown format."""
+    torus = trimesh.creation.torus(1.0, 0.3)
+    scene = trimesh.Scene()
+    scene.add_geometry(torus, transform=trimesh.transformations.translation_matrix([0, 0, 5]))
+    for name, data in scene.export(file_type="gltf").items():  # model.gltf and its .bin buffers
+        (tmp_path / name).write_bytes(data)
+    embedded = trimesh.exchange.gltf.export_gltf(scene, embed_buffers=True)["model.gltf"]
+    (tmp_path / "embedded.gltf").write_bytes(embedded)
+    for name in ("model.gltf", "embedded.gltf"):
+        cloud = io.load(tmp_path / name, sample=0)
+        assert len(cloud.faces) == len(torus.faces)
+        assert np.allclose(np.sort(cloud.points, axis=0), np.sort(torus.vertices + [0, 0, 5], axis=0), atol=1e-6)
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    (alone / "model.gltf").write_bytes((tmp_path / "model.gltf").read_bytes())
+    with pytest.raises(io.InputError, match=r"model.gltf: its buffer file 'gltf_buffer_0.bin' is missing"):
+        io.load(alone / "model.gltf")
