@@ -28,10 +28,12 @@ import math
 
 import numpy as np
 
+from .distinct import distinct, distinct_rows
+
 
 def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
     """(t,3) the triangles (3-cliques) of the graph of `edges` on n_points, each once, corners ascending."""
-    edges = np.unique(np.sort(edges, axis=1), axis=0) if len(edges) else np.zeros((0, 2), dtype=np.int64)
+    edges = distinct_rows(np.sort(edges, axis=1)) if len(edges) else np.zeros((0, 2), dtype=np.int64)
     directed = np.concatenate([edges, edges[:, ::-1]])
     directed = directed[np.lexsort((directed[:, 1], directed[:, 0]))]
     keys = directed[:, 0] * n_points + directed[:, 1]
@@ -47,15 +49,6 @@ def surface_triangles(edges: np.ndarray, n_points: int) -> np.ndarray:
     found = np.searchsorted(keys, wanted)
     found = (found < len(keys)) & (keys[np.minimum(found, len(keys) - 1)] == wanted)
     return np.column_stack([a[row], b[row], c])[found]
-
-
-def _unique_rows(rows: np.ndarray) -> np.ndarray:
-    """np.unique(rows, axis=0) of an integer array, faster: a lexicographic sort, then the rows that differ
-    from the one before."""
-    rows = rows[np.lexsort(rows.T[::-1])]
-    keep = np.ones(len(rows), dtype=bool)
-    keep[1:] = (rows[1:] != rows[:-1]).any(axis=1)
-    return rows[keep]
 
 
 def _edge(u: int, v: int) -> tuple[int, int]:
@@ -89,14 +82,14 @@ class SampleComplex:
         m = len(xyz)
         ends = owner[edges].reshape(-1, 2)
         low, high = ends.min(axis=1), ends.max(axis=1)
-        codes = np.unique(low[low != high] * m + high[low != high])  # in the order of (low, high)
+        codes = distinct(low[low != high] * m + high[low != high])  # in the order of (low, high)
         pairs = np.column_stack([codes // m, codes % m])
         corners = owner[triangles].reshape(-1, 3)
         first, last = corners.min(axis=1), corners.max(axis=1)
         middle = corners.sum(axis=1) - first - last
-        distinct = (first != middle) & (middle != last)
-        corners = np.concatenate([np.column_stack([first, middle, last])[distinct], surface_triangles(pairs, m)])
-        return cls(xyz, pairs, _unique_rows(corners))
+        three_nodes = (first != middle) & (middle != last)
+        corners = np.concatenate([np.column_stack([first, middle, last])[three_nodes], surface_triangles(pairs, m)])
+        return cls(xyz, pairs, distinct_rows(corners))
 
     def triangles(self) -> list[tuple[int, int, int]]:
         """Every triangle once, as (u, v, w) with u < v < w."""

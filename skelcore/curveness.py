@@ -32,6 +32,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from . import density
+from .distinct import distinct_rows
 from .normalise import SAMPLE_RADIUS
 
 CURVE_RATIO = 0.25  # spread across / spread along, at most, for a curve-like neighbourhood
@@ -183,7 +184,7 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     dropped = np.setdiff1d(np.arange(len(points)), kept)
     representative[dropped] = cKDTree(points[kept]).query(points[dropped], workers=-1)[1]
     joined = representative[edges]
-    joined = np.unique(np.sort(joined[joined[:, 0] != joined[:, 1]], axis=1), axis=0)
+    joined = distinct_rows(np.sort(joined[joined[:, 0] != joined[:, 1]], axis=1))
     return _thin_tubes_judged(points[kept], radius, joined, k)[representative]
 
 

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .distinct import row_groups
+
 # A cell holding more than DENSE times the points of the median occupied cell is over-dense. Counts of an evenly
 # sampled cloud scatter as Poisson's: with one point a cell, 17 or more come once in 10^15 cells; a part that dense
 # puts that many times the points of elsewhere into a neighbourhood, and as many times more probes among them.
@@ -84,8 +86,7 @@ def evened(points: np.ndarray, cell: float) -> np.ndarray | None:
     edge = np.sqrt(np.pi / (SPACING_NEIGHBOURS * EVEN * typical[dense]))
     scaled = points[dense] / cell / edge[:, None]
     voxel = np.floor(scaled)
-    _, voxel_row = np.unique(np.column_stack([voxel, piece[dense]]), axis=0, return_inverse=True)
-    voxel_row = voxel_row.ravel()
+    voxel_row = row_groups(np.column_stack([voxel, piece[dense]]))[0]
     order = np.lexsort((np.linalg.norm(scaled - voxel - 0.5, axis=1), voxel_row))
     nearest_centre = order[np.r_[True, voxel_row[order][1:] != voxel_row[order][:-1]]]
     keep = ratio <= EVEN

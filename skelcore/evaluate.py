@@ -26,6 +26,7 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .distinct import distinct_rows
 from .errors import InputError
 from .io import EXTREME
 from .normalise import binary_unit, half_extent
@@ -65,7 +66,7 @@ def make_graph(nodes, edges, name: str = "graph") -> CurveGraph:
     if len(bad):
         raise InputError(f"{name}: an edge refers to node {bad[0]}, but the nodes are 0..{len(nodes) - 1}")
     edges = np.sort(edges, axis=1)
-    edges = np.unique(edges[edges[:, 0] != edges[:, 1]], axis=0).reshape(-1, 2)
+    edges = distinct_rows(edges[edges[:, 0] != edges[:, 1]]).reshape(-1, 2)
     return CurveGraph(nodes, edges, name)
 
 

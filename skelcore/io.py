@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import memory, readers, sizing
+from .distinct import distinct_rows, row_groups
 from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
 from .formats import FORMATS
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
@@ -192,7 +193,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         if dropped:
             notes.append(f"dropped {dropped} points with NaN or Inf coordinates")
         if dropped and len(points) < MIN_POINTS:  # said before as_points calls a file of NaN rows empty
-            raise _too_few(name, len(np.unique(points, axis=0)), dropped)
+            raise _too_few(name, len(distinct_rows(points)), dropped)
     points = as_points(points, name)
     if faces is not None:
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
@@ -398,8 +399,7 @@ def voxel_downsample(points: np.ndarray, voxel_size: float, name: str = "cloud")
         raise ParameterError(f"{name}: voxel size {voxel_size:g} is finer than float64 resolves the cloud's extent "
                              f"({2 * half:.3g}); give at least {half * 2.0 ** -50:.3g}")
     keys = np.floor((points / 2 - bounds(points)[0] / 2) / voxel_size * 2).astype(np.int64)  # halves: no overflow
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
+    inverse, counts = row_groups(keys)
     centroids = np.zeros((len(counts), 3))
     np.add.at(centroids, inverse, points / counts[inverse, None])  # each point's share: no sum of huge coordinates
     return centroids

@@ -14,6 +14,7 @@ import os
 
 import numpy as np
 
+from .distinct import distinct
 from .errors import ParameterError
 
 PIPELINE_BYTES_PER_POINT = 4_800
@@ -80,4 +81,4 @@ def _occupied(points: np.ndarray, size: float) -> int:
     keys = np.floor((points - points.min(axis=0)) / size).astype(np.int64)
     span = keys.max(axis=0) + 1
     flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
-    return len(np.unique(flat))
+    return len(distinct(flat))

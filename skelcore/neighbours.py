@@ -16,6 +16,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .distinct import distinct
 from .ring_jumps import jump_masks, sampling_reach
 
 
@@ -38,8 +39,8 @@ class OneRings:
     def edges(self) -> np.ndarray:
         """(e,2) unique undirected centre-neighbour pairs, a < b, in lexicographic order."""
         centres, n = self.centres(), self.n_points
-        # one integer key per pair: np.unique of a 1-D array instead of rows (axis=0), 4x faster, same order
-        keys = np.unique(np.minimum(centres, self.indices) * n + np.maximum(centres, self.indices))
+        # one integer key per pair: distinct values instead of rows, 4x faster, same order
+        keys = distinct(np.minimum(centres, self.indices) * n + np.maximum(centres, self.indices))
         return np.column_stack([keys // n, keys % n])
 
     def sizes(self, points: np.ndarray, reduce=np.minimum) -> np.ndarray:

@@ -42,6 +42,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 from scipy.spatial import cKDTree
 
+from .distinct import distinct_rows
+
 JUMP_SAMPLES = 12  # m: an edge's middle with no input point within r_m of its ends is off the sampled surface
 
 
@@ -84,7 +86,7 @@ def find_jumps(points: np.ndarray, first: np.ndarray, second: np.ndarray, normal
     long = np.einsum("ec,ec->e", offset, offset) - across**2 > (2.0 * limit) ** 2
     if not long.any():
         return np.zeros((0, 2), dtype=np.int64)
-    candidates = np.unique(np.sort(np.column_stack([first[long], second[long]]), axis=1), axis=0)
+    candidates = distinct_rows(np.sort(np.column_stack([first[long], second[long]]), axis=1))
     middle = 0.5 * (points[candidates[:, 0]] + points[candidates[:, 1]])
     limit = np.maximum(reach[candidates[:, 0]], reach[candidates[:, 1]])
     gap = tree.query(middle, k=1, distance_upper_bound=float(limit.max()), workers=-1)[0]

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .distinct import distinct_rows
 from .errors import InputError, ParameterError
 
 SHAPES = ("capsule", "torus", "helix", "y_branch", "animal", "two_hole", "thin_thick")
@@ -266,7 +267,7 @@ def _assemble(paths):
     node_radii = np.zeros(len(nodes))
     np.maximum.at(node_radii, index, radii)
     edges = np.sort(index[local], axis=1)
-    edges = np.unique(edges[edges[:, 0] != edges[:, 1]], axis=0)
+    edges = distinct_rows(edges[edges[:, 0] != edges[:, 1]])
     return nodes, edges.astype(np.int64), node_radii
 
 

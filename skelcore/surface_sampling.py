@@ -40,6 +40,7 @@ import functools
 
 import numpy as np
 
+from .distinct import distinct
 from .errors import InputError
 from .normalise import SAMPLE_RADIUS, binary_unit, half_extent, object_diagonal
 from .params import CleaningParams
@@ -123,7 +124,7 @@ def points_to_draw(vertices: np.ndarray, faces: np.ndarray, labelled: bool, cap:
     """(how many points to draw over the mesh instead of taking its vertices, or None to take them; a note saying
     why, or None where the vertices stand for the surface). vertices: no two equal; labelled vertices are kept:
     their labels belong to them. cap: the most points the run may hold."""
-    if np.unique(faces).size < (1 - MAX_UNCOVERED) * len(vertices):
+    if distinct(faces).size < (1 - MAX_UNCOVERED) * len(vertices):
         return None, None  # a cloud with a few faces among its points: they are not its surface
     if not _unit_mesh(vertices, faces)[0].area > 0:
         return None, None  # faces without area: points stored as a mesh, with no surface to draw from

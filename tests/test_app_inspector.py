@@ -231,7 +231,7 @@ def test_fit_view_frames_the_contracted_points_of_the_iteration_shown_too(cloud,
         for _ in range(2):
             inspector.session.step()
         camera = types.SimpleNamespace(look_at=np.zeros(3), position=np.array([0.0, -5.0, 0.0]), fov=0.9, aspect=1.5,
-                                       up_direction=np.array([0.0, 0.0, 1.0]))
+                                       image_height=720, up_direction=np.array([0.0, 0.0, 1.0]))
         client = types.SimpleNamespace(client_id=-1, camera=camera)
         inspector.presenter.viewers[-1] = types.SimpleNamespace(shown=2)
         try:
