@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from skelcore.display import see_through_size
+from skelcore.display import UP_AXES, see_through_size
 
 from . import compare, layout, loop_events
 from .delivery import Delivery
@@ -67,7 +67,7 @@ class Inspector:
             "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)})
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
-        self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet)
+        self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server)
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self._labels_changed,
                                                          order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
@@ -163,6 +163,8 @@ class Inspector:
         for handle in (ui.view.colouring, ui.view.colour_original):
             on(handle, lambda e: submit(self._set_colouring, e.client), person_only=True, method="on_update")
         on(ui.view.fit, lambda e: self.presenter.fit(e.client))
+        on(ui.view.up, lambda e: submit(lambda: self.presenter.turn_up(ui.view.up.value, chosen=True), e.client),
+           person_only=True, method="on_update")
         on(ui.files.load, self.loader.on_load_asset)
         on(ui.files.upload, self.loader.on_upload, method="on_upload")
         on(ui.files.downsample, self.loader.on_downsample)
@@ -358,7 +360,8 @@ class Inspector:
             opacity = auto_opacity(len(cloud.points))
             self.ui.view.opacity["original"].value = opacity
             self.ui.view.size["original"].value = see_through_size(cloud.points, opacity, POINT_SIZES["original"])
-        frame_camera(self.server.initial_camera, cloud.points)
+            frame = frame and not self.presenter.turn_up(self.presenter.up_of(cloud))  # a new up frames anew
+        frame_camera(self.server.initial_camera, cloud.points, up=UP_AXES[self.ui.view.up.value])
         self.loader.select_loaded()
         self.labels.refresh()
         self._offer_colourings(cloud.labels is not None)

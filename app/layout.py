@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import viser
 
 from skelcore import report
+from skelcore.display import UP_AXES
 from skelcore.io import FORMATS as INPUT_FORMATS
 from skelcore.params import LIMITS, ContractionParams
 
@@ -112,6 +113,7 @@ class ViewWidgets:
     colouring: viser.GuiDropdownHandle
     colour_original: viser.GuiCheckboxHandle
     fit: viser.GuiButtonHandle
+    up: viser.GuiDropdownHandle
 
 
 @dataclass
@@ -249,7 +251,7 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
 
 
 def build_view(gui: viser.GuiApi) -> ViewWidgets:
-    """Fit view over tabs Layers | Colour | Opacity | Size: tabs, not folders, so that with any one open the View
+    """Fit view over tabs Layers | Colour | Opacity | Size | Up: tabs, not folders, so that with any one open the View
     tab fits a 1280x720 window under the run controls (its eight sliders unfolded did not)."""
     fit = gui.add_button("Fit view", hint="point the camera at the whole cloud (key F)")
     tabs = gui.add_tab_group()
@@ -270,7 +272,10 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
     with tabs.add_tab("Size"):
         for layer in LAYERS:
             size[layer] = gui.add_slider(layer.capitalize(), min=0.2, max=5.0, step=0.1, initial_value=1.0)
-    return ViewWidgets(show, opacity, size, provisional, colouring, colour_original, fit)
+    with tabs.add_tab("Up"):
+        up = gui.add_dropdown("Up axis", tuple(UP_AXES), initial_value="+Z",
+                              hint="the scene's up, which the camera orbits about (glTF files: +Y, by their format)")
+    return ViewWidgets(show, opacity, size, provisional, colouring, colour_original, fit, up)
 
 
 def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int, save_dir) -> FileWidgets:

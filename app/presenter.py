@@ -10,17 +10,19 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
 from skelcore import display
+from skelcore.formats import Y_UP_FORMATS
 
 from . import compare, layout, status
 from .analysis import Analyses
 from .labels import LabelPanel
 from .layout import Layout
 from .progress import Activity
-from .scene import COLOUR_RANGES, FRAME_FILL, legend_share
+from .scene import COLOUR_RANGES, FRAME_FILL, INITIAL_DIRECTION, frame_camera, legend_share
 from .session import Session
 from .viewer import Viewer
 from .worker import ErrorHandler, Latest, Worker
@@ -29,8 +31,11 @@ LOG_LINES = 8  # of the session log, in the Log tab
 
 
 class Presenter:
-    def __init__(self, session: Session, ui: Layout, activity: Activity, worker: Worker, on_error: ErrorHandler):
-        self.session, self.ui, self.activity, self.worker = session, ui, activity, worker
+    def __init__(self, session: Session, ui: Layout, activity: Activity, worker: Worker, on_error: ErrorHandler,
+                 server=None):
+        """server: the viser server whose scene's up the View tab's Up axis sets (None: tests without one)."""
+        self.session, self.ui, self.activity, self.worker, self.server = session, ui, activity, worker, server
+        self._chosen_up = "+Z"  # the up axis a person chose last: a cloud whose format fixes none opens with it
         self.labels: LabelPanel | None = None  # set once built (it needs the worker)
         self.viewers: dict[int, Viewer] = {}  # by client id
         self.colour_by = "plain"
@@ -283,9 +288,31 @@ class Presenter:
                 return None
             return self.drawn[stage][1], self.drawn[stage][2]
 
-    def fit(self, client) -> None:
-        """Frame the whole cloud in this client's view, keeping its viewing direction: the original points and
-        the contracted ones of the iteration shown (a step can fling some out of the original's box)."""
+    def up_of(self, cloud) -> str:
+        """The up axis a newly loaded cloud opens with: +Y for glTF, whose format fixes it, else the last chosen."""
+        return "+Y" if Path(cloud.name).suffix.lower() in Y_UP_FORMATS else self._chosen_up
+
+    def turn_up(self, axis: str, chosen: bool = False) -> bool:
+        """Make `axis` (skelcore.display.UP_AXES) the scene's up, `chosen` by a person or by the cloud's format:
+        every browser's camera then orbits about it, framed anew from above and aside (the first view's direction
+        turned with the scene). Whether it changed."""
+        self._chosen_up = axis if chosen else self._chosen_up
+        if not chosen and axis == self.ui.view.up.value:
+            return False
+        up = display.UP_AXES[axis]
+        self.ui.view.up.value = axis
+        if self.server is not None:
+            self.server.scene.set_up_direction(up)
+            frame_camera(self.server.initial_camera, self.session.cloud.points, up=up)
+        for viewer in self.all():
+            viewer.client.camera.up_direction = up
+            self.fit(viewer.client, display.turned_up(INITIAL_DIRECTION, up))
+        return True
+
+    def fit(self, client, direction=None) -> None:
+        """Frame the whole cloud in this client's view, keeping its viewing direction (or looking along
+        `direction`): the original points and the contracted ones of the iteration shown (a step can fling some
+        out of the original's box)."""
         if client is None:
             return
         camera = client.camera
@@ -294,7 +321,8 @@ class Presenter:
         if viewer is not None and 0 < viewer.shown < len(run.history):
             points = np.concatenate([points, run.state(viewer.shown).points])
         origin = display.display_origin(self.session.cloud.points)  # the scene's, from the original (app.scene)
-        framing = display.framing_camera(points - origin, camera.look_at - camera.position, camera.fov,
+        direction = camera.look_at - camera.position if direction is None else direction
+        framing = display.framing_camera(points - origin, direction, camera.fov,
                                          camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction,
                                          bottom=legend_share(camera.image_height))
         camera.near, camera.far = display.clipping_planes(points)

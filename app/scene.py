@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 import viser
 
-from skelcore.display import clipping_planes, display_origin, framing_camera
+from skelcore.display import UP_AXES, clipping_planes, display_origin, framing_camera, turned_up
 from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
 
 BACKGROUND = np.array([255, 255, 255], float)
@@ -43,7 +43,7 @@ DISPLAY_CAP = 250_000
 DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
 POINT_LAYERS = ("original", "contracted", "removed")
 POINT_SIZES = {"original": 0.005, "contracted": 0.007, "removed": 0.006}  # diameters at size 1, of the diagonal
-INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside
+INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside (up +Z)
 FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
 # Pixels the Legend panel covers at the 3-D view's foot (two or three lines, its margin included): a framed view
 # leaves them free. The first view, before a browser says its canvas size, leaves them of the smallest window's
@@ -383,12 +383,13 @@ class SceneView:
 
 
 
-def frame_camera(camera, points: np.ndarray, aspect: float = 0.75) -> None:
+def frame_camera(camera, points: np.ndarray, aspect: float = 0.75, up=UP_AXES["+Z"]) -> None:
     """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
     between two panels, so taller than wide) at the whole cloud `points` (the original: the scene's origin is
-    its display_origin), from above and aside."""
-    framing = framing_camera(points - display_origin(points), INITIAL_DIRECTION, camera.fov, aspect, FRAME_FILL,
-                             bottom=legend_share(None))
+    its display_origin), from above and aside, `up` up."""
+    framing = framing_camera(points - display_origin(points), turned_up(INITIAL_DIRECTION, up), camera.fov, aspect,
+                             FRAME_FILL, up=up, bottom=legend_share(None))
+    camera.up = up
     camera.near, camera.far = clipping_planes(points)
     camera.position = framing.position
     camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

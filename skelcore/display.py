@@ -99,6 +99,22 @@ def display_origin(points: np.ndarray) -> np.ndarray:
 
 
 CLIPPING = 1e3  # a camera's near and far planes, the cloud's diagonal over and times this
+# The scene's up, by name: +Z as most scanners and CAD tools have it; glTF, and many graphics scans, have +Y
+UP_AXES = {"+Z": (0.0, 0.0, 1.0), "+Y": (0.0, 1.0, 0.0), "+X": (1.0, 0.0, 0.0),
+           "-Z": (0.0, 0.0, -1.0), "-Y": (0.0, -1.0, 0.0), "-X": (-1.0, 0.0, 0.0)}
+
+
+def turned_up(direction, up) -> np.ndarray:
+    """`direction`, given for a scene whose up is +Z, turned with the scene to one whose up is `up`: by the
+    rotation of least angle taking +Z to `up` (Rodrigues' formula), half a turn about +X for -Z."""
+    direction, up = np.asarray(direction, float), np.asarray(up, float) / np.linalg.norm(up)
+    axis, cosine = np.cross((0.0, 0.0, 1.0), up), up[2]
+    sine = np.linalg.norm(axis)
+    if sine < 1e-12:
+        return direction.copy() if cosine > 0 else direction * (1.0, -1.0, -1.0)
+    axis /= sine
+    return (direction * cosine + np.cross(axis, direction) * sine
+            + axis * (axis @ direction) * (1.0 - cosine))
 
 
 def clipping_planes(points: np.ndarray) -> tuple[float, float]:

@@ -4,3 +4,4 @@ that the command line names them without importing the readers."""
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off", ".las", ".laz")
 MESH_FORMATS = (".obj", ".stl", ".glb", ".gltf")
 FORMATS = POINT_FORMATS + MESH_FORMATS
+Y_UP_FORMATS = (".glb", ".gltf")  # glTF 2.0 fixes +Y as up; the others say nothing of it

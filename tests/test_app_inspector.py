@@ -205,6 +205,28 @@ def served(cloud):
         server.stop()
 
 
+def test_a_gltf_opens_with_y_up_and_a_chosen_up_stays_for_formats_that_fix_none(cloud):
+    """Every cloud opened with +Z up, so a glTF (whose format fixes +Y up) lay on its side."""
+    from skelcore.display import UP_AXES
+
+    with served(cloud) as inspector:
+        up = inspector.ui.view.up
+        assert up.value == "+Z" and np.allclose(inspector.server.initial_camera.up, UP_AXES["+Z"])
+        inspector.open(validate(cloud.points, name="scan.glb"))
+        assert inspector.wait_idle(120)
+        assert up.value == "+Y" and np.allclose(inspector.server.initial_camera.up, UP_AXES["+Y"])
+        # the first view still looks down on the object from aside, about the new up
+        camera = inspector.server.initial_camera
+        assert (camera.look_at - camera.position) @ UP_AXES["+Y"] < 0
+        inspector.presenter.turn_up("-X", chosen=True)  # a person's choice, from the View tab
+        inspector.open(validate(cloud.points, name="scan.ply"))
+        assert inspector.wait_idle(120)
+        assert up.value == "-X" and np.allclose(inspector.server.initial_camera.up, UP_AXES["-X"])
+        inspector.open(validate(cloud.points, name="scan.gltf"))
+        assert inspector.wait_idle(120)
+        assert up.value == "+Y"
+
+
 def test_the_log_tab_shows_the_newest_line_first(cloud):
     """At 1280x720 the Log tab holds a few lines before the control panel scrolls: the newest go on top."""
     from app.presenter import LOG_LINES

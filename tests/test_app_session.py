@@ -515,6 +515,17 @@ def test_a_framed_view_keeps_the_legends_share_of_the_image_free():
         assert v.max() - v.min() == pytest.approx(0.8 * 2 * (1 - bottom), rel=0.05)  # the free part, filled
 
 
+def test_a_view_direction_turns_with_the_scenes_up():
+    from skelcore.display import UP_AXES, turned_up
+
+    aside = np.array([-0.7, 0.7, -0.5])  # from above and aside when +Z is up
+    for up in UP_AXES.values():
+        turned = turned_up(aside, up)
+        assert turned @ np.asarray(up) == pytest.approx(-0.5)  # still from above, as far
+        assert np.linalg.norm(turned) == pytest.approx(np.linalg.norm(aside))
+    np.testing.assert_allclose(turned_up(aside, UP_AXES["+Z"]), aside)
+
+
 def test_every_point_gets_a_value_when_metrics_are_sampled():
     from skelcore.display import values_for_all_points
     from skelcore.metrics import MetricsReference
