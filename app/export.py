@@ -22,6 +22,7 @@ ANIMATION_FPS = 2  # frames (iterations) per second: slow enough to follow one c
 # loom): the cloud's bounding sphere spans this share of the image's shorter side, so it fits from any side
 PICTURE_FOV = np.radians(30.0)
 PICTURE_FILL = 0.85
+PLOTLY_JS = "plotly.min.js"  # the bundle's copy, which its pages load
 LABEL_SIZE = 1 / 26  # burned-in text height, of the image's shorter side: 23 px at 800x600, 38 px at 1600x1000
 
 
@@ -88,18 +89,21 @@ def animation_files(frames: list[np.ndarray], fps: float = ANIMATION_FPS) -> dic
 
 def bundle(session, index: int, screenshot_png: bytes) -> bytes:
     """A zip with the screenshot, the pipeline's result files for history[index], and the histograms and
-    the convergence plot as HTML pages that load plotly.js from its CDN (so the bundle stays small)."""
+    the convergence plot as HTML pages that load the copy of plotly.js beside them: they open offline (from its
+    CDN they were blank pages there), and the zip holds plotly.js once (about 1.4 MB compressed)."""
+    from plotly.offline import get_plotlyjs
+
     metrics = session.metrics_upto(index)
-    cdn = report.plotly_cdn()
     iteration = session.history[index].iteration
     with tempfile.TemporaryDirectory(prefix="skel-inspect-") as tmp:
         out = Path(tmp)
         session.write_results(index, out)
         (out / "screenshot.png").write_bytes(screenshot_png)
-        (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration, plotly=cdn),
-                                             encoding="utf-8")
+        (out / PLOTLY_JS).write_text(get_plotlyjs(), encoding="utf-8")
+        (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration,
+                                                                    plotly=PLOTLY_JS), encoding="utf-8")
         (out / "convergence.html").write_text(report.figures_html("Convergence", [report.convergence_figure(metrics)],
-                                                                  plotly=cdn), encoding="utf-8")
+                                                                  plotly=PLOTLY_JS), encoding="utf-8")
         buffer = io.BytesIO()
         with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(out.iterdir()):

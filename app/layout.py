@@ -311,7 +311,7 @@ def empty_plot(title: str):
 
 def build_plots(gui: viser.GuiApi, panel) -> PlotWidgets:
     def plot(title: str, aspect: float) -> viser.GuiPlotlyHandle:
-        return gui.add_plotly(empty_plot(title), aspect=aspect)
+        return gui.add_plotly(empty_plot(title), aspect=aspect, config=report.PLOTLY_CONFIG)
 
     with panel.add_tab("Histograms"):
         verdict_line = gui.add_markdown("")

@@ -48,15 +48,8 @@ def histograms_html(metrics, iteration: int | None = None, plotly: bool | str = 
 
 def figures_html(title: str, figures, plotly: bool | str = True) -> str:
     """A page of figures. plotly=True embeds plotly.js (about 4.8 MB, opens offline); a string is the
-    address of a plotly.js script to load instead, e.g. PLOTLY_CDN or a shared copy beside the page."""
+    address of a plotly.js script to load instead, e.g. a shared copy beside the page."""
     return _page(title, "".join(_figure_html(figure) for figure in figures), plotly=plotly)
-
-
-def plotly_cdn() -> str:
-    """plotly.js of the installed plotly's version, from plotly's CDN."""
-    from plotly.offline.offline import get_plotlyjs_version
-
-    return f"https://cdn.plot.ly/plotly-{get_plotlyjs_version()}.min.js"
 
 
 # --- the report of run folders ------------------------------------------------------------------
@@ -314,8 +307,13 @@ def _verdict_html(verdict: dict) -> str:
             f"<ul>{reasons}</ul>")
 
 
+# plotly.js 3+ shows a "Share chart..." button that uploads the chart to Plotly's cloud unless told not to: our
+# figures stay on the machine that made them
+PLOTLY_CONFIG = {"displaylogo": False, "showSendToCloud": False}
+
+
 def _figure_html(figure) -> str:
-    return figure.to_html(full_html=False, include_plotlyjs=False, config={"displaylogo": False})
+    return figure.to_html(full_html=False, include_plotlyjs=False, config=PLOTLY_CONFIG)
 
 
 def _page(title: str, body: str, plotly: bool | str) -> str:
