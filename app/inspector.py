@@ -147,8 +147,7 @@ class Inspector:
         self._on = on
         on(ui.run.step, self._on_step, typed=True)
         on(ui.run.play, self._on_play, typed=True)
-        on(ui.run.end, lambda event: self.playback.start(lambda: self._tick(False), event.client, full=False),
-           typed=True)
+        on(ui.run.end, self._on_run_to_end, typed=True)
         on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True,
            typed=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
@@ -388,6 +387,12 @@ class Inspector:
         viewer = self.presenter.viewer(client)
         if viewer is not None:
             self._view_iteration(viewer, viewer.shown + by)
+
+    def _on_run_to_end(self, event) -> None:
+        """Run to end, and show the asker the newest iteration as it comes: the end is what they asked to see (one
+        scrubbed back, not following, stayed at an early iteration when the run ended)."""
+        self._follow(event.client)
+        self.playback.start(lambda: self._tick(False), event.client, full=False)
 
     def _follow(self, client, follow: bool = True) -> None:
         viewer = self.presenter.viewer(client)

@@ -286,7 +286,9 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
         names = assets or ("(no bundled assets)",)
         asset = gui.add_dropdown("Bundled asset", names, disabled=not assets)
         load = gui.add_button("Load asset", disabled=not assets)
-        upload = gui.add_upload_button("Upload cloud", hint=f"{' '.join(INPUT_FORMATS)}, at most {max_upload_mib} MiB")
+        # the file picker offers the formats the engine reads (a name it cannot read is still refused in words)
+        upload = gui.add_upload_button("Upload cloud", mime_type=",".join(INPUT_FORMATS),
+                                       hint=f"{' '.join(INPUT_FORMATS)}, at most {max_upload_mib} MiB")
         downsample = gui.add_button("Load downsampled", visible=False,
                                     hint="the last cloud too large for this server, voxel-downsampled")
     with tabs.add_tab("Export"):

@@ -133,6 +133,8 @@ class Session:
         except Exception:
             self._point_weights = point_weights
             raise
+        for note in cloud.notes:  # what loading did (the notification that says it goes away)
+            self.note(f"{Path(cloud.name).name}: {note}")
         defaults = ContractionParams()
         kept = [name for name in PARAMETER_LABELS if getattr(params, name) != getattr(defaults, name)]
         if not kept:

@@ -224,7 +224,7 @@ def _read_mesh(path: Path):
         geometry = trimesh.load(path, process=False, force="scene").dump(concatenate=False)
     except FileNotFoundError as error:  # trimesh's resolver names the file it did not find, and no more
         raise InputError(f"{path}: its buffer file '{error.args[0]}' is missing (a .gltf reads its buffers from "
-                         f"files beside it; a .glb holds its own)") from None
+                         f"files beside it, which an upload cannot bring; a .glb holds its own)") from None
     meshes = [g for g in geometry if isinstance(g, trimesh.Trimesh) and len(g.vertices)]
     clouds = [np.asarray(g.vertices) for g in geometry if isinstance(g, trimesh.PointCloud) and len(g.vertices)]
     if meshes:

@@ -970,6 +970,20 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     open_tab(page, "Parameters")
 
 
+def test_run_to_end_shows_the_end_to_a_browser_scrubbed_back(fresh, page):
+    """Scrubbed back (not following the newest), Run to end left the view at the early iteration when the run
+    ended: the end is what was asked for."""
+    inspector = fresh
+    step(inspector, page, 2)
+    set_value(page, "Iteration", 1)
+    wait_until(lambda: not page.viewer.following, "scrubbed back")
+    click(page, "Run to end")
+    wait_until(lambda: inspector.session.finished, "the run to end")
+    inspector.wait_idle()
+    assert page.viewer.following
+    wait_shown(page, inspector.session.latest.iteration)
+
+
 def test_run_to_end_shows_skeleton(fresh, page):
     """Restart with the default schedule (s_L = 3, automatic W_L0), run to the end, show the skeleton."""
     inspector = fresh
@@ -1048,11 +1062,15 @@ def test_upload_of_a_valid_ply_replaces_the_cloud(fresh, page, tmp_path):
 
 
 def test_upload_of_garbage_is_refused_in_our_words(fresh, page, tmp_path):
+    from skelcore.formats import FORMATS
+
     inspector = fresh
     cloud = inspector.session.cloud
     path = tmp_path / "garbage.ply"
     path.write_bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8).tobytes())
     upload(page, path)
+    # the file picker offers the formats read (it offered every file)
+    assert page.locator("input[type=file]").first.get_attribute("accept") == ",".join(FORMATS)
     page.get_by_text(re.compile(r"garbage\.ply: ")).first.wait_for()
     inspector.wait_idle()
     page.wait_for_timeout(1000)

@@ -208,6 +208,13 @@ def test_a_load_with_the_default_parameters_says_nothing_of_them(session):
     assert session.log[-1].startswith("start: capsule.xyz")
 
 
+def test_what_loading_did_is_kept_in_the_log(session):
+    """It was said only in a notification, which goes away after a few seconds."""
+    points = make_shape("capsule", 500).points
+    session.load(validate(np.concatenate([points, points[:7]]), name="/somewhere/capsule.xyz"))
+    assert any(line.startswith("capsule.xyz: ") and "7" in line for line in session.log)
+
+
 def test_bad_parameter_is_refused(session):
     with pytest.raises(ParameterError):
         session.tune(ContractionParams(sl=0.5))
