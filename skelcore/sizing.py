@@ -45,7 +45,8 @@ def points_in(path: Path, suffix: str) -> int:
     if suffix == ".glb":
         return size // 12  # at most one float32 vertex per 12 bytes
     if suffix == ".gltf":  # the same of the buffers it declares
-        return sum(int(buffer.get("byteLength", 0)) for buffer in json.loads(path.read_bytes()).get("buffers", ())) // 12
+        buffers = json.loads(path.read_bytes()).get("buffers", ())
+        return sum(int(buffer.get("byteLength", 0)) for buffer in buffers) // 12
     if suffix in (".las", ".laz"):
         import laspy
 

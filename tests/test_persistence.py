@@ -43,3 +43,14 @@ def test_the_pieces_alone_are_those_of_the_complex():
         summary = persistence_summary(points, unit=0.05)
         assert piece_counts(points, unit=0.05) == summary["pieces"]
     assert len(set(persistence_summary(blobs, unit=0.05)["pieces"].values())) > 1  # the gaps part them differently
+
+
+def test_a_wheel_holds_all_sixteen_loops_between_its_spokes():
+    """The 12 longest-lived loops were kept: a bicycle wheel's 16 read 12, and its right skeleton "unstable"."""
+    rng = np.random.default_rng(0)
+    hub = ring(500, radius=0.12)
+    directions = [np.array([np.cos(a), np.sin(a), 0.0]) for a in np.linspace(0, 2 * np.pi, 16, endpoint=False)]
+    spokes = [np.outer(0.12 + 0.88 * rng.random(300), direction) for direction in directions]
+    wheel = np.concatenate([ring(4000), hub, *spokes])
+    summary = persistence_summary(wheel, unit=0.02 * np.linalg.norm(np.ptp(wheel, axis=0)))
+    assert count_loops(summary["loops"], StabilityThresholds()) == 16
