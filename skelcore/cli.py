@@ -89,8 +89,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                             f"{CleaningParams.min_piece_share * 100:g}%% of the points)")
     group.add_argument("--labels", metavar="FILE|PROPERTY", default=None,
                        help="per-point integer labels: a file (.txt .csv .labels: one per line in the input's point "
-                            "order; .npy) or a vertex property of a PLY input (default: the PLY's label, class, "
-                            "scalar_label, ... property when present)")
+                            "order; .npy), a vertex property of a PLY input (default: the PLY's label, class, "
+                            "scalar_label, ... property when present) or a point dimension of a LAS or LAZ input "
+                            "(classification, or an extra dimension such as a tree id)")
     group.add_argument("--label-weight", metavar="LABEL=W", action="append", default=[], type=_label_weight,
                        help="contraction weight of the points labelled LABEL (a multiplier of W_L on their Laplacian "
                             "rows, as pc-skeletor's semantic LBC); repeat for several labels; unnamed labels keep 1")

@@ -8,7 +8,8 @@ contracts further per step; w_i < 1 holds it closer to the input. Every weight 1
 pc-skeletor's SLBC (Meyer et al. 2023) has two classes: it multiplies the rows of W_L L of the trunk points
 whose neighbourhood lies wholly in the trunk by a semantic weight (10 by default); trunk points next to a
 branch and branch points keep 1. Here any number of integer labels each take a weight (`label_weights`,
-unnamed labels keep 1, boundary points take their own label's), or the weights are given per point. Labels come from a PLY vertex property (the first of LABEL_PROPERTIES present, or one named),
+unnamed labels keep 1, boundary points take their own label's), or the weights are given per point. Labels come
+from a PLY vertex property (the first of LABEL_PROPERTIES present, or one named), a LAS point dimension (named),
 or from a text/.npy file with one integer per point in the file's vertex order.
 """
 from __future__ import annotations
@@ -179,8 +180,23 @@ def read_labels(source, cloud_path=None, n: int | None = None) -> np.ndarray:
                 raise
             raise InputError(f"labels {source}: {what}, and no vertex property of the PLY input") from None
         return read_ply_labels(cloud_path, prop, n)
+    if cloud_path is not None and Path(cloud_path).suffix.lower() in (".las", ".laz"):
+        return read_las_labels(cloud_path, str(source), n)
     raise InputError(f"labels {source}: neither a label file ({' '.join(LABEL_FILE_FORMATS)}) nor a vertex "
-                     f"property of a PLY input")
+                     f"property of a PLY input or a point dimension of a LAS one")
+
+
+def read_las_labels(path, name: str, n: int | None = None) -> np.ndarray:
+    """The point dimension `name` (any case) of a LAS or LAZ file as integer labels, in point order: its
+    classification, say, or a forestry scan's tree ids in an extra dimension."""
+    import laspy
+
+    points = laspy.read(path).points
+    dimensions = {dimension.lower(): dimension for dimension in points.point_format.dimension_names}
+    dimension = dimensions.get(name.lower())
+    if dimension is None:
+        raise InputError(f"{path}: no point dimension {name!r} (has: {', '.join(dimensions.values())})")
+    return as_labels(np.asarray(points[dimension]), n, f"{path} dimension {dimension}")
 
 
 def read_ply_labels(path, prop: str, n: int | None = None) -> np.ndarray:

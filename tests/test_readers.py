@@ -312,3 +312,24 @@ def test_a_gltf_is_read_with_its_buffers_beside_it_or_embedded_and_a_missing_one
     (alone / "model.gltf").write_bytes((tmp_path / "model.gltf").read_bytes())
     with pytest.raises(io.InputError, match=r"model.gltf: its buffer file 'gltf_buffer_0.bin' is missing"):
         io.load(alone / "model.gltf")
+
+
+def test_a_las_point_dimension_gives_the_labels(tmp_path):
+    """A scan's classification, or a forestry scan's tree ids in an extra dimension, weigh its parts as a PLY's
+    label property does; a dimension it lacks is named with those it has."""
+    import laspy
+
+    points = np.random.default_rng(0).random((300, 3)) + [480_000.0, 5_400_000.0, 0.0]
+    header = laspy.LasHeader(point_format=3, version="1.4")
+    header.offsets, header.scales = points.min(axis=0), [0.001] * 3
+    header.add_extra_dim(laspy.ExtraBytesParams(name="treeID", type=np.int32))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.classification = np.where(points[:, 2] > 0.5, 5, 2).astype(np.uint8)
+    las.treeID = np.arange(300) % 3
+    las.write(tmp_path / "scan.laz")
+    cloud = io.load(tmp_path / "scan.laz", labels="classification")
+    np.testing.assert_array_equal(cloud.labels, np.where(points[:, 2] > 0.5, 5, 2))
+    np.testing.assert_array_equal(io.load(tmp_path / "scan.laz", labels="treeid").labels, np.arange(300) % 3)
+    with pytest.raises(io.InputError, match=r"no point dimension 'species' \(has: X, Y, Z, .*treeID\)"):
+        io.load(tmp_path / "scan.laz", labels="species")
