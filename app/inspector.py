@@ -359,7 +359,8 @@ class Inspector:
             opacity = auto_opacity(len(cloud.points))
             self.ui.view.opacity["original"].value = opacity
             self.ui.view.size["original"].value = see_through_size(cloud.points, opacity, POINT_SIZES["original"])
-            frame = frame and not self.presenter.turn_up(self.presenter.up_of(cloud))  # a new up frames anew
+            turned = self.presenter.turn_up(self.presenter.up_of(cloud))  # a new up frames every view anew
+            frame = frame and not turned
         frame_camera(self.server.initial_camera, cloud.points, up=UP_AXES[self.ui.view.up.value])
         self.loader.select_loaded()
         self.labels.refresh()

@@ -1,4 +1,4 @@
-"""Distinct values and distinct rows of integer arrays, by sorting.
+"""Distinct values and distinct rows of arrays, by sorting.
 
 numpy 2.4's np.unique hashes a 1-D array when it is asked for nothing but the values (0.99 s for a million int64,
 against 0.014 s by sorting; the memory check's voxel search took 24 s to refuse a 5-million-point scan), and

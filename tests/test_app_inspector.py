@@ -225,6 +225,8 @@ def test_a_gltf_opens_with_y_up_and_a_chosen_up_stays_for_formats_that_fix_none(
         inspector.open(validate(cloud.points, name="scan.gltf"))
         assert inspector.wait_idle(120)
         assert up.value == "+Y"
+    with served(validate(cloud.points, name="opened.glb")) as inspector:  # given at the start, not loaded later
+        assert inspector.ui.view.up.value == "+Y"
 
 
 def test_the_log_tab_shows_the_newest_line_first(cloud):
