@@ -47,8 +47,8 @@ class Readiness:
         """The legend's words for a provisional skeleton ("" when it is not)."""
         if not self.provisional:
             return ""
-        if state.iteration == 0:
-            return "nothing contracted yet (iteration 0)"
+        if state.iteration == 0:  # drawn in the colour the Legend names "contracted": it says what they are
+            return "iteration 0 is the input itself, drawn as the contracted points"
         return f"{self.share:.0%} of points curve-like, {pipeline.provisional_target(state):.0%} needed"
 
 

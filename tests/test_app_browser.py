@@ -954,11 +954,12 @@ def test_no_skeleton_before_the_cloud_has_contracted(fresh, page):
     inspector.wait_idle()
     assert not page.viewer.view.skeleton_drawn  # iteration 0: nothing contracted yet
     page.get_by_text("no skeleton yet (View: Show provisional)").first.wait_for()
-    page.get_by_text("no skeleton yet: nothing contracted yet (iteration 0)").first.wait_for()  # the legend says why
+    # the legend says why
+    page.get_by_text("no skeleton yet: iteration 0 is the input itself, drawn as the contracted points").first.wait_for()
     page.get_by_label("Show provisional").check()
     wait_until(lambda: drawn(page, "skeleton") == 0, "the provisional skeleton")
     page.get_by_text("skeleton drawn provisionally").first.wait_for()
-    page.get_by_text("skeleton provisional: nothing contracted yet").first.wait_for()  # the legend says why
+    page.get_by_text("skeleton provisional: iteration 0 is the input itself").first.wait_for()  # the legend says why
     click(page, "Step")  # iteration 1 of this slow run: contracted a little, still a surface
     wait_until(lambda: drawn(page, "skeleton") == 1, "the provisional skeleton of iteration 1")
     page.get_by_text(re.compile(r"skeleton provisional: \d+% of points curve-like, 50% needed")).first.wait_for()

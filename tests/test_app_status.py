@@ -59,7 +59,8 @@ def test_the_legend_names_the_node_kinds_only_of_a_state_whose_skeleton_is_drawn
     assert readiness.provisional
     for key in (_legend(session.latest, readiness), _legend(session.latest, None)):
         assert "junction" not in key and "path node" not in key
-    assert "no skeleton yet: nothing contracted yet (iteration 0)" in _legend(session.latest, readiness)
+    said = "no skeleton yet: iteration 0 is the input itself, drawn as the contracted points"
+    assert said in _legend(session.latest, readiness)
     visible = {"original": True, "contracted": True, "skeleton": True, "removed": False}
     provisional = legend("plain", session.latest, readiness, note="", visible=visible, original_coloured=False,
                          provisional_wanted=True, pinned=False, labels_html="")
