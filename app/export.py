@@ -14,6 +14,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from skelcore import display, report
 
+from .messages import without_paths
 from .words import METHOD_LABELS
 
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
@@ -88,9 +89,9 @@ def animation_files(frames: list[np.ndarray], fps: float = ANIMATION_FPS) -> dic
 
 
 def bundle(session, index: int, screenshot_png: bytes) -> bytes:
-    """A zip with the screenshot, the pipeline's result files for history[index], and the histograms and
-    the convergence plot as HTML pages that load the copy of plotly.js beside them: they open offline (from its
-    CDN they were blank pages there), and the zip holds plotly.js once (about 1.4 MB compressed)."""
+    """A zip with the screenshot, the pipeline's result files for history[index], the session's Log, and the
+    histograms and the convergence plot as HTML pages that load the copy of plotly.js beside them: they open
+    offline (from its CDN they were blank pages there), and the zip holds plotly.js once (1.4 MB compressed)."""
     from plotly.offline import get_plotlyjs
 
     metrics = session.metrics_upto(index)
@@ -100,6 +101,8 @@ def bundle(session, index: int, screenshot_png: bytes) -> bytes:
         session.write_results(index, out)
         (out / "screenshot.png").write_bytes(screenshot_png)
         (out / PLOTLY_JS).write_text(get_plotlyjs(), encoding="utf-8")
+        # the session's Log in full (its tab shows the newest lines), oldest first, no server path in it
+        (out / "log.txt").write_text("".join(f"{without_paths(line)}\n" for line in session.log), encoding="utf-8")
         (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration,
                                                                     plotly=PLOTLY_JS), encoding="utf-8")
         (out / "convergence.html").write_text(report.figures_html("Convergence", [report.convergence_figure(metrics)],

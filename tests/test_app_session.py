@@ -344,7 +344,8 @@ def test_bundle_holds_the_result_files(session):
     with zipfile.ZipFile(io.BytesIO(data)) as archive:
         assert set(archive.namelist()) == {"screenshot.png", "skeleton.json", "skeleton.ply", "contracted.ply",
                                            "metrics.json", "params.json", "histograms.html", "convergence.html",
-                                           "plotly.min.js"}
+                                           "plotly.min.js", "log.txt"}
+        assert archive.read("log.txt").decode().splitlines() == session.log  # all of it, oldest first
         for page in ("histograms.html", "convergence.html"):
             text = archive.read(page).decode()
             # offline, as the inspector is: the pages load the copy of plotly.js beside them (from its CDN they
