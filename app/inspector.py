@@ -422,7 +422,9 @@ class Inspector:
             each.view.show_ghost(None, None)
             each.ui.plots.pin.label = layout.PIN
             each.clear_comparison()
-        self.session.note("unpinned the run compared with: it was of the cloud before")
+        said = "the run compared with was of the cloud before"  # the Compare tab alone went blank without a word
+        self.session.note(f"unpinned: {said}")
+        self.messages.notify(None, "Unpinned", said, color="blue")
 
     def _report_error(self, message: str, client, pause: bool = True) -> None:
         """A failed engine job stops Play; a failed analysis (skeleton, metrics) only says so. Server

@@ -746,6 +746,9 @@ def test_pinned_run_is_drawn_beside_the_new_one(fresh_sized, inspector, browser)
         assert page.viewer.ui.plots.compare_note.content == COMPARE_HINT
         assert not page.viewer.ui.plots.compare_convergence.figure.data  # the pinned run's curves are gone
         assert not plots.compare_convergence.visible and not plots.compare_kappa.visible
+        # said, not only blank: a notice and the Log
+        page.get_by_text("the run compared with was of the cloud before").first.wait_for()
+        assert "unpinned: the run compared with was of the cloud before" in inspector.session.log
     finally:
         inspector.open(inspector.module_cloud)
         wait_until(lambda: inspector.session.cloud.name == "torus.xyz", "the module's cloud")
