@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, ParameterError
+from .formats import LASER_FORMATS
 from .params import WEIGHT_MAX, is_integer, is_real
 from .readers import quiet_trimesh
 
@@ -180,7 +181,7 @@ def read_labels(source, cloud_path=None, n: int | None = None) -> np.ndarray:
                 raise
             raise InputError(f"labels {source}: {what}, and no vertex property of the PLY input") from None
         return read_ply_labels(cloud_path, prop, n)
-    if cloud_path is not None and Path(cloud_path).suffix.lower() in (".las", ".laz"):
+    if cloud_path is not None and Path(cloud_path).suffix.lower() in LASER_FORMATS:
         return read_las_labels(cloud_path, str(source), n)
     raise InputError(f"labels {source}: neither a label file ({' '.join(LABEL_FILE_FORMATS)}) nor a vertex "
                      f"property of a PLY input or a point dimension of a LAS one")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .formats import LASER_FORMATS
 
 HEADER_BYTES = 1 << 16  # longest PLY/PCD header read
 CHUNK_BYTES = 1 << 22
@@ -47,7 +48,7 @@ def points_in(path: Path, suffix: str) -> int:
     if suffix == ".gltf":  # the same of the buffers it declares
         buffers = json.loads(path.read_bytes()).get("buffers", ())
         return sum(int(buffer.get("byteLength", 0)) for buffer in buffers) // 12
-    if suffix in (".las", ".laz"):
+    if suffix in LASER_FORMATS:
         import laspy
 
         with laspy.open(path) as reader:  # reads the header only
