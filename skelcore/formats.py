@@ -3,6 +3,7 @@ that the command line names them without importing the readers."""
 
 LASER_FORMATS = (".las", ".laz")  # laspy's: a header with the point count, points with named dimensions
 POINT_FORMATS = (".ply", ".pcd", ".xyz", ".pts", ".txt", ".off", *LASER_FORMATS)
-MESH_FORMATS = (".obj", ".stl", ".glb", ".gltf")
+GLTF_FORMATS = (".glb", ".gltf")  # a scene: meshes and point primitives placed by its transforms
+MESH_FORMATS = (".obj", ".stl", *GLTF_FORMATS)
 FORMATS = POINT_FORMATS + MESH_FORMATS
-Y_UP_FORMATS = (".glb", ".gltf")  # glTF 2.0 fixes +Y as up; the others say nothing of it
+Y_UP_FORMATS = GLTF_FORMATS  # glTF 2.0 fixes +Y as up; the others say nothing of it

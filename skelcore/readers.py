@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .formats import GLTF_FORMATS
 from .pcd import read_pcd
 from .sizing import PLY_ENDIAN, PLY_TYPES, is_number, off_layout
 
@@ -215,7 +216,7 @@ def _read_obj(path: Path):
 
 def _read_mesh(path: Path):
     trimesh = quiet_trimesh()
-    if path.suffix.lower() not in (".glb", ".gltf"):
+    if path.suffix.lower() not in GLTF_FORMATS:
         loaded = trimesh.load(path, process=False, force="mesh")
         if isinstance(loaded, trimesh.Trimesh) and len(loaded.vertices):
             return np.asarray(loaded.vertices), np.asarray(loaded.faces)
