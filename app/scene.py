@@ -34,11 +34,14 @@ EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an o
 # the pinned run's edges, x the node radius: wider than the current ones, so where the two skeletons coincide the
 # current nodes sit on a green rod instead of the pinned edges hiding under the current ones
 GHOST_THICKNESS = 1.4
-# nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0)
-END_COLOUR = (30, 110, 255)
-PATH_COLOUR = (40, 40, 40)
-JUNCTION_COLOUR = (255, 140, 0)
-ISOLATED_COLOUR = (160, 60, 200)
+# Nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0). They are lit
+# balls, whose shading and the view's tone mapping render a colour duller and shifted (drawn pure orange, a junction
+# looked ochre), so each kind has the colour it is drawn with and the look it takes, which the Legend's swatch shows
+# (a ball's median colour as headless Chromium renders viser's toon shading; test_app_browser measures it).
+NODE_COLOURS = {"end": (30, 110, 255), "path node": (40, 40, 40), "junction": (255, 60, 0),
+                "isolated": (160, 60, 200)}
+NODE_LOOKS = {"end": (77, 147, 199), "path node": (77, 77, 77), "junction": (207, 109, 8),
+              "isolated": (173, 107, 185)}
 DISPLAY_CAP = 250_000
 DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
 POINT_LAYERS = ("original", "contracted", "removed")
@@ -79,19 +82,22 @@ def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
 
 
 def legend_html(quantity: str | None, note: str = "", caveat: str = "", pinned: bool = False,
-                extra: str = "", skeleton: bool = True, layers=POINT_LAYERS, original_coloured: bool = False) -> str:
+                extra: str = "", skeleton: bool = True, layers=POINT_LAYERS, original_coloured: bool = False,
+                points_coloured: bool = False) -> str:
     """The key of the 3-D view: the point `layers` drawn, skeleton nodes (when the skeleton is shown) and, when
     colouring, the colour bar with its target (`caveat`: a line on why the skeleton is provisional, not drawn yet or
     may not follow the shape, "" when it needs none; `extra`: more HTML, e.g. the label colours; `original_coloured`:
-    the original points are coloured too)."""
+    the original points are coloured too; `points_coloured`: by a quantity or by labels, so the nodes are hidden)."""
     def dot(colour, text):
         return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
 
     coloured = {"contracted"} | ({"original"} if original_coloured else set()) if quantity is not None else set()
     lines = [" ".join(dot(LAYER_COLOURS[layer], layer) for layer in POINT_LAYERS
                       if layer in layers and layer not in coloured)]
-    if skeleton:
-        lines.append(" ".join([dot(END_COLOUR, "end"), dot(JUNCTION_COLOUR, "junction"), dot(PATH_COLOUR, "path node")]))
+    if skeleton and points_coloured:
+        lines.append("skeleton: its edges (the nodes are hidden while the points are coloured)")
+    elif skeleton:
+        lines.append(" ".join(dot(NODE_LOOKS[kind], kind) for kind in ("end", "junction", "path node")))
     if caveat:
         lines.append(f"<i>{caveat}</i>")
     if pinned:
@@ -236,6 +242,7 @@ class SceneView:
         self._colours_key = None
         self._draw("contracted")
         self._keys["contracted"] = key
+        self._show_nodes()
 
     @_locked
     def show_removed(self, key, points: np.ndarray) -> None:
@@ -260,10 +267,18 @@ class SceneView:
             self._colours["original"] = original_colours
             self._draw("original", colours_only=True)
         self._colours_key = colours_key
+        self._show_nodes()
 
     @property
     def coloured(self) -> bool:
         return self._colours_key is not None
+
+    def _nodes_visible(self) -> bool:
+        return self.visible["skeleton"] and not self.coloured
+
+    def _show_nodes(self) -> None:
+        if self._nodes is not None and self._nodes.visible != self._nodes_visible():
+            self._nodes.visible = self._nodes_visible()
 
     def drawn_colours(self, layer: str) -> np.ndarray | None:
         handle = self._handles[layer]
@@ -284,7 +299,8 @@ class SceneView:
     def show_skeleton(self, nodes: np.ndarray, edges: np.ndarray, degrees: np.ndarray,
                       provisional: bool = False) -> None:
         """Edges as line segments, nodes as spheres coloured by degree (end, path, junction); a provisional
-        skeleton is drawn grey and labelled so."""
+        skeleton is drawn grey and labelled so. While the points are coloured the nodes are hidden: they would
+        cover the contracted points along the skeleton, and their colours would read as the points' own."""
         self._clear_skeleton()
         self._skeleton = (nodes, edges, degrees, provisional)
         visible = self.visible["skeleton"]
@@ -296,17 +312,17 @@ class SceneView:
                 thickness=EDGE_THICKNESS * self._node_radius(), visible=visible)
         if len(nodes):
             colours = np.empty((len(nodes), 3), np.uint8)
-            colours[:] = PATH_COLOUR
-            colours[degrees == 0] = ISOLATED_COLOUR
-            colours[degrees == 1] = END_COLOUR
-            colours[degrees >= 3] = JUNCTION_COLOUR
+            colours[:] = NODE_COLOURS["path node"]
+            colours[degrees == 0] = NODE_COLOURS["isolated"]
+            colours[degrees == 1] = NODE_COLOURS["end"]
+            colours[degrees >= 3] = NODE_COLOURS["junction"]
             scales = np.where(degrees == 2, 1.0, 1.8).astype(np.float32)  # ends and junctions stand out
             vertices, faces = self._sphere
             self._nodes = self.scene.add_batched_meshes_simple(
                 "/skeleton/nodes", vertices=vertices * self._node_radius(), faces=faces,
                 batched_wxyzs=np.tile(np.array([1.0, 0, 0, 0], np.float32), (len(nodes), 1)),
                 batched_positions=self._local(nodes), batched_scales=scales, batched_colors=colours,
-                material="toon3", cast_shadow=False, receive_shadow=False, visible=visible,
+                material="toon3", cast_shadow=False, receive_shadow=False, visible=self._nodes_visible(),
                 opacity=None if opacity >= 1 else opacity)
             if provisional:
                 top = nodes[np.argmax(nodes[:, 2])]
@@ -355,10 +371,11 @@ class SceneView:
     @_locked
     def set_visible(self, layer: str, visible: bool) -> None:
         self.visible[layer] = visible
-        handles = [self._edges, self._nodes, self._label] if layer == "skeleton" else [self._handles[layer]]
+        handles = [self._edges, self._label] if layer == "skeleton" else [self._handles[layer]]
         for handle in handles:
             if handle is not None:
                 handle.visible = visible
+        self._show_nodes()
 
     @_locked
     def set_size(self, layer: str, factor: float) -> None:

@@ -126,7 +126,7 @@ def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, vis
     layers = tuple(layer for layer in POINT_LAYERS if visible[layer] and drawn[layer])
     return legend_html(quantity, note, caveat=caveat, pinned=pinned,
                        extra=labels_html if colour_by == "label" else "", skeleton=skeleton_drawn, layers=layers,
-                       original_coloured=original_coloured)
+                       original_coloured=original_coloured, points_coloured=colour_by != "plain")
 
 
 def _computed(newest: int) -> str:

@@ -1162,3 +1162,61 @@ def test_each_browser_looks_at_its_own_iteration(fresh, page, browser):
         wait_shown(other, 4)
     finally:
         other.context.close()
+
+
+def test_the_legends_node_swatches_look_like_the_lit_balls(browser):
+    """Nodes are lit balls, which render duller and shifted in hue (a junction drawn pure orange looked ochre
+    beside the Legend's orange): each kind's ball, rendered in Chromium, has the median colour of its swatch
+    (NODE_LOOKS), nearer to it than to any other kind's."""
+    import viser
+
+    from app.scene import NODE_LOOKS, SceneView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server.on_client_connect(lambda client: setattr(client.camera, "position", (0.0, -6.0, 0.0))
+                             or setattr(client.camera, "look_at", (0.0, 0.0, 0.0)))
+    try:
+        view = SceneView(server.scene)
+        view.load(np.array([[-3.0, 0, -1], [3.0, 0, 1]]))  # sets the scale; hidden below
+        view.set_visible("original", False)
+        view.set_size("skeleton", 4.0)
+        kinds = {"end": 1, "path node": 2, "junction": 3, "isolated": 0}  # degrees, left to right
+        nodes = np.array([[x, 0.0, 0.0] for x in (-2.25, -0.75, 0.75, 2.25)])
+        view.show_skeleton(nodes, np.empty((0, 2), np.int64), np.array(list(kinds.values())))
+        context = browser.new_context(viewport={"width": 1200, "height": 500})
+        page = context.new_page()
+        page.goto(f"http://127.0.0.1:{server.get_port()}")
+        page.locator("canvas[data-engine]").first.wait_for()
+        close_browser_notices(page)
+        wait_until(lambda: page.wait_for_timeout(200) or _balls(canvas_image(page)) == len(kinds), "four balls")
+        image = canvas_image(page, "node-looks.png")
+        context.close()
+    finally:
+        server.stop()
+    looks = np.array(list(NODE_LOOKS.values()), float)
+    for kind, colour in zip(kinds, _ball_colours(image)):
+        distances = np.linalg.norm(looks - colour, axis=1)
+        assert distances[list(NODE_LOOKS).index(kind)] < 30 and np.argmin(distances) == list(NODE_LOOKS).index(kind), \
+            (kind, colour)
+
+
+def _ball_columns(image: np.ndarray) -> list[np.ndarray]:
+    """Column runs of the canvas's middle band that are not background, left to right (left of viser's own panel,
+    drawn over the canvas's right side)."""
+    band = image[image.shape[0] // 2 - 12: image.shape[0] // 2 + 12, : int(0.7 * image.shape[1])]
+    columns = np.flatnonzero((band.astype(int).sum(axis=2) < 700).any(axis=0))
+    return [run for run in np.split(columns, np.flatnonzero(np.diff(columns) > 3) + 1) if len(run) > 10]
+
+
+def _balls(image: np.ndarray) -> int:
+    return len(_ball_columns(image))
+
+
+def _ball_colours(image: np.ndarray) -> list[np.ndarray]:
+    """The median colour of each ball's pixels in the canvas's middle band, left to right."""
+    band = image[image.shape[0] // 2 - 12: image.shape[0] // 2 + 12].astype(float)
+    colours = []
+    for run in _ball_columns(image):
+        pixels = band[:, run[0]:run[-1] + 1].reshape(-1, 3)
+        colours.append(np.median(pixels[pixels.sum(axis=1) < 700], axis=0))
+    return colours

@@ -454,6 +454,41 @@ def test_skeleton_edges_keep_their_width_through_a_size_change_and_the_pinned_on
         server.stop()
 
 
+def test_the_nodes_are_hidden_while_the_points_are_coloured_and_the_legend_says_so(cloud):
+    """Coloured points (a quantity or labels) hide the skeleton's node balls, which covered the contracted points
+    along the skeleton and whose blue, dark and orange read as the colour bar's; the edges stay, and the Legend
+    says the nodes are hidden instead of naming their kinds. Plain colours bring them back, unless the skeleton
+    layer itself is hidden."""
+    import viser
+
+    from app.scene import legend_html, SceneView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view = SceneView(server.scene)
+        view.load(cloud.points)
+        view.show_points("state", cloud.points * 0.5)
+        view.show_skeleton(cloud.points[:4], np.array([[0, 1], [1, 2], [1, 3]]), np.array([1, 3, 1, 1]))
+        assert view._nodes.visible and view._edges.visible
+        view.set_colours("state", np.zeros((len(cloud.points), 3), np.uint8), "D_theta")
+        assert not view._nodes.visible and view._edges.visible
+        view.show_skeleton(cloud.points[:2], np.array([[0, 1]]), np.array([1, 1]))  # the next skeleton, still coloured
+        assert not view._nodes.visible
+        view.set_colours("state", None)
+        assert view._nodes.visible
+        view.set_visible("skeleton", False)
+        view.set_colours("state", np.zeros((len(cloud.points), 3), np.uint8), "label")
+        view.set_colours("state", None)
+        assert not view._nodes.visible and not view._edges.visible
+        view.set_visible("skeleton", True)
+        assert view._nodes.visible and view._edges.visible
+    finally:
+        server.stop()
+    coloured = legend_html("D_theta", points_coloured=True)
+    assert "junction" not in coloured and "nodes are hidden while the points are coloured" in coloured
+    assert "junction" in legend_html(None)
+
+
 def test_the_legend_names_the_node_kinds_only_while_the_skeleton_is_shown():
     from app.scene import legend_html
 
