@@ -20,6 +20,7 @@ from .distinct import distinct_rows
 from .errors import InputError, ParameterError
 
 SHAPES = ("capsule", "torus", "helix", "y_branch", "animal", "two_hole", "thin_thick")
+SHAPE_POINTS = 3000  # points per shape unless asked otherwise
 
 # What a correct curve skeleton of each shape has: ends = degree-1 nodes, junctions = degree >= 3,
 # cycles = E - V + C. The animal's legs, tail and neck leave the trunk at its two ends:
@@ -48,7 +49,7 @@ class Shape:
     topology: dict  # EXPECTED_TOPOLOGY[name]
 
 
-def make_shape(name: str, n: int = 3000, *, seed: int = 0, noise: float = 0.0,
+def make_shape(name: str, n: int = SHAPE_POINTS, *, seed: int = 0, noise: float = 0.0,
                nonuniform: float = 0.0) -> Shape:
     """Sample `n` points on the surface of shape `name` (one of SHAPES); same seed, same points.
 
@@ -204,7 +205,7 @@ def write_shape(shape: Shape, out_dir, *, seed: int | None = None) -> list[Path]
     return [cloud, truth]
 
 
-def write_shapes(out_dir, names=SHAPES, n: int = 3000, *, seed: int = 0, noise: float = 0.0,
+def write_shapes(out_dir, names=SHAPES, n: int = SHAPE_POINTS, *, seed: int = 0, noise: float = 0.0,
                  nonuniform: float = 0.0) -> list[Path]:
     """make_shape + write_shape for each name; returns the paths written."""
     written: list[Path] = []

@@ -24,6 +24,7 @@ from .metrics import NORMAL_CONVENTIONS, MetricsReference
 from .params import CleaningParams, ContractionParams, is_integer
 from .paths import writable_folder
 
+STUDY_POINTS = 3000  # points per cloud of the study unless asked otherwise
 # name -> (changes to ContractionParams, W_L0 multiplier of the automatic W_L0)
 SETTINGS = {
     "default": ({}, None),
@@ -58,7 +59,7 @@ class StudyInput:
         return f"{self.shape}|{self.variant}|{self.seed}"
 
 
-def study_inputs(points: int = 3000, seeds=(0,), benchmark: bool = True, shapes=None) -> Iterator[StudyInput]:
+def study_inputs(points: int = STUDY_POINTS, seeds=(0,), benchmark: bool = True, shapes=None) -> Iterator[StudyInput]:
     """Every (shape, variant, seed) of the study."""
     from .shapes import SHAPES, make_shape
     from .solids import benchmark_shapes
@@ -179,7 +180,7 @@ def _job(args) -> list[dict]:
     return records
 
 
-def run_study(out_dir, points: int = 3000, seeds=(0,), settings=tuple(SETTINGS), shapes=None,
+def run_study(out_dir, points: int = STUDY_POINTS, seeds=(0,), settings=tuple(SETTINGS), shapes=None,
               benchmark: bool = True, jobs: int = 1, progress: Callable[[str], None] | None = print) -> list[dict]:
     """Run the grid into OUT/runs.jsonl (resuming), then analyse it (skelcore.study_analysis)."""
     if not is_integer(jobs) or jobs < 1:

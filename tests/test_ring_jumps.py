@@ -119,9 +119,10 @@ def test_the_switch_reaches_the_run_from_the_command_line_and_the_api():
     import pytest
 
     from skelcore import api
-    from skelcore.cli import build_parser, contraction_params
+    from skelcore.cli import build_parser
     from skelcore.errors import ParameterError
     from skelcore.params import ContractionParams
+    from skelcore.run_flags import contraction_params
 
     parse = build_parser().parse_args
     assert contraction_params(parse(["run", "in.ply", "--out", "o"])).drop_jumps is ContractionParams().drop_jumps
