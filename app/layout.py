@@ -299,8 +299,10 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
         resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
         labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
         transparent = gui.add_checkbox("Transparent background", False)
+        # greyed out without --save-dir, its label says why (a hint shows only on hovering); the hyphens do not wrap
         save_on_server = gui.add_checkbox(
-            "Also save on server", False, disabled=save_dir is None,
+            "Also save on server" if save_dir else "Also save on server (needs \u2011\u2011save\u2011dir)", False,
+            disabled=save_dir is None,
             hint=f"into {save_dir}" if save_dir else "start skel-inspect with --save-dir to enable")
     return FileWidgets(asset, load, upload, downsample, resolution, labels, transparent, save_on_server, screenshot, animation,
                        bundle)
