@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import viser
 
 from skelcore.errors import InputError
@@ -38,19 +39,28 @@ class Delivery:
         width, height = (int(v) for v in self.files.resolution.value.split("x"))
         return width, height
 
+    @staticmethod
+    def picture(viewer: Viewer, width: int, height: int, camera: dict) -> np.ndarray:
+        """A render of the viewer's scene as a picture (`camera`: get_render's camera arguments), its points at the
+        view's size (export.point_scale). A tiny render comes first: a browser sets a point cloud's size on the frame
+        after it changes, and a render's capture runs before that in its frame, so points resized or drawn anew (a
+        GLSkeleton frame whose count changed) came out 2 pixels wide."""
+        client = viewer.client
+        with viewer.view.picture(export.point_scale(client.camera, height)):
+            client.get_render(export.WARM_UP, export.WARM_UP, transport_format="png", timeout=120, **camera)
+            return client.get_render(height, width, transport_format="png", timeout=120, **camera)
+
     def _render(self, viewer: Viewer, index: int) -> bytes:
         width, height = self._size()
         client, run = viewer.client, self.session.run
-        with viewer.view.picture():
-            rgba = client.get_render(height, width, transport_format="png", timeout=120,
-                                     **export.framed_camera(run.cloud.points, client.camera, width, height))
+        rgba = self.picture(viewer, width, height, export.framed_camera(run.cloud.points, client.camera, width, height))
         labels = []
         if self.files.labels.value:  # the verdict the panel shows: with the skeleton's checks once they are made
             judged = (index, self.session.skeleton_params) in run.evidence
             labels = export.caption(run.cloud.name, run.history[index],
                                     self.session.verdict(index, run, with_skeleton=judged)["label"],
                                     self.skeleton_note(viewer, run, index))
-        return export.png_bytes(rgba, labels, bool(self.files.transparent.value))
+        return export.png_bytes(rgba, labels, bool(self.files.transparent.value), viewer.view.colour_quantity)
 
     def stem(self, index: int | None = None) -> str:
         """The name of exported files: the cloud's, made safe for any file system and shortened, and the
@@ -84,10 +94,10 @@ class Delivery:
             try:
                 for index, state in enumerate(run.history):
                     self.draw_frame(viewer, run, index)
-                    with viewer.view.picture():
-                        rgba = client.get_render(height, width, transport_format="png", timeout=120, **camera)
+                    rgba = self.picture(viewer, width, height, camera)
                     caption = export.caption(run.cloud.name, state, skeleton=self.skeleton_note(viewer, run, index))
-                    frames.append(export.compose(rgba, caption if labels else []))
+                    frames.append(export.compose(rgba, caption if labels else [],
+                                                 colour_by=viewer.view.colour_quantity))
             finally:
                 self.redraw(viewer, shown)
             files = export.animation_files(frames)

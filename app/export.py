@@ -15,14 +15,18 @@ from PIL import Image, ImageDraw, ImageFont
 from skelcore import display, report
 
 from .messages import without_paths
+from .scene import COLOUR_RANGES, TARGETS, colour_values
 from .words import METHOD_LABELS
 
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
 ANIMATION_FPS = 2  # frames (iterations) per second: slow enough to follow one contraction step
 # Pictures are taken from afar with a narrow lens, whatever the browser's (viser's is 75 degrees: near points
-# loom): the cloud's bounding sphere spans this share of the image's shorter side, so it fits from any side
+# loom), along the view's direction: the cloud's projected bounding box spans this share of the binding side,
+# which leaves room above it for three burned-in lines (LABEL_SIZE each). Its bounding sphere spanning 85% of the
+# shorter side, as before, left an elongated object a third of the picture.
 PICTURE_FOV = np.radians(30.0)
-PICTURE_FILL = 0.85
+PICTURE_FILL = 0.75
+WARM_UP = 8  # pixels a side of the render before each picture's (see delivery.Delivery.picture)
 PLOTLY_JS = "plotly.min.js"  # the bundle's copy, which its pages load
 LABEL_SIZE = 1 / 26  # burned-in text height, of the image's shorter side: 23 px at 800x600, 38 px at 1600x1000
 
@@ -33,9 +37,19 @@ def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
     import viser.transforms as tf
 
     direction = camera.look_at - camera.position
-    framing = display.sphere_framing_camera(points - display.display_origin(points), direction, PICTURE_FOV,
-                                            width / height, PICTURE_FILL, up=camera.up_direction)
+    framing = display.framing_camera(points - display.display_origin(points), direction, PICTURE_FOV, width / height,
+                                     PICTURE_FILL, up=camera.up_direction)
     return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": PICTURE_FOV}
+
+
+def point_scale(camera, height: int) -> float:
+    """How many times their size points are drawn in a picture `height` pixels high (taken through PICTURE_FOV) so
+    that they look beside the skeleton's edges as they do in the browser's view: viser's get_render draws points at
+    the size the live view's lens and canvas height give them (their size uniform is the live camera's), while
+    edges are in world units, so points came out half their size and less in pictures."""
+    if not camera.image_height:
+        return 1.0
+    return float(np.tan(camera.fov / 2) / np.tan(PICTURE_FOV / 2) * height / camera.image_height)
 
 
 def caption(cloud_name: str, state, verdict: str | None = None, skeleton: str = "") -> list[str]:
@@ -45,9 +59,11 @@ def caption(cloud_name: str, state, verdict: str | None = None, skeleton: str = 
     return lines + ([f"verdict: {verdict}"] if verdict else []) + ([skeleton] if skeleton else [])
 
 
-def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False) -> np.ndarray:
+def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False, colour_by: str | None = None
+            ) -> np.ndarray:
     """An (h,w,4) uint8 render -> (h,w,3) on the background (or (h,w,4) kept transparent), with `labels`
-    burned in, one line each, at the top left."""
+    burned in, one line each, at the top left, and with them the colour bar of a quantity the points are coloured
+    by (`colour_by`, a key of app.scene.COLOUR_RANGES), at the bottom left."""
     image = np.asarray(rgba)
     if image.shape[-1] == 3:
         image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=-1)
@@ -67,12 +83,39 @@ def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False)
             draw.rectangle((box[0] - 4, box[1] - 3, box[2] + 4, box[3] + 3), fill=fill)
             draw.text((size // 2, y), line, fill=(20, 20, 20, 255) if transparent else (20, 20, 20), font=font)
             y += int(size * 1.35)
+        if colour_by in COLOUR_RANGES:
+            _colour_bar(draw, picture.size, size, font, colour_by, transparent)
         image = np.asarray(picture)
     return image
 
 
-def png_bytes(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False) -> bytes:
-    return iio.imwrite("<bytes>", compose(rgba, labels, transparent), extension=".png")
+def _colour_bar(draw: ImageDraw.ImageDraw, picture_size: tuple[int, int], size: int, font, quantity: str,
+                transparent: bool) -> None:
+    """The view's colour bar of `quantity` at the bottom left: its name and target above it, its range's ends and
+    the target under it (a picture without it showed colours no one could read)."""
+    low, high = COLOUR_RANGES[quantity]
+    target = TARGETS[quantity]
+    width, height = picture_size
+    left, bar_width, bar_height = size // 2, min(12 * size, width // 2), max(size // 2, 4)
+    top = height - size // 2 - int(1.35 * size) - bar_height
+    fill = (255, 255, 255, 200) if transparent else (255, 255, 255)
+    ink = (20, 20, 20, 255) if transparent else (20, 20, 20)
+    title = f"{quantity} (target {target:g}, dark)"
+    box = draw.textbbox((left, top - int(1.35 * size)), title, font=font)
+    draw.rectangle((box[0] - 4, box[1] - 3, max(box[2], left + bar_width) + 4, height - size // 4), fill=fill)
+    draw.text((left, top - int(1.35 * size)), title, fill=ink, font=font)
+    colours = colour_values(np.linspace(low, high, bar_width), quantity)
+    for x, colour in enumerate(colours):
+        draw.line((left + x, top, left + x, top + bar_height), fill=tuple(int(c) for c in colour))
+    ticks = ((low, f"{low:.2f}", "la"), (target, f"{target:g}", "ma"), (high, f"{high:.2f}", "ra"))
+    for value, text, anchor in ticks:
+        x = left + round((value - low) / (high - low) * (bar_width - 1))
+        draw.text((x, top + bar_height + 2), text, fill=ink, font=font, anchor=anchor)
+
+
+def png_bytes(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False,
+              colour_by: str | None = None) -> bytes:
+    return iio.imwrite("<bytes>", compose(rgba, labels, transparent, colour_by), extension=".png")
 
 
 def animation_files(frames: list[np.ndarray], fps: float = ANIMATION_FPS) -> dict[str, bytes]:

@@ -297,7 +297,8 @@ def build_files(gui: viser.GuiApi, assets: tuple[str, ...], max_upload_mib: int,
         bundle = gui.add_button("Export bundle", hint="zip: screenshot, skeleton, contracted points, metrics, plots")
     with tabs.add_tab("Export settings"):
         resolution = gui.add_dropdown("Resolution", RESOLUTIONS, initial_value=RESOLUTIONS[0])
-        labels = gui.add_checkbox("Burn in labels", True, hint="iteration, method and verdict in the picture")
+        labels = gui.add_checkbox("Burn in labels", True,
+                                  hint="iteration, method and verdict in the picture, and the colour bar")
         transparent = gui.add_checkbox("Transparent background", False)
         # greyed out without --save-dir, its label says why (a hint shows only on hovering); the hyphens do not wrap
         save_on_server = gui.add_checkbox(

@@ -32,8 +32,10 @@ PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
 GHOST_COLOUR = (30, 160, 80)  # the pinned run's skeleton: a hue no other layer or node kind uses
 EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an original point
 # the pinned run's edges, x the node radius: wider than the current ones, so where the two skeletons coincide the
-# current nodes sit on a green rod instead of the pinned edges hiding under the current ones
+# current nodes sit on a green rod instead of the pinned edges hiding under the current ones; while the points are
+# coloured (no nodes drawn), a little wider than the current edges only, so that the rods do not cover the points
 GHOST_THICKNESS = 1.4
+GHOST_THICKNESS_COLOURED = 0.8
 # Nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0). They are lit
 # balls, whose shading and the view's tone mapping render a colour duller and shifted (drawn pure orange, a junction
 # looked ochre), so each kind has the colour it is drawn with and the look it takes, which the Legend's swatch shows
@@ -100,8 +102,8 @@ def legend_html(quantity: str | None, note: str = "", caveat: str = "", pinned: 
         lines.append(" ".join(dot(NODE_LOOKS[kind], kind) for kind in ("end", "junction", "path node")))
     if caveat:
         lines.append(f"<i>{caveat}</i>")
-    if pinned:
-        lines.append(dot(GHOST_COLOUR, "pinned run's skeleton"))
+    if pinned:  # drawn as rods: a bar, not a dot
+        lines.append(f"<span style='color:rgb{tuple(GHOST_COLOUR)}'>&#9644;</span>&nbsp;pinned run's skeleton")
     if quantity is not None:
         low, high = COLOUR_RANGES[quantity]
         target = TARGETS[quantity]
@@ -150,6 +152,7 @@ class SceneView:
         self._colours_key = None
         self._edges = self._nodes = self._label = self._ghost = None
         self._skeleton = None  # (nodes, edges, degrees, provisional) last drawn
+        self._picture_scale = 1.0  # point sizes while a picture is taken (app.export.point_scale)
         self._orders: dict[int, np.ndarray] = {}
         self._lock = threading.RLock()
         sphere = trimesh.creation.icosphere(subdivisions=1)
@@ -157,7 +160,7 @@ class SceneView:
 
     # -- sizes in world units, from the bounding-box diagonal of the loaded cloud
     def _point_size(self, layer: str) -> float:
-        return self.sizes[layer] * self.diagonal * POINT_SIZES[layer]
+        return self.sizes[layer] * self.diagonal * POINT_SIZES[layer] * self._picture_scale
 
     def _node_radius(self) -> float:
         return self.sizes["skeleton"] * self.diagonal * 0.011
@@ -273,12 +276,23 @@ class SceneView:
     def coloured(self) -> bool:
         return self._colours_key is not None
 
+    @property
+    def colour_quantity(self) -> str | None:
+        """What the contracted points are coloured by ("D_theta", "delta_kappa", "label"), None when plain."""
+        return None if self._colours_key is None else self._colours_key[1]
+
     def _nodes_visible(self) -> bool:
         return self.visible["skeleton"] and not self.coloured
 
+    def _ghost_thickness(self) -> float:
+        return (GHOST_THICKNESS_COLOURED if self.coloured else GHOST_THICKNESS) * self._node_radius()
+
     def _show_nodes(self) -> None:
+        """Nodes and the pinned run's edges as the colouring has them: nodes hidden, the pinned edges thinner."""
         if self._nodes is not None and self._nodes.visible != self._nodes_visible():
             self._nodes.visible = self._nodes_visible()
+        if self._ghost is not None and self._ghost.thickness != self._ghost_thickness():
+            self._ghost.thickness = self._ghost_thickness()
 
     def drawn_colours(self, layer: str) -> np.ndarray | None:
         handle = self._handles[layer]
@@ -334,18 +348,29 @@ class SceneView:
         self._clear_skeleton()
 
     @contextlib.contextmanager
-    def picture(self):
+    def picture(self, point_scale: float = 1.0):
         """The scene as a picture shows it: without the provisional skeleton's 3-D label, drawn at a fixed size on
-        screen (small in a large picture); the picture says it in its own words, at its own scale."""
+        screen (small in a large picture); the picture says it in its own words, at its own scale. Points are drawn
+        `point_scale` times their size meanwhile (app.export.point_scale), layers drawn anew too."""
         with self._lock:
             if self._label is not None:
                 self._label.visible = False
+            self._scale_points(point_scale)
         try:
             yield
         finally:
             with self._lock:
                 if self._label is not None:
                     self._label.visible = self.visible["skeleton"]
+                self._scale_points(1.0)
+
+    def _scale_points(self, scale: float) -> None:
+        if scale == self._picture_scale:
+            return
+        self._picture_scale = scale
+        for layer in POINT_LAYERS:
+            if self._handles[layer] is not None:
+                self._handles[layer].point_size = self._point_size(layer)
 
     def _clear_skeleton(self) -> None:
         for handle in (self._edges, self._nodes, self._label):
@@ -362,7 +387,7 @@ class SceneView:
         if nodes is not None and len(edges):
             self._ghost = self.scene.add_line_segments(
                 "/pinned/skeleton", points=self._local(nodes[edges]), colors=GHOST_COLOUR,
-                thickness=GHOST_THICKNESS * self._node_radius())
+                thickness=self._ghost_thickness())
 
     @property
     def skeleton_drawn(self) -> bool:
@@ -386,9 +411,10 @@ class SceneView:
         else:  # the skeleton, the pinned one with it
             if self._nodes is not None:
                 self._nodes.vertices = self._sphere[0] * self._node_radius()
-            for handle, thickness in ((self._edges, EDGE_THICKNESS), (self._ghost, GHOST_THICKNESS)):
-                if handle is not None:
-                    handle.thickness = thickness * self._node_radius()
+            if self._edges is not None:
+                self._edges.thickness = EDGE_THICKNESS * self._node_radius()
+            if self._ghost is not None:
+                self._ghost.thickness = self._ghost_thickness()
 
     @_locked
     def set_opacity(self, layer: str, opacity: float) -> None:

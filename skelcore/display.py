@@ -3,8 +3,7 @@
 Metrics are measured on a fixed sample of the points of large clouds (see skelcore.metrics); to colour
 every point, `values_for_all_points` gives each point the value of the nearest measured point of the
 same iteration (a measured point keeps its own). `framing_camera` places a perspective camera along a
-given viewing direction so that the object's bounding box fills a chosen share of the shorter image side;
-`sphere_framing_camera` so that its bounding sphere does, which leaves room around the object from any side.
+given viewing direction so that the object's bounding box fills a chosen share of the image.
 `see_through_size` scales an original cloud's points down until its surface no longer hides what lies inside;
 `display_origin` places a scene of float32 positions near the cloud.
 """
@@ -174,23 +173,6 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
     centre = centre + bottom * half * distance * down
     rotation = np.column_stack([right, down, forward])
     return Camera(centre - forward * distance, centre, rotation)
-
-
-def sphere_framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
-                          up=(0.0, 0.0, 1.0)) -> Camera:
-    """A camera looking along `direction` at the centre of the points' bounding sphere (about their bounding box's
-    centre), as far as lets the sphere's outline span `fill` of the image height or width, whichever binds. The
-    cloud then fits whatever the direction, with room around it, at one scale for every view of it. fov: vertical
-    field of view in radians; aspect: width / height."""
-    points = _checked(points, fov, aspect, fill)
-    centre = (points.min(axis=0) + points.max(axis=0)) / 2
-    radius = max(float(np.sqrt(np.max(np.sum((points - centre) ** 2, axis=1)))), 1e-9)
-    # The outline of a sphere of radius r seen from distance d is a circle of angular radius asin(r / d), which
-    # spans `fill` of the binding half-side when its tangent is fill * tan(half its field of view).
-    tangent = fill * np.tan(fov / 2) * min(1.0, aspect)
-    distance = radius * np.sqrt(1 + 1 / tangent**2)
-    right, down, forward = _axes(direction, up)
-    return Camera(centre - forward * distance, centre, np.column_stack([right, down, forward]))
 
 
 def projected_box_share(points: np.ndarray, camera: Camera, fov: float, width: int, height: int) -> float:

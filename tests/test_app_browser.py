@@ -1220,3 +1220,59 @@ def _ball_colours(image: np.ndarray) -> list[np.ndarray]:
         pixels = band[:, run[0]:run[-1] + 1].reshape(-1, 3)
         colours.append(np.median(pixels[pixels.sum(axis=1) < 700], axis=0))
     return colours
+
+
+def test_a_pictures_points_look_as_large_beside_the_object_as_in_the_view(browser):
+    """Three points in a row, seen square-on: in a picture (its narrow lens, its own height) each point spans the
+    same share of the row as in the browser's view, within 15%, also when its layer was drawn anew just before
+    (a GLSkeleton frame with fewer points). Before, pictures drew points at the live view's lens and canvas (less
+    than half their size), and a layer drawn anew 2 pixels wide."""
+    import viser
+
+    from app import export
+    from app.delivery import Delivery
+    from app.scene import SceneView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server.on_client_connect(lambda client: setattr(client.camera, "position", (0.0, -8.0, 0.0))
+                             or setattr(client.camera, "look_at", (0.0, 0.0, 0.0)))
+    try:
+        row = np.array([[-1.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0]])
+        context = browser.new_context(viewport={"width": 1200, "height": 800})
+        page = context.new_page()
+        page.goto(f"http://127.0.0.1:{server.get_port()}")
+        page.locator("canvas[data-engine]").first.wait_for()
+        close_browser_notices(page)
+        client = wait_until(lambda: next(iter(server.get_clients().values()), None), "the browser's client")
+        view = SceneView(client.scene)
+        view.load(row)
+        view.set_visible("original", False)
+        view.set_size("contracted", 8.0)
+        view.show_points("state", row)
+        wait_until(lambda: page.wait_for_timeout(200) or len(_red_runs(canvas_image(page))) == 3, "three points")
+        live = _red_runs(canvas_image(page))
+        camera = export.framed_camera(row, client.camera, 1280, 720)
+        viewer = types.SimpleNamespace(client=client, view=view)
+        pictured = _red_runs(Delivery.picture(viewer, 1280, 720, camera)[..., :3])
+        view.show_points("next", row[[0, 2]])  # a new handle
+        view.show_points("again", row)  # and again, rendered at once
+        anew = _red_runs(Delivery.picture(viewer, 1280, 720, camera)[..., :3])
+        context.close()
+    finally:
+        server.stop()
+    for runs in (pictured, anew):
+        assert len(runs) == 3
+        assert _point_share(runs) == pytest.approx(_point_share(live), rel=0.15), (live, runs)
+
+
+def _red_runs(image: np.ndarray) -> list[np.ndarray]:
+    """Column runs of contracted-red pixels along the image's middle row, left to right."""
+    middle = image[image.shape[0] // 2].astype(int)
+    columns = np.flatnonzero((middle[:, 0] > 150) & (middle[:, 1] < 110) & (middle[:, 2] < 110))
+    return [] if len(columns) == 0 else np.split(columns, np.flatnonzero(np.diff(columns) > 1) + 1)
+
+
+def _point_share(runs: list[np.ndarray]) -> float:
+    """A point's width over the distance between the outer points' centres."""
+    centres = [run.mean() for run in runs]
+    return np.mean([len(run) for run in runs]) / (centres[-1] - centres[0])

@@ -21,22 +21,6 @@ def _project(points: np.ndarray, position, rotation: np.ndarray, fov: float, wid
                             height / 2 + local[:, 1] / local[:, 2] * focal])
 
 
-@pytest.mark.parametrize("direction", [(-0.7, 0.7, -0.5), (0, 0, -1), (1, 0, 0.1)])
-@pytest.mark.parametrize("width, height", [(800, 600), (1600, 1000), (720, 1280)])
-def test_the_bounding_sphere_spans_the_chosen_share_of_the_shorter_side(direction, width, height):
-    from skelcore.display import sphere_framing_camera
-
-    rng = np.random.default_rng(0)
-    ball = rng.normal(size=(4000, 3))
-    ball = 2.0 * ball / np.linalg.norm(ball, axis=1, keepdims=True) + 7.0  # a sphere's surface: its own bounding sphere
-    fov = np.radians(30)
-    camera = sphere_framing_camera(ball, direction, fov, width / height, fill=0.8)
-    pixels = _project(ball, camera.position, camera.rotation, fov, width, height)
-    span = np.ptp(pixels, axis=0)
-    assert max(span) / min(width, height) == pytest.approx(0.8, abs=0.01)
-    assert np.allclose(pixels.min(axis=0) + span / 2, (width / 2, height / 2), atol=0.01 * min(width, height))
-
-
 @pytest.mark.parametrize("width, height", [(800, 600), (1600, 1000)])
 def test_pictures_take_the_whole_cloud_through_a_narrow_lens_whatever_the_browsers(width, height):
     """The browser's camera gives the direction only: viser's 75 degree lens, close enough to fill the picture with
@@ -56,6 +40,7 @@ def test_pictures_take_the_whole_cloud_through_a_narrow_lens_whatever_the_browse
         pixels = _project(points - origin, camera["position"], rotation, camera["fov"], width, height)
         margin = 0.04 * min(width, height)
         assert (pixels.min(axis=0) >= margin).all() and (pixels.max(axis=0) <= (width - margin, height - margin)).all()
+        assert pixels[:, 1].min() >= 3 * export.LABEL_SIZE * min(width, height)  # under three burned-in lines
         assert np.ptp(pixels, axis=0).max() >= 0.5 * min(width, height)  # not lost in the middle either
 
 
@@ -92,6 +77,50 @@ def test_a_picture_says_why_its_skeleton_is_provisional_instead_of_drawing_the_3
         server.stop()
 
 
+def test_pictures_draw_points_as_large_as_the_view_does_layers_drawn_anew_too(cloud_points):
+    """viser's get_render draws points at the size the live view's lens and canvas give them; a picture, through a
+    narrower lens and at its own height, scales them by export.point_scale while it is taken (a layer drawn anew
+    meanwhile too) and gives them back their size afterwards."""
+    import viser
+
+    from app.scene import SceneView
+
+    camera = types.SimpleNamespace(fov=np.radians(75), image_height=1000)
+    assert export.point_scale(camera, 720) == pytest.approx(np.tan(np.radians(37.5)) / np.tan(np.radians(15)) * 0.72)
+    assert export.point_scale(types.SimpleNamespace(fov=np.radians(75), image_height=None), 720) == 1.0
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view = SceneView(server.scene)
+        view.load(cloud_points)
+        view.show_points("state", cloud_points * 0.5)
+        sizes = {layer: view._handles[layer].point_size for layer in ("original", "contracted")}
+        with view.picture(2.5):
+            assert all(view._handles[layer].point_size == pytest.approx(2.5 * size) for layer, size in sizes.items())
+            view.show_points("next", cloud_points[:100] * 0.5)  # fewer points: a new handle
+            assert view._handles["contracted"].point_size == pytest.approx(2.5 * sizes["contracted"])
+        assert all(view._handles[layer].point_size == pytest.approx(size) for layer, size in sizes.items())
+    finally:
+        server.stop()
+
+
+def test_a_picture_of_coloured_points_carries_the_colour_bar_with_its_words():
+    """Points coloured by a quantity: the burned-in words come with the view's colour bar at the bottom left (a
+    picture without it showed colours no one could read); plain colours, or no burned-in words, have none."""
+    from app.scene import COLOUR_RANGES, colour_values
+
+    blank = np.full((600, 800, 4), 255, np.uint8)
+    with_bar = export.compose(blank, ["torus.ply"], colour_by="D_theta")
+    size = round(export.LABEL_SIZE * 600)
+    low, high = COLOUR_RANGES["D_theta"]
+    ends = colour_values(np.array([low, high]), "D_theta").astype(int)
+    bar = with_bar[:, size // 2: size // 2 + 12 * size]
+    rows = np.flatnonzero((np.abs(bar[:, 0].astype(int) - ends[0]).sum(axis=1) < 10)
+                          & (np.abs(bar[:, -1].astype(int) - ends[1]).sum(axis=1) < 10))
+    assert len(rows) and rows.min() > 0.8 * 600  # the bar, both its ends, at the foot of the picture
+    for plain in (export.compose(blank, ["torus.ply"]), export.compose(blank, [], colour_by="D_theta")):
+        assert (plain[int(0.8 * 600):] == 255).all()
+
+
 @pytest.fixture(scope="module")
 def cloud_points():
     return make_shape("torus", 800).points
@@ -117,9 +146,9 @@ def test_a_picture_names_the_verdict_the_panel_shows(monkeypatch):
     setting = types.SimpleNamespace
     files = setting(resolution=setting(value="800x600"), labels=setting(value=True), transparent=setting(value=False))
     camera = setting(position=np.array([3.0, 3.0, 2.0]), look_at=np.zeros(3), fov=np.radians(75),
-                     up_direction=np.array([0.0, 0.0, 1.0]))
+                     up_direction=np.array([0.0, 0.0, 1.0]), image_height=720)
     client = setting(camera=camera, get_render=lambda height, width, **_: np.zeros((height, width, 4), np.uint8))
-    viewer = setting(client=client, view=setting(picture=contextlib.nullcontext))
+    viewer = setting(client=client, view=setting(picture=contextlib.nullcontext, colour_quantity=None))
     Delivery(session, files, None, None, None, None, lambda *_: "")._render(viewer, 1)
     assert captions[-1][2] == panel
 

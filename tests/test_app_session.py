@@ -458,10 +458,10 @@ def test_the_nodes_are_hidden_while_the_points_are_coloured_and_the_legend_says_
     """Coloured points (a quantity or labels) hide the skeleton's node balls, which covered the contracted points
     along the skeleton and whose blue, dark and orange read as the colour bar's; the edges stay, and the Legend
     says the nodes are hidden instead of naming their kinds. Plain colours bring them back, unless the skeleton
-    layer itself is hidden."""
+    layer itself is hidden. The pinned run's rods are thinner meanwhile, a little wider than the current edges."""
     import viser
 
-    from app.scene import legend_html, SceneView
+    from app.scene import EDGE_THICKNESS, GHOST_THICKNESS, GHOST_THICKNESS_COLOURED, SceneView, legend_html
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
@@ -470,12 +470,17 @@ def test_the_nodes_are_hidden_while_the_points_are_coloured_and_the_legend_says_
         view.show_points("state", cloud.points * 0.5)
         view.show_skeleton(cloud.points[:4], np.array([[0, 1], [1, 2], [1, 3]]), np.array([1, 3, 1, 1]))
         assert view._nodes.visible and view._edges.visible
+        view.show_ghost(cloud.points[:4], np.array([[0, 1], [1, 2]]))
+        radius = view._node_radius()
+        assert view._ghost.thickness == pytest.approx(GHOST_THICKNESS * radius)
         view.set_colours("state", np.zeros((len(cloud.points), 3), np.uint8), "D_theta")
         assert not view._nodes.visible and view._edges.visible
+        assert view._ghost.thickness == pytest.approx(GHOST_THICKNESS_COLOURED * radius)
+        assert view._ghost.thickness > view._edges.thickness == pytest.approx(EDGE_THICKNESS * radius)
         view.show_skeleton(cloud.points[:2], np.array([[0, 1]]), np.array([1, 1]))  # the next skeleton, still coloured
         assert not view._nodes.visible
         view.set_colours("state", None)
-        assert view._nodes.visible
+        assert view._nodes.visible and view._ghost.thickness == pytest.approx(GHOST_THICKNESS * radius)
         view.set_visible("skeleton", False)
         view.set_colours("state", np.zeros((len(cloud.points), 3), np.uint8), "label")
         view.set_colours("state", None)
