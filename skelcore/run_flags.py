@@ -18,13 +18,16 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     defaults = ContractionParams()
     group = parser.add_argument_group("contraction parameters")
     group.add_argument("--method", choices=METHODS, default=defaults.method,
-                       help="lbc: Cao et al. 2010; glskeleton: Wen et al. 2024 with in-loop point reduction (default: %(default)s)")
+                       help="lbc: Cao et al. 2010; glskeleton: Wen et al. 2024 with in-loop point reduction "
+                            "(default: %(default)s)")
     group.add_argument("--k", type=int, default=None,
                        help="neighbours per one-ring (default: clamp(round(0.012 n), 8, 30))")
     group.add_argument("--wl0", type=float, default=None,
                        help="initial contraction weight W_L0 (default: 1 / (5 * mean one-ring edge length))")
-    group.add_argument("--wh0", type=float, default=defaults.wh0, help="initial attraction weight W_H0 (default: %(default)s)")
-    group.add_argument("--sl", type=float, default=defaults.sl, help="W_L amplification per iteration s_L (default: %(default)s)")
+    group.add_argument("--wh0", type=float, default=defaults.wh0,
+                       help="initial attraction weight W_H0 (default: %(default)s)")
+    group.add_argument("--sl", type=float, default=defaults.sl,
+                       help="W_L amplification per iteration s_L (default: %(default)s)")
     group.add_argument("--wl-max", type=float, default=defaults.wl_max, help="cap on W_L (default: %(default)s)")
     group.add_argument("--max-iterations", type=int, default=defaults.max_iterations,
                        help="most contraction iterations (default: %(default)s)")
@@ -34,9 +37,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="the ring-ratio rule stops a run only once this share of the cloud is curve-like "
                             "(0: cloudcontr's rule alone) (default: %(default)s)")
     group.add_argument("--hold-curves", action=argparse.BooleanOptionalAction, default=defaults.hold_curves,
-                       help="points that the first step brought to a thin part's axis keep that step's W_L, and handles "
-                            "of the input thinner than a skeleton ball stay in place (shown on their axis), so small "
-                            "handles and limbs' ends are not shortened away while bulkier parts contract "
+                       help="points that the first step brought to a thin part's axis keep that step's W_L, and "
+                            "handles of the input thinner than a skeleton ball stay in place (shown on their axis), "
+                            "so small handles and limbs' ends are not shortened away while bulkier parts contract "
                             "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")
     group.add_argument("--balance-density", action=argparse.BooleanOptionalAction, default=defaults.balance_density,
                        help="weight each point's attraction by the surface area it stands for, so that a sparsely "
@@ -59,13 +62,16 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
                        help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
                             "left out (default: %(default)s)")
-    group.add_argument("--seed", type=random_seed, default=0, help="seed for every random choice (default: %(default)s)")
+    group.add_argument("--seed", type=random_seed, default=0,
+                       help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
-                       help="for a mesh input: sample this many points evenly over its surface instead of its vertices; 0: "
-                            "its vertices (default: its vertices where they cover its surface, else as many points "
-                            f"as it has vertices, at least {SURFACE_POINTS}, drawn evenly)")
-    group.add_argument("--voxel-size", type=float, default=None, help="downsample the input to one point per voxel of this size")
-    group.add_argument("--max-points", type=int, default=MAX_POINTS, help="largest cloud accepted (default: %(default)s)")
+                       help="for a mesh input: sample this many points evenly over its surface instead of its "
+                            "vertices; 0: its vertices (default: its vertices where they cover its surface, else as "
+                            f"many points as it has vertices, at least {SURFACE_POINTS}, drawn evenly)")
+    group.add_argument("--voxel-size", type=float, default=None,
+                       help="downsample the input to one point per voxel of this size")
+    group.add_argument("--max-points", type=int, default=MAX_POINTS,
+                       help="largest cloud accepted (default: %(default)s)")
     group.add_argument("--drop-nonfinite", action="store_true",
                        help="leave out points with NaN or Inf coordinates (a depth camera's organised cloud holds them "
                             "for pixels without depth) instead of refusing the file")
@@ -99,7 +105,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
 def contraction_params(args: argparse.Namespace) -> ContractionParams:
     """The ContractionParams of the parsed contraction flags, validated."""
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
-                             max_iterations=args.max_iterations, termination=args.termination, curve_share=args.curve_share,
+                             max_iterations=args.max_iterations, termination=args.termination,
+                             curve_share=args.curve_share,
                              hold_curves=args.hold_curves, balance_density=args.balance_density,
                              drop_jumps=args.drop_jumps, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
