@@ -15,8 +15,8 @@ import numpy as np
 
 from skelcore import display, pipeline, report
 
+from .colours import COLOUR_RANGES, colour_values
 from .layout import CARD
-from .scene import COLOUR_RANGES, colour_values
 from .session import Run, Session
 
 KEPT = 16  # states whose plots and colours are kept (browsers look at a few iterations at a time)

@@ -14,8 +14,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from skelcore import display, report
 
+from .colours import COLOUR_RANGES, TARGETS, colour_values
 from .messages import without_paths
-from .scene import COLOUR_RANGES, TARGETS, colour_values
 from .words import METHOD_LABELS
 
 BACKGROUND = (255, 255, 255)  # the viewer's background, under the render's transparent pixels
@@ -63,7 +63,7 @@ def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False,
             ) -> np.ndarray:
     """An (h,w,4) uint8 render -> (h,w,3) on the background (or (h,w,4) kept transparent), with `labels`
     burned in, one line each, at the top left, and with them the colour bar of a quantity the points are coloured
-    by (`colour_by`, a key of app.scene.COLOUR_RANGES), at the bottom left."""
+    by (`colour_by`, a key of app.colours.COLOUR_RANGES), at the bottom left."""
     image = np.asarray(rgba)
     if image.shape[-1] == 3:
         image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=-1)

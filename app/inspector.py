@@ -24,6 +24,7 @@ import viser
 from skelcore.display import UP_AXES, see_through_size
 
 from . import compare, layout, loop_events
+from .colours import COLOUR_RANGES
 from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
@@ -32,7 +33,7 @@ from .panel import ParameterPanel
 from .playback import Playback
 from .presenter import Presenter
 from .progress import Activity
-from .scene import COLOUR_RANGES, POINT_SIZES, auto_opacity, frame_camera
+from .scene import POINT_SIZES, auto_opacity, frame_camera
 from .session import Session
 from .upload_guard import UploadGuard
 from .uploads import UploadNotices

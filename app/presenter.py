@@ -19,10 +19,11 @@ from skelcore.formats import Y_UP_FORMATS
 
 from . import compare, layout, status
 from .analysis import Analyses
+from .colours import COLOUR_RANGES
 from .labels import LabelPanel
 from .layout import Layout
 from .progress import Activity
-from .scene import COLOUR_RANGES, FRAME_FILL, INITIAL_DIRECTION, frame_camera, legend_share
+from .scene import FRAME_FILL, INITIAL_DIRECTION, frame_camera, legend_share
 from .session import Session
 from .viewer import Viewer
 from .worker import ErrorHandler, Latest, Worker

@@ -21,32 +21,18 @@ import trimesh
 import viser
 
 from skelcore.display import UP_AXES, clipping_planes, display_origin, framing_camera, turned_up
-from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
+
+from .colours import EDGE_COLOUR, GHOST_COLOUR, LAYER_COLOURS, NODE_COLOURS, POINT_LAYERS, PROVISIONAL_EDGE_COLOUR
 
 BACKGROUND = np.array([255, 255, 255], float)
-# original: light enough that the dark skeleton inside it reads through the points in front of it
-LAYER_COLOURS = {"original": (175, 175, 175), "contracted": (220, 40, 40),
-                 "removed": (140, 70, 220)}  # removed: input points a GLSkeleton reduction absorbed
-EDGE_COLOUR = (20, 20, 20)
-PROVISIONAL_EDGE_COLOUR = (120, 120, 120)
-GHOST_COLOUR = (30, 160, 80)  # the pinned run's skeleton: a hue no other layer or node kind uses
 EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an original point
 # the pinned run's edges, x the node radius: wider than the current ones, so where the two skeletons coincide the
 # current nodes sit on a green rod instead of the pinned edges hiding under the current ones; while the points are
 # coloured (no nodes drawn), a little wider than the current edges only, so that the rods do not cover the points
 GHOST_THICKNESS = 1.4
 GHOST_THICKNESS_COLOURED = 0.8
-# Nodes of the skeleton graph by degree: an end (1), a path node (2), a junction (3+), isolated (0). They are lit
-# balls, whose shading and the view's tone mapping render a colour duller and shifted (drawn pure orange, a junction
-# looked ochre), so each kind has the colour it is drawn with and the look it takes, which the Legend's swatch shows
-# (a ball's median colour as headless Chromium renders viser's toon shading; test_app_browser measures it).
-NODE_COLOURS = {"end": (30, 110, 255), "path node": (40, 40, 40), "junction": (255, 60, 0),
-                "isolated": (160, 60, 200)}
-NODE_LOOKS = {"end": (77, 147, 199), "path node": (77, 77, 77), "junction": (207, 109, 8),
-              "isolated": (173, 107, 185)}
 DISPLAY_CAP = 250_000
 DENSE_POINTS = 20_000  # an original above this many points starts thinned to about this many
-POINT_LAYERS = ("original", "contracted", "removed")
 POINT_SIZES = {"original": 0.005, "contracted": 0.007, "removed": 0.006}  # diameters at size 1, of the diagonal
 INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object from aside (up +Z)
 FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
@@ -60,63 +46,6 @@ SMALLEST_CANVAS_HEIGHT = 720
 def legend_share(image_height: int | None) -> float:
     """The share of a canvas `image_height` pixels high that the Legend covers (of the smallest one if unknown)."""
     return min(LEGEND_HEIGHT / (image_height or SMALLEST_CANVAS_HEIGHT), 0.5)
-
-# Per-point colouring over each quantity's full range, so colours stay comparable across iterations:
-# a diverging map whose centre, the quantity's target, is dark, so the best points stand out on the
-# white background; blue below the target, red above.
-COLOUR_RANGES = {"D_theta": D_THETA_RANGE, "delta_kappa": DELTA_KAPPA_RANGE}
-TARGETS = {"D_theta": 0.5, "delta_kappa": 0.0}
-_STOPS = np.array([[5, 90, 200], [90, 165, 225], [40, 40, 40], [245, 140, 60], [205, 10, 30]], float)
-_NAMES = {"D_theta": "D<sub>&theta;</sub>", "delta_kappa": "&delta;&kappa;"}
-
-
-def colour_values(values: np.ndarray, quantity: str) -> np.ndarray:
-    """(m,) values -> (m,3) uint8 colours on the quantity's diverging map (NaN: the original's grey)."""
-    low, high = COLOUR_RANGES[quantity]
-    target = TARGETS[quantity]
-    values = np.asarray(values, float)
-    # piecewise linear: low -> 0, target -> 0.5, high -> 1 (the target sits mid-map even off-centre)
-    t = np.interp(values, [low, target, high], [0.0, 0.5, 1.0]) * (len(_STOPS) - 1)
-    positions = np.arange(len(_STOPS))
-    colours = np.column_stack([np.interp(t, positions, _STOPS[:, c]) for c in range(3)])
-    colours[~np.isfinite(values)] = LAYER_COLOURS["original"]
-    return colours.astype(np.uint8)
-
-
-def legend_html(quantity: str | None, note: str = "", caveat: str = "", pinned: bool = False,
-                extra: str = "", skeleton: bool = True, layers=POINT_LAYERS, original_coloured: bool = False,
-                points_coloured: bool = False) -> str:
-    """The key of the 3-D view: the point `layers` drawn, skeleton nodes (when the skeleton is shown) and, when
-    colouring, the colour bar with its target (`caveat`: a line on why the skeleton is provisional, not drawn yet or
-    may not follow the shape, "" when it needs none; `extra`: more HTML, e.g. the label colours; `original_coloured`:
-    the original points are coloured too; `points_coloured`: by a quantity or by labels, so the nodes are hidden)."""
-    def dot(colour, text):
-        return f"<span style='color:rgb{tuple(colour)}'>&#9679;</span>&nbsp;{text}"
-
-    coloured = {"contracted"} | ({"original"} if original_coloured else set()) if quantity is not None else set()
-    lines = [" ".join(dot(LAYER_COLOURS[layer], layer) for layer in POINT_LAYERS
-                      if layer in layers and layer not in coloured)]
-    if skeleton and points_coloured:
-        lines.append("skeleton: its edges (the nodes are hidden while the points are coloured)")
-    elif skeleton:
-        lines.append(" ".join(dot(NODE_LOOKS[kind], kind) for kind in ("end", "junction", "path node")))
-    if caveat:
-        lines.append(f"<i>{caveat}</i>")
-    if pinned:  # drawn as rods: a bar, not a dot
-        lines.append(f"<span style='color:rgb{tuple(GHOST_COLOUR)}'>&#9644;</span>&nbsp;pinned run's skeleton")
-    if quantity is not None:
-        low, high = COLOUR_RANGES[quantity]
-        target = TARGETS[quantity]
-        gradient = ", ".join(f"rgb({r:.0f},{g:.0f},{b:.0f})" for r, g, b in _STOPS)
-        lines.append(f"{' and '.join(sorted(coloured))} coloured by {_NAMES[quantity]} (target {target:g}, dark)"
-                     f"<div style='height:10px;background:linear-gradient(to right, {gradient})'></div>"
-                     f"<div style='display:flex;justify-content:space-between'><span>{low:.2f}</span>"
-                     f"<span><b>{target:g}</b></span><span>{high:.2f}</span></div>")
-    if note:
-        lines.append(f"<i>{note}</i>")
-    if extra:
-        lines.append(extra)
-    return f"<div style='font-size:0.8em;line-height:1.5;padding:0 0.4em'>{'<br>'.join(lines)}</div>"
 
 
 def auto_opacity(count: int) -> float:
@@ -245,7 +174,7 @@ class SceneView:
         self._colours_key = None
         self._draw("contracted")
         self._keys["contracted"] = key
-        self._show_nodes()
+        self._follow_colouring()
 
     @_locked
     def show_removed(self, key, points: np.ndarray) -> None:
@@ -270,7 +199,7 @@ class SceneView:
             self._colours["original"] = original_colours
             self._draw("original", colours_only=True)
         self._colours_key = colours_key
-        self._show_nodes()
+        self._follow_colouring()
 
     @property
     def coloured(self) -> bool:
@@ -287,7 +216,7 @@ class SceneView:
     def _ghost_thickness(self) -> float:
         return (GHOST_THICKNESS_COLOURED if self.coloured else GHOST_THICKNESS) * self._node_radius()
 
-    def _show_nodes(self) -> None:
+    def _follow_colouring(self) -> None:
         """Nodes and the pinned run's edges as the colouring has them: nodes hidden, the pinned edges thinner."""
         if self._nodes is not None and self._nodes.visible != self._nodes_visible():
             self._nodes.visible = self._nodes_visible()
@@ -400,7 +329,7 @@ class SceneView:
         for handle in handles:
             if handle is not None:
                 handle.visible = visible
-        self._show_nodes()
+        self._follow_colouring()
 
     @_locked
     def set_size(self, layer: str, factor: float) -> None:

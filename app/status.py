@@ -11,8 +11,8 @@ from __future__ import annotations
 from skelcore.step import TERMINATION_MESSAGES
 
 from .analysis import Readiness
+from .colours import COLOUR_RANGES, POINT_LAYERS, legend_html
 from .layout import PROVISIONAL
-from .scene import COLOUR_RANGES, POINT_LAYERS, legend_html
 from .words import label
 
 

@@ -798,7 +798,7 @@ def test_colouring_a_50k_cloud_leaves_no_grey_points(fresh_sized, inspector):
     from skelcore.io import validate
     from skelcore.shapes import make_shape
 
-    from app.scene import LAYER_COLOURS
+    from app.colours import LAYER_COLOURS
 
     page = fresh_sized
     original = inspector.module_cloud
@@ -1170,7 +1170,8 @@ def test_the_legends_node_swatches_look_like_the_lit_balls(browser):
     (NODE_LOOKS), nearer to it than to any other kind's."""
     import viser
 
-    from app.scene import NODE_LOOKS, SceneView
+    from app.colours import NODE_LOOKS
+    from app.scene import SceneView
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     server.on_client_connect(lambda client: setattr(client.camera, "position", (0.0, -6.0, 0.0))

@@ -106,7 +106,7 @@ def test_pictures_draw_points_as_large_as_the_view_does_layers_drawn_anew_too(cl
 def test_a_picture_of_coloured_points_carries_the_colour_bar_with_its_words():
     """Points coloured by a quantity: the burned-in words come with the view's colour bar at the bottom left (a
     picture without it showed colours no one could read); plain colours, or no burned-in words, have none."""
-    from app.scene import COLOUR_RANGES, colour_values
+    from app.colours import COLOUR_RANGES, colour_values
 
     blank = np.full((600, 800, 4), 255, np.uint8)
     with_bar = export.compose(blank, ["torus.ply"], colour_by="D_theta")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app import export
-from app.scene import colour_values
+from app.colours import colour_values
 from app.session import Session
 from app.worker import Latest, Worker
 from skelcore.errors import InputError, ParameterError
@@ -281,7 +281,7 @@ def test_latest_keeps_the_newest_request_of_each_key():
 
 @pytest.mark.parametrize("quantity, target", [("D_theta", 0.5), ("delta_kappa", 0.0)])
 def test_colour_map_target_stands_out_on_the_white_background(quantity, target):
-    from app.scene import COLOUR_RANGES, LAYER_COLOURS
+    from app.colours import COLOUR_RANGES, LAYER_COLOURS
 
     low, high = COLOUR_RANGES[quantity]
     colours = colour_values(np.array([low, target, high, np.nan]), quantity)
@@ -461,7 +461,8 @@ def test_the_nodes_are_hidden_while_the_points_are_coloured_and_the_legend_says_
     layer itself is hidden. The pinned run's rods are thinner meanwhile, a little wider than the current edges."""
     import viser
 
-    from app.scene import EDGE_THICKNESS, GHOST_THICKNESS, GHOST_THICKNESS_COLOURED, SceneView, legend_html
+    from app.colours import legend_html
+    from app.scene import EDGE_THICKNESS, GHOST_THICKNESS, GHOST_THICKNESS_COLOURED, SceneView
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
@@ -495,7 +496,7 @@ def test_the_nodes_are_hidden_while_the_points_are_coloured_and_the_legend_says_
 
 
 def test_the_legend_names_the_node_kinds_only_while_the_skeleton_is_shown():
-    from app.scene import legend_html
+    from app.colours import legend_html
 
     assert "junction" in legend_html(None) and "junction" not in legend_html(None, skeleton=False)
     assert "pinned run's skeleton" in legend_html(None, pinned=True, skeleton=False)
