@@ -68,7 +68,7 @@ class Inspector:
             "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)})
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
-        self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server)
+        self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server, self.playback)
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self._labels_changed,
                                                          order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
@@ -194,7 +194,7 @@ class Inspector:
 
     def _on_step(self, event) -> None:
         self.step_clicked = time.perf_counter()  # when the server got the click (app.bench reads it)
-        self.playback.pause()
+        self.playback.stepped()
         viewer = self.presenter.viewer(event.client)
         self.worker.submit(lambda: self._step(viewer, event.client), event.client)
 

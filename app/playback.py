@@ -21,12 +21,16 @@ class Playback:
         self.controls = controls
         self.changed = changed
         self._paused_by: dict[object, float] = {}  # browser -> when it last paused with the button
+        # a person paused the playing run: the status says "paused" until a Step, Play or Run to end ("ready"
+        # after a Step: walk-throughs read "paused" there as a Pause they had not made)
+        self.paused = False
 
     def toggle(self, tick: Callable[[], bool], client) -> None:
         """Play (tick once per iteration until it returns False), or Pause; a double click on Pause pauses."""
         who, now = getattr(client, "client_id", None), time.monotonic()
         if self.worker.playing:
             self._paused_by[who] = now
+            self.paused = True
             self.pause()
         elif now - self._paused_by.get(who, -DOUBLE_CLICK) >= DOUBLE_CLICK:
             self.start(tick, client, full=True)
@@ -35,6 +39,7 @@ class Playback:
         """full: Play, paced by the interval slider; otherwise Run to end, as fast as it goes."""
         if self.worker.playing:
             return
+        self.paused = False
         self.worker.play(tick, client, float(self.controls.interval.value) if full else 0.0)
         self.changed()
 
@@ -42,3 +47,8 @@ class Playback:
         """Every stop of Play goes through here, the run's own end too."""
         self.worker.pause()
         self.changed()
+
+    def stepped(self) -> None:
+        """A Step: Play stops, and the run is no longer where a Pause left it."""
+        self.paused = False
+        self.pause()

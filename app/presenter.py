@@ -22,6 +22,7 @@ from .analysis import Analyses
 from .colours import COLOUR_RANGES
 from .labels import LabelPanel
 from .layout import Layout
+from .playback import Playback
 from .progress import Activity
 from .scene import FRAME_FILL, INITIAL_DIRECTION, frame_camera, legend_share
 from .session import Session
@@ -33,9 +34,11 @@ LOG_LINES = 8  # of the session log, in the Log tab
 
 class Presenter:
     def __init__(self, session: Session, ui: Layout, activity: Activity, worker: Worker, on_error: ErrorHandler,
-                 server=None):
-        """server: the viser server whose scene's up the View tab's Up axis sets (None: tests without one)."""
+                 server=None, playback: Playback | None = None):
+        """server: the viser server whose scene's up the View tab's Up axis sets (None: tests without one);
+        playback: whether a person paused the run (None: tests without one)."""
         self.session, self.ui, self.activity, self.worker, self.server = session, ui, activity, worker, server
+        self.playback = playback
         self._chosen_up = "+Z"  # the up axis a person chose last: a cloud whose format fixes none opens with it
         self.labels: LabelPanel | None = None  # set once built (it needs the worker)
         self.viewers: dict[int, Viewer] = {}  # by client id
@@ -250,7 +253,8 @@ class Presenter:
         readiness = self.analyses.readiness(run, index, compute=False)
         viewer.ui.status.content = status.status_markdown(
             session, index, run=status.run_state(history, self.activity.text(), playing,
-                                                      run.ahead if session.ready_ahead else None),
+                                                      run.ahead if session.ready_ahead else None,
+                                                      paused=self.playback is not None and self.playback.paused),
             readiness=readiness,
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)

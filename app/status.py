@@ -22,8 +22,9 @@ def ending_words(state) -> str:
     return TERMINATION_MESSAGES.get(state.termination, state.message)
 
 
-def run_state(history, doing: str, playing: bool, ahead=None) -> str:
-    """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead)."""
+def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = False) -> str:
+    """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead; paused: a
+    person paused it playing, app.playback.Playback.paused: "paused" then, else "ready" between steps)."""
     latest = history[-1]
     if playing:  # the Play button says Pause meanwhile (app.playback)
         if latest.termination:  # Play on an ended run replays its iterations
@@ -33,7 +34,7 @@ def run_state(history, doing: str, playing: bool, ahead=None) -> str:
         return f"busy: {doing}…"
     if latest.termination:  # at the iteration the status's "of N computed" names
         return f"ended: {ending_words(latest)}"
-    state = "paused" if len(history) > 1 else "ready"
+    state = "paused" if paused and len(history) > 1 else "ready"
     if ahead is None:
         return state
     if ahead.iteration <= latest.iteration:  # the next step was rejected: Step ends the run

@@ -785,7 +785,7 @@ def test_the_status_says_what_was_computed_ahead():
     from app.status import run_state
 
     history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
-    assert run_state(history, "", False) == "paused"
+    assert run_state(history, "", False) == "ready" and run_state(history, "", False, paused=True) == "paused"
     assert "iteration 2 computed ahead" in run_state(history, "", False, types.SimpleNamespace(iteration=2))
     assert "ends the run" in run_state(history, "", False, types.SimpleNamespace(iteration=1))
     assert run_state(history, "computing iteration 2", False, None) == "busy: computing iteration 2…"

@@ -129,7 +129,8 @@ def test_the_status_says_the_run_plays_exactly_while_the_button_says_pause():
     assert run_state(history, "", True) == "playing"
     assert run_state(history, "computing iteration 2", True) == "playing: computing iteration 2…"
     assert run_state(history, "computing iteration 2", False) == "busy: computing iteration 2…"
-    assert run_state(history, "", False).startswith("paused")
+    assert run_state(history, "", False, paused=True).startswith("paused")
+    assert run_state(history, "", False).startswith("ready")  # between Steps: no Pause was made
     ended = [*history[:1], types.SimpleNamespace(iteration=1, termination="ring_ratio", message="")]
     assert run_state(ended, "", True) == "replaying"  # Play on an ended run replays it
 
@@ -258,6 +259,31 @@ def test_a_double_click_on_pause_pauses(monkeypatch):
     clock[0] += playback.DOUBLE_CLICK
     play.toggle(lambda: True, me)
     assert worker.playing
+
+
+def test_the_run_reads_paused_only_after_a_pause():
+    """A person's Pause of a playing run makes the status say "paused"; a Step, a Play and Run to end take it back
+    (the status said "paused" after a single Step, which two walk-throughs read as a Pause they had not made)."""
+    from app import playback
+
+    worker = types.SimpleNamespace(playing=False)
+    worker.play = lambda tick, client, interval: setattr(worker, "playing", True)
+    worker.pause = lambda: setattr(worker, "playing", False)
+    play = playback.Playback(worker, types.SimpleNamespace(interval=types.SimpleNamespace(value=0.5)),
+                             changed=lambda: None)
+    history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
+    play.stepped()
+    assert not play.paused and run_state(history, "", worker.playing, paused=play.paused) == "ready"
+    play.toggle(lambda: True, None)
+    play.toggle(lambda: True, None)  # Pause
+    assert play.paused and run_state(history, "", worker.playing, paused=play.paused) == "paused"
+    play.stepped()
+    assert not play.paused
+    play.paused = True
+    play.start(lambda: True, None, full=False)  # Run to end
+    assert not play.paused
+    play.pause()  # the run's own end
+    assert not play.paused
 
 
 def _criterion(name: str, passed: bool) -> dict:
