@@ -20,21 +20,25 @@ def distinct(values) -> np.ndarray:
 
 def distinct_rows(rows) -> np.ndarray:
     """np.unique(rows, axis=0) of a 2-D array: its rows in lexicographic order, each once."""
-    rows = np.asarray(rows)
-    rows = rows[np.lexsort(rows.T[::-1])]
-    keep = np.ones(len(rows), dtype=bool)
-    keep[1:] = (rows[1:] != rows[:-1]).any(axis=1)
-    return rows[keep]
+    ordered, starts = _sorted_rows(rows)[1:]
+    return ordered[starts]
 
 
 def row_groups(rows) -> tuple[np.ndarray, np.ndarray]:
     """np.unique(rows, axis=0, return_inverse=True, return_counts=True)[1:] of a 2-D array: each row's group
     (its distinct row's place in lexicographic order) and each group's size."""
+    order, _, starts = _sorted_rows(rows)
+    group = np.empty(len(order), dtype=np.int64)
+    group[order] = np.cumsum(starts) - 1
+    return group, np.diff(np.flatnonzero(np.r_[starts, True]))
+
+
+def _sorted_rows(rows) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the lexicographic order of a 2-D array's rows, its rows in that order, where each run of equal rows
+    starts)."""
     rows = np.asarray(rows)
     order = np.lexsort(rows.T[::-1])
     ordered = rows[order]
     starts = np.ones(len(rows), dtype=bool)
     starts[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    group = np.empty(len(rows), dtype=np.int64)
-    group[order] = np.cumsum(starts) - 1
-    return group, np.diff(np.flatnonzero(np.r_[starts, True]))
+    return order, ordered, starts
