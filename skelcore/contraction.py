@@ -17,8 +17,9 @@ from .labels import check_weights
 from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows,
-                   free_points, goes_on, hold_curves, record, rejected, retune, rings_stalled, schedule, shown,
-                   solve_stages, stall_ratios, start_run, torn)
+                   free_points, hold_curves, record, rejected, retune, schedule, shown, solve_stages, stall_ratios,
+                   start_run)
+from .stop_rules import goes_on, rings_stalled, torn
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
            "retune", "run_contraction"]

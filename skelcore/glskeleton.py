@@ -40,7 +40,7 @@ Attraction weights (not in LCWR): LBC's W_H,i times m_i, the number of input poi
   by step 3, about one s_L step ahead of LBC) and a thin coil shrinks onto its axis. With the weight, eq. 2
   keeps the balance it has on the input cloud. With balance_density (skelcore.step) m_i is the summed area
   of those input points, in units of the mean input point's: an unevenly sampled input is balanced too.
-Torn steps (not in LCWR): as in LBC (skelcore.step.torn), a step that widens many one-rings past twice their
+Torn steps (not in LCWR): as in LBC (skelcore.stop_rules.torn), a step that widens many one-rings past twice their
   size (the rings it solved with) is discarded and the run ends ('torn').
 Per-point contraction weights (semantic LBC, skelcore.labels; not in LCWR): a point's Laplacian row is scaled
   by the mean weight of the input points it stands for. The merge rule reads the unweighted Laplacian: it
@@ -77,9 +77,10 @@ from .neighbours import OneRings, delaunay_fans
 from .params import ContractionParams
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
-from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, curve_like, free_points,
-                   grown, hold_curves, rejected, represented, retune, rings_stalled, schedule, shown, solve_stages,
-                   stall_ratios, start_run, stopped, torn)
+from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, free_points, grown,
+                   hold_curves, rejected, represented, retune, schedule, shown, solve_stages, stall_ratios, start_run,
+                   stopped)
+from .stop_rules import curve_like, rings_stalled, torn
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
 S_FLOOR = 1e-4  # LCWR `S(S<0)=0.0001`

@@ -332,7 +332,7 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
 def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
     """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
     radius, a fraction of the input cloud's object diagonal (the skeleton's own scale, which the
-    contraction's stop rule, skelcore.step.goes_on, and the verdict also use)."""
+    contraction's stop rule, skelcore.stop_rules.goes_on, and the verdict also use)."""
     return skeleton_scale_share(state.points, cloud.diagonal)
 
 

@@ -5,19 +5,14 @@ normal equations (W_L^2 L^T L + W_H^2) P' = W_H^2 P with one sparse Cholesky fac
 coordinates. W_L grows by s_L per step up to a cap; W_H,i = W_H0 s_i^0 / s_i^t follows how far each one-ring
 has shrunk (cloudcontr: s_i is the smallest distance from point i to its ring). This module holds the state a
 step yields, the run's set-up, the weight schedule, the solve with the checks that reject its candidate, and
-live retuning; the method modules hold only their loops.
+live retuning (when a step is torn or a run has stalled: skelcore.stop_rules); the method modules hold only
+their loops.
 
 Uneven sampling (not in cloudcontr): a cot Laplacian row is about 2 A_i H_i n_i, A_i the surface area point i
 stands for, while its attraction row is W_H,i whatever that area. So where the input is sampled k times
 sparser, eq. 2 pulls k times harder: with 30% of the points kept on one half of a drilled plate, that half is
 more than one s_L step ahead, and it is shortened to a tangle while the dense half is still a sheet.
 `represented` weights W_H,i by the area (params.balance_density), which keeps one balance over the surface.
-
-Torn steps (not in cloudcontr): a Laplacian step pulls every point towards its neighbours, so its one-rings
-shrink or stay. Once a cloud has thinned to ribbons, the rings of the input degenerate and a strong W_L can
-fling neighbours apart: loops fold across each other and a curve's ends are pulled in, while the rings'
-TOTAL still shrinks (others collapse), so the ring-ratio rule lets it pass. `torn` rejects a step that widens
-more than TEAR_SHARE of the one-rings past TEAR_GROWTH times their width before it.
 """
 from __future__ import annotations
 
@@ -33,7 +28,7 @@ import numpy as np
 from .errors import ParameterError, SolverError
 from .laplacian import LaplacianSystem
 from .neighbours import OneRings, one_rings
-from .curveness import skeleton_scale_share, thin_parts, thin_tubes
+from .curveness import thin_parts, thin_tubes
 from .normalise import ROBUST_SHARE, Normalisation, object_core, object_diagonal, robust_extent
 from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
@@ -54,8 +49,6 @@ TERMINATION_MESSAGES = {
     "covariance": "the cloud's covariance shows a converged curve",
     **{reason: f"{cause}; {KEPT}" for reason, cause in REJECTION_CAUSES.items()},
 }
-TEAR_GROWTH = 2.0  # a one-ring this many times wider after a step than before it has been torn open ...
-TEAR_SHARE = 0.15  # ... and a step that does so to more than this share of the points is rejected
 RESTART_FIELDS = ("method", "k", "normalise", "balance_density", "drop_jumps")
 
 
@@ -184,16 +177,6 @@ def represented(owner: np.ndarray, areas: np.ndarray, m: int, params: Contractio
     return np.bincount(owner, weights=areas if params.balance_density else None, minlength=m)
 
 
-def torn(iteration: int, sizes: np.ndarray, new_sizes: np.ndarray) -> tuple[str, str] | None:
-    """('torn', detail) when a step, from the second on, widened more than TEAR_SHARE of the one-rings past
-    TEAR_GROWTH times their size before it (module docstring); else None. `sizes`, `new_sizes`: the ring sizes
-    of the same rings before and after the step."""
-    share = float(np.mean(new_sizes > TEAR_GROWTH * sizes)) if len(sizes) else 0.0
-    if iteration > 1 and share > TEAR_SHARE:
-        return "torn", f"{share:.0%} of the one-rings grew past {TEAR_GROWTH:g} times their size"
-    return None
-
-
 def grown(start: float, factor: float, steps: int) -> float:
     """start * factor^steps, inf past the float range (where Python's ** raises): a large s_L after many steps."""
     try:
@@ -320,35 +303,6 @@ def contraction_rows(held: np.ndarray, wl: float, weights: np.ndarray | None, pa
     return factors if weights is None else weights * factors
 
 
-def curve_like(points: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
-    """Whether at least params.curve_share of the points are curve-like at the skeleton's scale of `diagonal`
-    (skelcore.curveness.skeleton_scale_share; always, with share 0)."""
-    return params.curve_share <= 0 or skeleton_scale_share(points, diagonal) >= params.curve_share
-
-
-def rings_stalled(iteration: int, drop: float, current: np.ndarray, candidate: np.ndarray, params: ContractionParams,
-                  diagonal: float, ratios: tuple[float, float | None, float] | None = None) -> bool:
-    """cloudcontr's stop rule, from the second step on: the step shrank the rings' total size by `drop` (a
-    share of the input's), less than params.termination; except that while the rings still shrink, a step
-    that goes_on is taken, and so is one that speeds up a contraction not yet under way (`under_way`)."""
-    return iteration > 1 and drop < params.termination and not (
-        drop >= 0 and (not under_way(drop, ratios, params) or goes_on(current, candidate, params, diagonal)))
-
-
-def under_way(drop: float, ratios: tuple[float, float | None, float] | None, params: ContractionParams) -> bool:
-    """Whether the contraction is under way for the stop rule, given `ratios`: a_t after the first step, of the
-    state before the last (None when that is the input) and of the last (None: it is under way). It is once the
-    rings have shrunk by params.termination since the first step, or once a step shrinks them no more than the
-    step before. cloudcontr's rule tells a contraction that has slowed down; a bulky ball's first steps barely
-    shrink it while W_L triples a step, each shrinking it more than the last. The first step does not count: it
-    takes a scan's noise out of the rings, or pulls thin parts onto their axes, at once, while the bulk has not
-    started (a ball with thin handles and 1% noise: 0.175, then 0.0065, and a run that stopped one step in)."""
-    if ratios is None:
-        return True
-    first, earlier, last = ratios
-    return first - last >= params.termination or (earlier is not None and drop <= earlier - last)
-
-
 def stall_ratios(first_ratio: float, earlier: IterationState | None, state: IterationState
                  ) -> tuple[float, float | None, float] | None:
     """`under_way`'s ratios before the step after `state` (preceded by `earlier`; None: `state` is the input),
@@ -356,15 +310,6 @@ def stall_ratios(first_ratio: float, earlier: IterationState | None, state: Iter
     if earlier is None:
         return None
     return first_ratio, (earlier.ring_ratio if earlier.iteration else None), state.ring_ratio
-
-
-def goes_on(current: np.ndarray, candidate: np.ndarray, params: ContractionParams, diagonal: float) -> bool:
-    """Whether a step past the ring-ratio stall is taken: the candidate is less than params.curve_share
-    curve-like at the skeleton's scale of `diagonal` (RunStart.diagonal) and more so than the current."""
-    if params.curve_share <= 0:
-        return False
-    after = skeleton_scale_share(candidate, diagonal)
-    return after < params.curve_share and after > skeleton_scale_share(current, diagonal)
 
 
 def principal_extents(points: np.ndarray) -> np.ndarray:

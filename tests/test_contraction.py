@@ -196,7 +196,7 @@ def test_the_stall_rule_lets_a_contraction_get_under_way():
     """A step that shrank a_t by less than the threshold is a stall, unless the contraction is not under way yet
     (a_t has fallen by less than the threshold since the first step) and the step shrank it more than the one
     before; the first step does not count, so the second is always taken while the rings shrink."""
-    from skelcore.step import rings_stalled
+    from skelcore.stop_rules import rings_stalled
 
     still = np.zeros((10, 3))
     params = ContractionParams(termination=0.01, curve_share=0)
@@ -435,7 +435,7 @@ def test_redo_continues_a_run_that_ended():
 def test_a_step_that_widens_many_rings_is_torn():
     """A Laplacian step shrinks one-rings; one that leaves more than TEAR_SHARE of them over TEAR_GROWTH times
     as wide as before has flung neighbours apart (from the second step on: the first solves on the input)."""
-    from skelcore.step import TEAR_GROWTH, TEAR_SHARE, torn
+    from skelcore.stop_rules import TEAR_GROWTH, TEAR_SHARE, torn
 
     before = np.ones(1000)
     after = np.full(1000, 0.5)
