@@ -379,7 +379,8 @@ class Session:
                 if skeleton.gap not in run.input_topology:  # the same at every iteration: computed once
                     run.input_topology[skeleton.gap] = input_evidence(run.cloud.points, skeleton.gap)
                 run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
-                                                      run.input_topology[skeleton.gap])
+                                                      run.input_topology[skeleton.gap],
+                                                      solid_loops=run.cloud.solid_loops)
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 

@@ -105,7 +105,7 @@ class Result:
         written read: the run's, or computed once (its complex is a quarter of a 10k-point run)."""
         if self.evidence is not None:
             return self.evidence
-        return skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points)
+        return skeleton_evidence(self.skeleton, self.states[-1], self.cloud.points, solid_loops=self.cloud.solid_loops)
 
     @property
     def topology(self) -> dict:

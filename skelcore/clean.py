@@ -151,7 +151,8 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
         notes.append(f"{int(far.sum()):,} points lie further from the largest piece than its own size: they are "
                      f"skeletonised as pieces of their own and do not set the skeleton's scale")
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
-                 labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale)
+                 labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale,
+                 solid_loops=cloud.solid_loops)
 
 
 def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None,

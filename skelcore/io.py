@@ -20,6 +20,7 @@ from .distinct import distinct_rows, row_groups
 from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
 from .formats import FORMATS
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
+from .mesh_topology import solid_loops
 from .normalise import SAMPLE_RADIUS, binary_unit, bounds, half_extent, object_core, object_diagonal
 from .params import check_flag, is_integer, is_real
 from .paths import as_path
@@ -51,6 +52,9 @@ class Cloud:
     # and how many rows the input had: per-point values given for the input follow the points kept (input_weights)
     rows: np.ndarray | None = None
     input_rows: int = 0
+    # the loops through the solid a closed mesh file bounds (its genus, skelcore.mesh_topology), read from its own
+    # faces before any resampling; None for a point cloud or a mesh that bounds no solid
+    solid_loops: int | None = None
 
     @functools.cached_property
     def diagonal(self) -> float:
@@ -208,6 +212,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
         points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
+    loops = solid_loops(faces, len(points))
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
@@ -249,7 +254,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale, rows=rows,
-                 input_rows=input_rows)
+                 input_rows=input_rows, solid_loops=loops)
 
 
 def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
@@ -263,7 +268,8 @@ def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
             and (labels is None or isinstance(labels, np.ndarray) and labels.shape == (len(points),))):
         return cloud
     fresh = validate(points, cloud.faces, name=cloud.name, labels=labels, drop_nonfinite=drop_nonfinite)
-    return dataclasses.replace(fresh, notes=[*cloud.notes, *fresh.notes])
+    return dataclasses.replace(fresh, notes=[*cloud.notes, *fresh.notes],
+                               solid_loops=cloud.solid_loops if cloud.faces is None else fresh.solid_loops)
 
 
 def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:

@@ -296,7 +296,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             clock.mark("metrics")
             ahead = (radius, surface.gap_unit(radius)) == (skeleton.radius, skeleton.gap)
             source, cloud_parts = evidence.result() if ahead else (None, None)
-            evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts)
+            evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts, cloud.solid_loops)
             clock.mark("evidence")
             for note in surface.scale_notes(options.sample_radius):
                 _say(progress, f"{cloud.name}: {note}")

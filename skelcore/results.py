@@ -96,7 +96,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     except OSError as error:
         raise InputError(f"{out_dir}: cannot create the output folder ({error.strerror})") from None
     final = states[-1]
-    evidence = skeleton_evidence(skeleton, final, cloud.points) if evidence is None else evidence
+    if evidence is None:
+        evidence = skeleton_evidence(skeleton, final, cloud.points, solid_loops=cloud.solid_loops)
     summary = metrics_document(cloud, states, metrics, reduction, evidence)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed

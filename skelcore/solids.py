@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
+from .mesh_topology import mesh_topology as surface_topology
 from .parts import PARTS, SEGMENTS
 from .surface_sampling import SURFACE_POINTS, sample_surface
 
@@ -252,24 +253,13 @@ def solid_arrays(solid) -> tuple[np.ndarray, np.ndarray]:
 
 
 def mesh_topology(vertices: np.ndarray, faces: np.ndarray) -> dict:
-    """Components, Euler characteristic, boundary loops and total genus of a triangle mesh.
-
-    genus = (2 C - b - chi) / 2 (Euler-Poincare for orientable surfaces with b boundary loops); vertices at
-    the same position are merged first, so a mesh stored as triangle soup counts like the surface it is.
-    """
-    import networkx as nx
+    """Components, Euler characteristic, boundary loops and total genus of a triangle mesh
+    (skelcore.mesh_topology), its vertices at the same position merged first, so that a mesh stored as triangle
+    soup counts like the surface it is."""
     import trimesh
 
     mesh = trimesh.Trimesh(vertices, faces, process=True)
-    edges = mesh.edges_unique
-    uses = np.bincount(mesh.edges_unique_inverse, minlength=len(edges))
-    chi = len(mesh.vertices) - len(edges) + len(mesh.faces)
-    components = len(mesh.split(only_watertight=False))
-    border = nx.Graph(edges[uses == 1].tolist())
-    boundary_loops = nx.number_connected_components(border)
-    return {"components": components, "euler": int(chi), "boundary_loops": boundary_loops,
-            "genus": (2 * components - boundary_loops - chi) // 2,
-            "closed": bool(len(border) == 0 and (uses == 2).all())}
+    return surface_topology(mesh.faces, len(mesh.vertices))
 
 
 def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -103,6 +103,20 @@ def test_skeleton_checks_make_wrong_skeletons_unstable(change):
     assert verdict["label"] == "unstable", verdict["reasons"]
 
 
+def test_a_skeleton_with_fewer_loops_than_a_closed_meshs_solid_is_unstable_though_the_cloud_agrees():
+    """A tall pipe's bore is pulled onto its axis: the contracted cloud holds no loop, and the skeleton agrees
+    with it, but the mesh's genus says the solid has one."""
+    closed_shut = evidence(cycles=0, loops=())
+    assert judge(features(entry(), closed_shut), 3, T)["label"] == "stable"  # a point cloud: nothing to tell
+    verdict = judge(features(entry(), {**closed_shut, "input_loops": 1}), 3, T)
+    assert verdict["label"] == "unstable"
+    assert ("skeleton loops: 0 (as many as the contracted cloud holds (0), and at least the mesh's solid has (1)): "
+            "fail") in verdict["reasons"]
+    assert judge(features(entry(), {**evidence(), "input_loops": 1}), 3, T)["label"] == "stable"
+    # more loops than the genus are the contracted cloud's to judge, as before
+    assert judge(features(entry(), {**evidence(), "input_loops": 0}), 3, T)["label"] == "stable"
+
+
 def test_a_straight_stretch_drawn_as_one_edge_has_not_collapsed():
     """GLSkeleton draws a rod as one edge between its ends: the collapse check counts the nodes its light graph
     left out of that straight stretch, not only the two it drew."""
