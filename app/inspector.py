@@ -37,7 +37,7 @@ from .scene import POINT_SIZES, auto_opacity, frame_camera
 from .session import Session
 from .upload_guard import UploadGuard
 from .uploads import UploadNotices
-from .viewer import Viewer
+from .viewer import Viewer, quiet_closed_browsers
 from .worker import Worker
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
@@ -49,6 +49,7 @@ class Inspector:
     def __init__(self, server: viser.ViserServer, session: Session, *, assets: dict[str, Path] | None = None,
                  save_dir: Path | None = None, max_upload_bytes: int = MAX_UPLOAD_BYTES):
         loop_events.install(server)  # before any update goes out from the worker thread
+        quiet_closed_browsers()
         self.server = server
         self.session = session
         self.assets = dict(assets or {})

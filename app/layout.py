@@ -96,12 +96,13 @@ class ParameterWidgets:
     max_iterations: viser.GuiNumberHandle
     termination: viser.GuiNumberHandle
     hold_curves: viser.GuiCheckboxHandle
+    hold_inside: viser.GuiCheckboxHandle
     radius: viser.GuiSliderHandle
     restart: viser.GuiButtonHandle
 
     def contraction_handles(self) -> tuple:
         return (self.method, self.wl0, self.wh0, self.sl, self.wl_max, self.k, self.max_iterations, self.termination,
-                self.hold_curves)
+                self.hold_curves, self.hold_inside)
 
 
 @dataclass
@@ -244,10 +245,14 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
                                        hint="points the first step brought to a thin part's axis keep that W_L, and "
                                             "handles thinner than a skeleton ball stay in place: small handles and "
                                             "limb ends survive")
+        hold_inside = gui.add_checkbox(label("hold_inside"), params.hold_inside,
+                                       hint="points a step would take out of the original solid go to its medial "
+                                            "surface instead: keeps a bore's loop that contraction closes (a tube "
+                                            "taller than wide), with spurs")
         radius = gui.add_slider(label("sample_radius"), min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
                                 hint="skeleton ball radius, fraction of the bounding-box diagonal")
-    return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, radius,
-                            restart)
+    return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, hold_inside,
+                            radius, restart)
 
 
 def build_view(gui: viser.GuiApi) -> ViewWidgets:

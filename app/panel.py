@@ -72,7 +72,7 @@ class ParameterPanel:
         p.wh0.value, p.sl.value, p.wl_max.value = params.wh0, params.sl, params.wl_max
         p.k.value = params.k or 0
         p.max_iterations.value, p.termination.value = params.max_iterations, params.termination
-        p.hold_curves.value = params.hold_curves
+        p.hold_curves.value, p.hold_inside.value = params.hold_curves, params.hold_inside
 
     def _parameters_shown(self) -> ContractionParams:
         """The panel's values on top of the run's parameters (fields the panel lacks stay); refused: ParameterError."""
@@ -81,7 +81,7 @@ class ParameterPanel:
             method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
             wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
             max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
-            hold_curves=bool(p.hold_curves.value))
+            hold_curves=bool(p.hold_curves.value), hold_inside=bool(p.hold_inside.value))
         return self.accepted
 
     def _radius_shown(self) -> float:

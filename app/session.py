@@ -402,7 +402,7 @@ def _weights_text(label_weights: dict[int, float]) -> str:
 
 
 def _describe(params: ContractionParams) -> str:
-    return assignments(params, [name for name in PARAMETER_LABELS if name != "hold_curves"])
+    return assignments(params, [name for name in PARAMETER_LABELS if name not in ("hold_curves", "hold_inside")])
 
 
 def bundled_assets(directory: Path | None = None) -> dict[str, Path]:

@@ -7,6 +7,8 @@ scene's view settings (layers shown, sizes, opacities) are the shared View tab's
 """
 from __future__ import annotations
 
+import warnings
+
 import viser
 
 from skelcore.verdict import explanation_markdown, failed_criteria
@@ -14,6 +16,15 @@ from skelcore.verdict import explanation_markdown, failed_criteria
 from . import layout
 from .analysis import Plots
 from .scene import SceneView
+
+# What viser says when an update reaches a browser that closed while its view was being brought up to date (the
+# analysis and skeleton threads work on what each viewer shows): the update is dropped, which is all there is to do.
+CLOSED_BROWSER = "Queued a GuiUpdateMessage on a closed connection"
+
+
+def quiet_closed_browsers() -> None:
+    """No warning for an update that reaches a browser just closed (CLOSED_BROWSER)."""
+    warnings.filterwarnings("ignore", message=CLOSED_BROWSER, category=UserWarning)
 
 
 # viser's markdown tables draw their cells unpadded: "100.0%" ran into "at least 90%"

@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
-                    "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves"}
+                    "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves",
+                    "hold_inside": "Hold inside"}
 SKELETON_LABELS = {"sample_radius": "Sample radius"}  # the skeleton's parameter in the More tab
 AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic value (None)
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}

@@ -52,6 +52,10 @@ class ContractionParams:
     # one-ring edges whose middle lies off the sampled surface are dropped before the contraction
     # (skelcore.ring_jumps; not in cloudcontr): a coarse sampling's rings do not join parts across empty space
     drop_jumps: bool = True
+    # points a step would take out of the original solid go to the nearest point of its medial surface instead
+    # (skelcore.medial; not in cloudcontr): loops through a solid that contraction closes (a bore longer than
+    # wide) are kept, at the price of spurs; off by default, tried on a closed mesh that lost loops
+    hold_inside: bool = False
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent, or a second one spanned at least this share
     # of the longest, below this share (not in cloudcontr)

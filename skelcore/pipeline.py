@@ -5,6 +5,7 @@
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -227,8 +228,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     `labels` overrides options.labels and may be an array), clean (unless the cloud was), contract to the
     end, the paper's metrics of every state, the skeleton of the last. `weights`: explicit per-point
     contraction weights of the cloud before cleaning, else those of options.label_weights. A cloud above
-    options.point_budget is contracted at reduced resolution, every input point carried (skelcore.multires).
-    `clock` records the seconds of each stage."""
+    options.point_budget is contracted at reduced resolution, every input point carried (skelcore.multires). A
+    closed mesh whose skeleton keeps fewer loops than its genus is contracted again holding its points inside
+    the solid (`_held_inside`). `clock` records the seconds of each stage."""
     clock = clock or StageClock()
     options.validated()  # bad parameters fail before any work
     if weights is not None and options.label_weights:
@@ -250,58 +252,87 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         for note in cloud.notes:
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
-        reduction = multires.contracted_cloud(cloud.points, options.point_budget)
-        # The inside test samples a large surface at POINT_BUDGET: the run's voxel reduction serves when it is that
-        # one (its centroids as they are: the original surface, as the inspector's metrics sample it).
-        voxels = reduction is not None and not reduction.thinned
-        samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
-        reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
-        with _Helpers() as helpers:
-            cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
-                                      options.normal_convention, samples)
-            if reduction is None:
-                # each state is measured on the second core while the contraction goes on
-                states = run_states(cloud, options.params, progress, weights,
-                                    lambda state: helpers.measuring(lambda: cache.result().append(state)))
-                clock.mark("contract")
-                surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
-                radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
-                evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
-                skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
-                clock.mark("skeleton")
-            else:
-                _say(progress, f"{cloud.name}: {reduction.note()}")
-                # the metrics' inside test samples the centroids before denoising: the false-loop probe's own, of
-                # the contracted points, is made on the second core while the contraction runs
-                probe_inside = helpers.judging(cloud_inside, reduction.points, 0.0)
-                clock.mark("reduce")
-                reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
-                                     None if weights is None else reduction.mean(weights))
-                clock.mark("contract")
-                lifted = helpers.measuring(_lift, reduction, reduced)
-                helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
-                # a failure there is the probe's to report, if it ever needs that test
-                surface = original_surface(reduced[-1], reduction.points,
-                                           None if probe_inside.exception() else probe_inside.result())
-                radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
-                evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
-                                                                  surface.gap_unit(radius)))
-                skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
-                clock.mark("skeleton")
-                states = lifted.result()
-                clock.mark("carry")
-            helpers.wait()
-            cache.result().forget(len(states))  # a run that ended on an earlier state drops the later ones
-            metrics = cache.result().all(states)
-            clock.mark("metrics")
-            ahead = (radius, surface.gap_unit(radius)) == (skeleton.radius, skeleton.gap)
-            source, cloud_parts = evidence.result() if ahead else (None, None)
-            evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts, cloud.solid_loops)
-            clock.mark("evidence")
-            for note in surface.scale_notes(options.sample_radius):
-                _say(progress, f"{cloud.name}: {note}")
+        computed = _contract_and_judge(cloud, options, weights, progress, clock)
+        if cloud.solid_loops is not None and computed.evidence["cycles"] < cloud.solid_loops \
+                and not options.params.hold_inside:
+            computed = _held_inside(computed, options, progress)
+            clock.mark("hold inside")
     except SkelError as error:
         raise named(error, cloud.name) from None
+    return computed
+
+
+def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None) -> Computed:
+    """A run on a closed mesh whose skeleton keeps fewer loops than the mesh's genus, run again with the points held
+    inside the solid (ContractionParams.hold_inside, skelcore.medial): that run when its skeleton keeps more of
+    them, else `plain`; a note says which."""
+    cloud, genus, kept = plain.cloud, plain.cloud.solid_loops, plain.evidence["cycles"]
+    held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
+                               plain.weights, progress, StageClock())
+    better = kept < held.evidence["cycles"] <= genus
+    loops = "loop" if genus == 1 else "loops"
+    note = (f"the skeleton keeps {kept} of the {genus} {loops} through the mesh's solid (its genus), so the "
+            f"contraction was run again with the points held inside the solid (hold_inside): that run keeps "
+            f"{held.evidence['cycles']}, " + ("and is the result" if better else "so the first run is the result"))
+    _say(progress, f"{cloud.name}: {note}")
+    chosen = held if better else plain
+    return dataclasses.replace(chosen, cloud=dataclasses.replace(cloud, notes=[*cloud.notes, note]))
+
+
+def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarray | None,
+                        progress: Callable[[str], None] | None, clock: StageClock) -> Computed:
+    """Contract a loaded, cleaned cloud to the end (reduced first when it is over options.point_budget), the
+    paper's metrics of every state, the skeleton of the last and its evidence for the verdict."""
+    reduction = multires.contracted_cloud(cloud.points, options.point_budget)
+    # The inside test samples a large surface at POINT_BUDGET: the run's voxel reduction serves when it is that
+    # one (its centroids as they are: the original surface, as the inspector's metrics sample it).
+    voxels = reduction is not None and not reduction.thinned
+    samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
+    reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
+    with _Helpers() as helpers:
+        cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
+                                  options.normal_convention, samples)
+        if reduction is None:
+            # each state is measured on the second core while the contraction goes on
+            states = run_states(cloud, options.params, progress, weights,
+                                lambda state: helpers.measuring(lambda: cache.result().append(state)))
+            clock.mark("contract")
+            surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
+            radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
+            evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
+            skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
+            clock.mark("skeleton")
+        else:
+            _say(progress, f"{cloud.name}: {reduction.note()}")
+            # the metrics' inside test samples the centroids before denoising: the false-loop probe's own, of
+            # the contracted points, is made on the second core while the contraction runs
+            probe_inside = helpers.judging(cloud_inside, reduction.points, 0.0)
+            clock.mark("reduce")
+            reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
+                                 None if weights is None else reduction.mean(weights))
+            clock.mark("contract")
+            lifted = helpers.measuring(_lift, reduction, reduced)
+            helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
+            # a failure there is the probe's to report, if it ever needs that test
+            surface = original_surface(reduced[-1], reduction.points,
+                                       None if probe_inside.exception() else probe_inside.result())
+            radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
+            evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
+                                                              surface.gap_unit(radius)))
+            skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
+            clock.mark("skeleton")
+            states = lifted.result()
+            clock.mark("carry")
+        helpers.wait()
+        cache.result().forget(len(states))  # a run that ended on an earlier state drops the later ones
+        metrics = cache.result().all(states)
+        clock.mark("metrics")
+        ahead = (radius, surface.gap_unit(radius)) == (skeleton.radius, skeleton.gap)
+        source, cloud_parts = evidence.result() if ahead else (None, None)
+        evidence = skeleton_evidence(skeleton, states[-1], cloud.points, source, cloud_parts, cloud.solid_loops)
+        clock.mark("evidence")
+        for note in surface.scale_notes(options.sample_radius):
+            _say(progress, f"{cloud.name}: {note}")
     return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence)
 
 

@@ -1,7 +1,10 @@
 """`skelcore bench-quality`: the curve skeleton's topology on shapes of known genus, clean and scan-like.
 
 Every shape of `skelcore.solids` (each sampled to the same number of points) in every variant of
-`skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method.
+`skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method;
+the variant MESH gives the pipeline a shape's mesh file itself, which the loader samples to as many points and
+whose genus it reads (io.Cloud.solid_loops: a run that closed a loop through the solid is tried again holding
+its points inside, skelcore.medial).
 A run is exact when its skeleton's cycle rank and component count equal the shape's. A perturbed run has
 collapsed when its skeleton keeps fewer than half the nodes of the same shape's clean run. A run that fails
 is recorded with its error and the benchmark goes on. Each seed draws the shapes' samples and the variants
@@ -27,6 +30,8 @@ from .solids import DEFAULT_POINTS, benchmark_shapes
 
 COLLAPSE_SHARE = 0.5  # a perturbed run keeps at least this share of its clean run's skeleton nodes
 CLEAN = "clean"
+MESH = "mesh"  # the shape's mesh file, not a cloud: no variant of perturb's (shapes without a mesh skip it)
+BENCH_VARIANTS = (*VARIANTS, MESH)
 
 
 @dataclass
@@ -53,8 +58,10 @@ class CaseResult:
                                                  for key in ("cycles", "components"))
 
 
-def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_dir=None) -> dict:
-    """One run of the pipeline on `points`; the skeleton's topology, node count and time, or the error."""
+def run_case(points, method: str, *, name: str, seed: int = 0, keep_dir=None) -> dict:
+    """One run of the pipeline on `points`: an (n,3) array, or (vertices, faces, count), a mesh given as its file
+    with `count` points drawn over it by the loader; the skeleton's topology, node count and time, or the
+    error."""
     from .export import write_points_ply
     from .params import ContractionParams
     from .options import RunOptions
@@ -62,10 +69,16 @@ def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_
 
     started = time.perf_counter()
     try:
-        options = RunOptions(params=ContractionParams(method=method), seed=seed)
+        mesh = isinstance(points, tuple)
+        options = RunOptions(params=ContractionParams(method=method), seed=seed, sample=points[2] if mesh else None)
         with tempfile.TemporaryDirectory(prefix="skelcore-quality-") as scratch:
             source = Path(scratch) / f"{name}.ply"
-            write_points_ply(source, points)
+            if mesh:
+                import trimesh
+
+                trimesh.Trimesh(points[0], points[1], process=False).export(source)
+            else:
+                write_points_ply(source, points)
             out = Path(keep_dir) / f"{name}_{method}" if keep_dir is not None else Path(scratch) / "run"
             result = run_pipeline(source, out, options)
         final = result.states[-1]
@@ -79,14 +92,14 @@ def run_case(points: np.ndarray, method: str, *, name: str, seed: int = 0, keep_
                 "seconds": time.perf_counter() - started}
 
 
-def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, variants=VARIANTS,
+def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, variants=BENCH_VARIANTS,
                       points: int = DEFAULT_POINTS, seeds=(0,), workers: int = 1, reference_dir=None,
                       keep_dir=None, progress: Callable[[str], None] | None = None) -> list[CaseResult]:
     """Run every seed x shape x variant x method; results in that order."""
-    unknown = [v for v in variants if v not in VARIANTS] + [m for m in methods if m not in METHODS]
+    unknown = [v for v in variants if v not in BENCH_VARIANTS] + [m for m in methods if m not in METHODS]
     if unknown:
         raise ParameterError(f"bench-quality: unknown variant or method {unknown[0]!r} "
-                             f"(variants: {', '.join(VARIANTS)}; methods: {', '.join(METHODS)})")
+                             f"(variants: {', '.join(BENCH_VARIANTS)}; methods: {', '.join(METHODS)})")
     if int(points) != points or points < 100:
         raise ParameterError(f"bench-quality: points={points!r} must be an integer >= 100")
     if int(workers) != workers or workers < 1:
@@ -98,9 +111,15 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
         for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
             expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
             for variant in variants:
-                cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals, loops=shape.cycles > 0)
+                if variant == MESH:
+                    if shape.mesh is None:  # a scan: no mesh file to give
+                        continue
+                    cloud, count = (*shape.mesh, len(shape.points)), len(shape.points)
+                else:
+                    cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals, loops=shape.cycles > 0)
+                    count = len(cloud)
                 for method in methods:
-                    cases.append((CaseResult(shape.name, variant, method, expected, len(cloud), seed), cloud))
+                    cases.append((CaseResult(shape.name, variant, method, expected, count, seed), cloud))
     several = len({case.seed for case, _ in cases}) > 1
     keep = Path(keep_dir) if keep_dir is not None else None
 
@@ -142,7 +161,8 @@ def summarise(results: list[CaseResult]) -> dict:
     for method in dict.fromkeys(r.method for r in results):
         mine = [r for r in results if r.method == method]
         clean = [r for r in mine if r.variant == CLEAN]
-        perturbed = [r for r in mine if r.variant != CLEAN]
+        perturbed = [r for r in mine if r.variant not in (CLEAN, MESH)]
+        meshes = [r for r in mine if r.variant == MESH]
         checked = [r for r in perturbed if (r.shape, method, r.seed) in clean_nodes]
         collapsed = [r for r in checked
                      if r.nodes is None or r.nodes < COLLAPSE_SHARE * clean_nodes[(r.shape, method, r.seed)]]
@@ -150,6 +170,7 @@ def summarise(results: list[CaseResult]) -> dict:
         summary[method] = {
             "clean_exact": sum(r.exact for r in clean), "clean_runs": len(clean),
             "perturbed_exact": sum(r.exact for r in perturbed), "perturbed_runs": len(perturbed),
+            "mesh_exact": sum(r.exact for r in meshes), "mesh_runs": len(meshes),
             "by_variant": {v: [sum(r.exact for r in mine if r.variant == v), sum(r.variant == v for r in mine)]
                            for v in dict.fromkeys(r.variant for r in mine)},
             "perturbed_by_seed": {str(seed): [sum(r.exact for r in perturbed if r.seed == seed),
@@ -195,9 +216,10 @@ def format_table(results: list[CaseResult], summary: dict, total_seconds: float)
         lines.append(line)
     lines.append("")
     for method, s in summary.items():
+        on_meshes = f", on mesh files {_share(s['mesh_exact'], s['mesh_runs'])}" if s["mesh_runs"] else ""
         lines.append(f"{method}: exact (cycles and components) on clean clouds "
                      f"{_share(s['clean_exact'], s['clean_runs'])}, on perturbed "
-                     f"{_share(s['perturbed_exact'], s['perturbed_runs'])}; no collapse (>= {COLLAPSE_SHARE:.0%} of "
+                     f"{_share(s['perturbed_exact'], s['perturbed_runs'])}{on_meshes}; no collapse (>= {COLLAPSE_SHARE:.0%} of "
                      f"the clean run's nodes) {_share(s['no_collapse'], s['collapse_checked'])}; "
                      f"{s['errors']} errors; {s['seconds']:.0f} s")
         lines.append("  exact by variant: " + ", ".join(f"{v} {e}/{n}" for v, (e, n) in s["by_variant"].items()))

@@ -34,6 +34,7 @@ class BenchmarkShape:
     normals: np.ndarray | None = None  # (n,3) outward unit normals at the samples, when a mesh gives them
     ends: int | None = None  # degree-1 nodes of a correct skeleton, where a rig or the construction fixes it
     note: str = ""  # why the truth is what it is
+    mesh: tuple[np.ndarray, np.ndarray] | None = None  # (vertices, faces) when the shape is a closed mesh
 
 
 # --- CSG solids ---------------------------------------------------------------------------------
@@ -282,7 +283,8 @@ def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> Bench
     samples, normals = sample_mesh(vertices, faces, points, seed)
     _, ends, description = _solid(name)
     return BenchmarkShape(name, samples, topology["genus"], topology["components"], f"manifold3d: {description}",
-                          normals, ends, f"genus {topology['genus']} by the Euler characteristic of its closed mesh")
+                          normals, ends, f"genus {topology['genus']} by the Euler characteristic of its closed mesh",
+                          (vertices, faces))
 
 
 # --- reference meshes and scans -------------------------------------------------------------------
@@ -340,7 +342,7 @@ def reference_shape(name: str, reference_dir, points: int = DEFAULT_POINTS, seed
     elif name == "simplejoint":
         ends = 3
     return BenchmarkShape(name, samples, reference.cycles, reference.components, f"reference: {reference.file}",
-                          normals, ends, reference.note)
+                          normals, ends, reference.note, None if cloud.faces is None else (cloud.points, cloud.faces))
 
 
 def _farthest_points(points: np.ndarray, count: int, seed: int) -> np.ndarray:

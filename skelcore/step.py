@@ -122,6 +122,14 @@ class RunStart:
         return _outside_share(points, *self.box)
 
     @functools.cached_property
+    def medial(self):
+        """The input's solid and medial surface (skelcore.medial.MedialHold), run's frame; made when a step first
+        asks (params.hold_inside)."""
+        from .medial import MedialHold  # its loop probe imports networkx: only runs that hold points pay for it
+
+        return MedialHold.of_cloud(self.unit, self.diagonal)
+
+    @functools.cached_property
     def anchors(self) -> np.ndarray:
         """(n, 3) the axis point of each input point on a handle thinner than the skeleton resolves (NaN: free;
         curveness.thin_tubes), in the run's frame; found when a step first asks (params.hold_curves)."""
@@ -207,7 +215,8 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     then shortens it, until one step flattens a thick torus's ring into a bar);
     and a fling: more than ROBUST_SHARE of the points newly outside the input's box (RunStart.box).
     The first step solves on the input's own rings, so it is exempt from the last two: an over-strong first
-    step is a contraction to show (and judge), not a degenerate one.
+    step is a contraction to show (and judge), not a degenerate one. With params.hold_inside the candidate's
+    points outside the input's solid are put on its medial surface first (RunStart.medial), and checked so.
 
     row_weights: per-point contraction weights of the present points (None: all 1). laplacian_values: the
     values of L at `current` (LaplacianSystem.laplacian_values), when the caller has them already.
@@ -229,6 +238,8 @@ def solve_stages(system_builder: LaplacianSystem, solver: CholeskySolver, curren
     timings = {"laplacian": laplacian_end - laplacian_start, "solve": solve_end - solve_start}
     if failure is None and not np.isfinite(candidate).all():
         failure = ("nan", "")
+    if failure is None and params.hold_inside:
+        candidate = run.medial.hold(candidate)[0]
     if failure is None and (robust_extent(candidate) > params.bbox_growth * run.extent0).any():
         failure = ("bbox_growth", "")
     if failure is None and not first_step:

@@ -259,7 +259,7 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
     cycles = v["skeleton_cycles"]
     yield _criterion("skeleton loops", cycles == loops and (solid is None or cycles >= solid), "unstable", f"{cycles}",
                      f"as many as the contracted cloud holds ({loops})"
-                     + ("" if solid is None else f", and at least the mesh's solid has ({solid})"))
+                     + ("" if solid is None else f", and no fewer than the mesh's genus ({solid})"))
 
 
 def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
@@ -313,8 +313,8 @@ WHY = {
     "skeleton pieces": "the graph step can split or join pieces, which the contraction's statistics cannot see",
     "skeleton loops": "the graph step can lose or invent loops, which the contraction's statistics cannot see; "
                       "a closed mesh's genus counts the loops through its solid, which the contraction itself can "
-                      "close (a bore longer than it is wide is pulled onto its axis) or the skeleton not resolve "
-                      "(a hole a few sample radii across)",
+                      "close (a bore longer than it is wide is pulled onto its axis; hold_inside can keep it) or the "
+                      "skeleton not resolve (a hole a few sample radii across)",
 }
 
 

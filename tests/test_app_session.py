@@ -136,7 +136,7 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     from app.compare import comparison, comparison_note, pin
 
     real = session_module.skeleton_evidence
-    split = lambda *args: {**real(*args), "components": 5}  # a skeleton in more pieces than the clouds hold
+    split = lambda *args, **kwargs: {**real(*args, **kwargs), "components": 5}  # more pieces than the clouds hold
     monkeypatch.setattr(session_module, "skeleton_evidence", split)
     session = Session(validate(make_shape("torus", 1500).points, name="torus.xyz"), ContractionParams())
     for _ in range(2):  # iteration 2 of this torus is stable by its metrics

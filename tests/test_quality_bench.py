@@ -1,4 +1,5 @@
 """The quality benchmark's shapes, perturbations and command, on a small fast subset."""
+import json
 import re
 
 import numpy as np
@@ -133,6 +134,7 @@ def test_reference_shapes_load_and_sample(reference_dir):
     assert [s.points.shape for s in shapes] == [(N, 3), (N, 3)]
     assert shapes[0].normals is not None and shapes[1].normals is None
     assert shapes[0].ends == 6  # the rig's leaves: five finger tips and the wrist
+    assert shapes[0].mesh is not None and shapes[1].mesh is None  # the duck is a scan: no "mesh" run
 
 
 # --- perturbations ----------------------------------------------------------------------------------
@@ -277,6 +279,32 @@ def test_several_seeds_are_counted_apart_and_each_run_checked_against_the_clean_
     assert "exact perturbed by seed: 0 1/1, 1 0/1" in table
     rows = [line.split() for line in table.splitlines() if line.startswith("a ")]
     assert [row[2] for row in rows] == ["0", "0", "1", "1"]  # a seed column once there are several
+
+
+def test_mesh_runs_are_counted_apart_from_the_perturbed_clouds():
+    from skelcore.quality_bench import format_table, summarise
+
+    results = [_result("a", "clean", "lbc", 1, 40), _result("a", "noise_1", "lbc", 0, 40),
+               _result("a", "mesh", "lbc", 1, 40)]
+    summary = summarise(results)["lbc"]
+    assert (summary["perturbed_exact"], summary["perturbed_runs"]) == (0, 1)
+    assert (summary["mesh_exact"], summary["mesh_runs"]) == (1, 1)
+    assert "on perturbed 0/1 (0%), on mesh files 1/1 (100%)" in format_table(results, summarise(results), 3.0)
+
+
+def test_the_mesh_variant_gives_the_pipeline_the_shapes_mesh_file_and_skips_scans(tmp_path):
+    """A drilled block's mesh file: the loader samples it to the benchmark's count and reads its genus, which the
+    run's evidence carries (a point cloud's has none)."""
+    from skelcore.quality_bench import run_quality_bench
+
+    results = run_quality_bench(methods=["glskeleton"], shapes=["block_1_hole"], variants=["clean", "mesh"],
+                                points=N, keep_dir=tmp_path)
+    clean, mesh = results
+    assert mesh.variant == "mesh" and mesh.n_points == N and mesh.error is None and mesh.exact
+    metrics = json.loads((tmp_path / "block_1_hole_mesh_glskeleton" / "metrics.json").read_text())
+    assert metrics["skeleton_evidence"]["input_loops"] == 1
+    assert json.loads((tmp_path / "block_1_hole_clean_glskeleton" / "metrics.json").read_text()
+                      )["skeleton_evidence"]["input_loops"] is None
 
 
 def test_bench_quality_refuses_seeds_that_are_no_draw(capsys):

@@ -110,7 +110,7 @@ def test_a_skeleton_with_fewer_loops_than_a_closed_meshs_solid_is_unstable_thoug
     assert judge(features(entry(), closed_shut), 3, T)["label"] == "stable"  # a point cloud: nothing to tell
     verdict = judge(features(entry(), {**closed_shut, "input_loops": 1}), 3, T)
     assert verdict["label"] == "unstable"
-    assert ("skeleton loops: 0 (as many as the contracted cloud holds (0), and at least the mesh's solid has (1)): "
+    assert ("skeleton loops: 0 (as many as the contracted cloud holds (0), and no fewer than the mesh's genus (1)): "
             "fail") in verdict["reasons"]
     assert judge(features(entry(), {**evidence(), "input_loops": 1}), 3, T)["label"] == "stable"
     # more loops than the genus are the contracted cloud's to judge, as before
