@@ -176,7 +176,7 @@ def _panel(monkeypatch):
     box = types.SimpleNamespace
     boxes = box(method=box(value="LBC"), k=box(value=0), wl0=box(value=0.0), wh0=box(value=1.0), sl=box(value=3.0),
                 wl_max=box(value=2048.0), max_iterations=box(value=20), termination=box(value=0.01),
-                hold_curves=box(value=True), radius=box(value=0.02))
+                hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value=0.02))
     notices, taken = [], []
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
                            lambda client, title, body: notices.append(body),
