@@ -185,7 +185,7 @@ class Presenter:
         if points[1] != index:  # drawn late: the status and legend speak of the points shown
             self.analyses.readiness(run, points[1])
         with viewer.client.atomic():
-            viewer.show_plots(plots, verdict)
+            viewer.show_plots(plots, verdict, status.hold_inside_hint(verdict, state, run.cloud.solid_loops))
             if colours is not None:
                 viewer.view.set_colours((run, index), colours.contracted, colour_by, colours.original)
             self.update_legend(viewer, "" if colours is None else colours.note)
@@ -220,7 +220,7 @@ class Presenter:
         pinned = self.pinned
         if viewer.showing(run, index):
             with viewer.client.atomic():
-                viewer.show_verdict(verdict)
+                viewer.show_verdict(verdict, status.hold_inside_hint(verdict, state, run.cloud.solid_loops))
                 if pinned is not None:  # the Compare tab names the same verdict; its figures stand
                     viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict)
             viewer.client.flush()

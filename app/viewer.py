@@ -74,22 +74,25 @@ class Viewer:
         # with one iteration the slider still spans 0..1 (viser's needs max > min): mark only the 0, not an end at 1
         timeline._marks = self._zero_mark if count < 2 else None  # None: viser marks both ends
 
-    def show_plots(self, plots: Plots, verdict: dict) -> None:
-        """The histograms and the convergence plot (serialised once, shared by every viewer), the verdict."""
+    def show_plots(self, plots: Plots, verdict: dict, hint: str = "") -> None:
+        """The histograms and the convergence plot (serialised once, shared by every viewer), the verdict (and
+        `hint`, see show_verdict)."""
         handles = (self.ui.plots.hist_theta, self.ui.plots.hist_kappa, self.ui.plots.convergence)
         for handle, figure, text in zip(handles, plots.figures, plots.json):
             handle._figure = figure
             handle._plotly_json_str = text  # viser's figure setter would serialise it again for each viewer
-        self.show_verdict(verdict)
+        self.show_verdict(verdict, hint)
 
-    def show_verdict(self, verdict: dict) -> None:
-        """The explanation table in the Verdict tab, its headline above the histograms."""
+    def show_verdict(self, verdict: dict, hint: str = "") -> None:
+        """The explanation table in the Verdict tab, its headline above the histograms, `hint` after it (what to
+        try, app.status.hold_inside_hint)."""
         table = explanation_markdown(verdict)
         self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{table}\n\n</div>'
         names = [c["name"] for c in failed_criteria(verdict)]
         failed = ", ".join(names[:HEADLINE_CRITERIA]) + (f" and {len(names) - HEADLINE_CRITERIA} more"
                                                           if len(names) > HEADLINE_CRITERIA else "")
-        headline = (table.splitlines()[0] if table else "") + (f" · failed: {failed}" if names else "")
+        headline = ((table.splitlines()[0] if table else "") + (f" · failed: {failed}" if names else "")
+                    + (f" · **{hint}**" if hint else ""))
         self.ui.plots.verdict_line.content = f"{headline} _(criteria: Verdict tab)_"
 
     def show_comparison(self, note: str, convergence, theta, kappa, shown: bool = True) -> None:

@@ -307,6 +307,27 @@ def test_the_verdict_line_above_the_histograms_names_the_failed_criteria():
         assert all(f"| {name} |" in table.content for name in names)  # the tab keeps every criterion
 
 
+def test_the_headline_says_to_hold_inside_when_the_skeleton_keeps_fewer_loops_than_the_meshs_genus():
+    """A tall pipe's bore pulled onto its axis: the headline names what to try, unless the run held its points inside
+    already, the input is no closed mesh, or the skeleton keeps every loop."""
+    from app.status import hold_inside_hint
+    from app.viewer import Viewer
+
+    lost = {"label": "unstable", "iteration": 5, "criteria": [{**_criterion("skeleton loops", False), "value": "0"}]}
+    plain, held = (types.SimpleNamespace(params=ContractionParams(hold_inside=on)) for on in (False, True))
+    hint = hold_inside_hint(lost, plain, 1)
+    assert hint == "0 of the mesh's 1 loop kept: try More > Hold inside"
+    assert hold_inside_hint(lost, held, 1) == hold_inside_hint(lost, plain, None) == hold_inside_hint(lost, plain, 0) == ""
+    kept = {**lost, "criteria": [{**_criterion("skeleton loops", True), "value": "1"}]}
+    assert hold_inside_hint(kept, plain, 1) == ""
+    line, table = types.SimpleNamespace(content=""), types.SimpleNamespace(content="")
+    viewer = types.SimpleNamespace(ui=types.SimpleNamespace(plots=types.SimpleNamespace(verdict=table,
+                                                                                         verdict_line=line)))
+    Viewer.show_verdict(viewer, lost, hint)
+    assert line.content == ("**Iteration 5: unstable** · failed: skeleton loops · **0 of the mesh's 1 loop kept: try "
+                            "More > Hold inside** _(criteria: Verdict tab)_")
+
+
 def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
     """A mesh drawn over instead of its vertices was said only in the terminal or a passing notification; the notes
     below the tabs keep it, beside what cleaning removed."""
