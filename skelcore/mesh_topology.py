@@ -11,7 +11,6 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from .distinct import row_groups
 
 
 def mesh_topology(faces: np.ndarray, vertex_count: int) -> dict:
@@ -19,10 +18,13 @@ def mesh_topology(faces: np.ndarray, vertex_count: int) -> dict:
     over `vertex_count` vertices (those no face uses are not counted). Closed: every edge has exactly two
     faces. Vertices at one position must have been merged (a triangle soup counts as separate triangles)."""
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    used = np.unique(faces)
+    used = np.flatnonzero(np.bincount(faces.ravel(), minlength=vertex_count))
     sides = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    group, uses = row_groups(sides)
-    edges = sides[np.unique(group, return_index=True)[1]]
+    # one sort of one key per side (low * count + high) finds the edges and how many faces each has
+    keys = np.sort(sides[:, 0] * vertex_count + sides[:, 1])
+    starts = np.r_[True, keys[1:] != keys[:-1]] if len(keys) else np.zeros(0, dtype=bool)
+    uses = np.diff(np.flatnonzero(np.r_[starts, True]))
+    edges = np.stack(np.divmod(keys[starts], vertex_count), axis=1)
     chi = len(used) - len(edges) + len(faces)
     components = _pieces(edges, used, vertex_count)
     border = edges[uses == 1]

@@ -29,6 +29,17 @@ def test_the_genus_of_closed_and_open_surfaces():
     assert solid_loops(None, 10) is None
 
 
+@pytest.mark.parametrize("make", [lambda: trimesh.creation.torus(1.0, 0.3), _two_tori,
+                                  lambda: trimesh.creation.annulus(0.5, 1.0, height=2.0),
+                                  lambda: trimesh.Trimesh(*(lambda t: (t.vertices, t.faces[3:]))(
+                                      trimesh.creation.torus(1.0, 0.3)))])
+def test_the_counts_agree_with_trimeshs_own(make):
+    mesh = make()
+    topology = mesh_topology(mesh.faces, len(mesh.vertices))
+    assert topology["euler"] == mesh.euler_number and topology["closed"] == mesh.is_watertight
+    assert topology["components"] == len(mesh.split(only_watertight=False))
+
+
 def test_a_vertex_no_face_uses_is_not_counted():
     torus = trimesh.creation.torus(1.0, 0.3)
     assert mesh_topology(torus.faces, len(torus.vertices) + 5)["euler"] == 0
