@@ -254,7 +254,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         weights = options.weights(cloud) if weights is None else weights
         computed = _contract_and_judge(cloud, options, weights, progress, clock)
         if cloud.solid_loops is not None and computed.evidence["cycles"] < cloud.solid_loops \
-                and not options.params.hold_inside:
+                and options.hold_retry and not options.params.hold_inside:
             computed = _held_inside(computed, options, progress)
             clock.mark("hold inside")
     except SkelError as error:

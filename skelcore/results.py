@@ -41,6 +41,7 @@ def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: lis
         })
     final = states[-1]
     return {"method": final.params.method, "n_points": len(cloud.points), "cleaning": cloud.cleaning,
+            "notes": list(cloud.notes),  # what loading and cleaning did, and a second run's reason
             "iterations": iterations,
             "termination": final.termination,
             "termination_message": final.message or TERMINATION_MESSAGES.get(final.termination, ""),

@@ -41,11 +41,11 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                             "handles of the input thinner than a skeleton ball stay in place (shown on their axis), "
                             "so small handles and limbs' ends are not shortened away while bulkier parts contract "
                             "(--no-hold-curves: W_L rises everywhere, as in cloudcontr) (default: %(default)s)")
-    group.add_argument("--hold-inside", action=argparse.BooleanOptionalAction, default=defaults.hold_inside,
+    group.add_argument("--hold-inside", action=argparse.BooleanOptionalAction, default=None,
                        help="points a step would take out of the original solid go to the nearest point of its medial "
                             "surface instead, which keeps loops that contraction closes (a bore longer than wide), "
-                            "with spurs; a run on a closed mesh whose skeleton keeps fewer loops than the mesh's "
-                            "genus tries it by itself (default: %(default)s)")
+                            "with spurs (default: off, and tried by itself on a closed mesh whose skeleton keeps "
+                            "fewer loops than the mesh's genus; either flag decides instead)")
     group.add_argument("--balance-density", action=argparse.BooleanOptionalAction, default=defaults.balance_density,
                        help="weight each point's attraction by the surface area it stands for, so that a sparsely "
                             "sampled part contracts at the pace of a densely sampled one (--no-balance-density: every "
@@ -112,7 +112,7 @@ def contraction_params(args: argparse.Namespace) -> ContractionParams:
     return ContractionParams(method=args.method, k=args.k, wl0=args.wl0, wh0=args.wh0, sl=args.sl, wl_max=args.wl_max,
                              max_iterations=args.max_iterations, termination=args.termination,
                              curve_share=args.curve_share,
-                             hold_curves=args.hold_curves, hold_inside=args.hold_inside,
+                             hold_curves=args.hold_curves, hold_inside=bool(args.hold_inside),
                              balance_density=args.balance_density,
                              drop_jumps=args.drop_jumps, gl_merge=args.gl_merge, gl_covariance=args.gl_covariance,
                              gl_merge_share=args.gl_merge_share).validated()
@@ -128,7 +128,7 @@ def run_options(args: argparse.Namespace):
                       sample=args.sample, voxel_size=args.voxel_size, max_points=args.max_points, cleaning=cleaning,
                       labels=args.labels, label_weights=tuple(sorted(dict(args.label_weight).items())),
                       point_budget=None if args.full_resolution else args.point_budget,
-                      drop_nonfinite=args.drop_nonfinite)
+                      drop_nonfinite=args.drop_nonfinite, hold_retry=args.hold_inside is None)
 
 
 def random_seed(text: str) -> int:

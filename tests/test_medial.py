@@ -60,7 +60,7 @@ def _tall_pipe():
 
 
 @pytest.mark.parametrize("method", ["lbc", "glskeleton"])
-def test_a_tall_pipes_loop_closed_by_the_contraction_is_kept_by_holding_its_points_inside(method):
+def test_a_tall_pipes_loop_closed_by_the_contraction_is_kept_by_holding_its_points_inside(method, tmp_path):
     """A pipe twice as tall as its bore is wide: plain contraction pulls its wall onto the axis (no loop); the mesh's
     genus says the solid has one, so the run is made again with the points held inside, and that run keeps it."""
     import skelcore
@@ -71,6 +71,8 @@ def test_a_tall_pipes_loop_closed_by_the_contraction_is_kept_by_holding_its_poin
     assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside  # the retry's run
     assert any("keeps 0 of the 1 loop through the mesh's solid" in note and "and is the result" in note
                for note in result.cloud.notes)
+    folder = result.save(tmp_path / method)
+    assert any("and is the result" in note for note in json.loads((folder / "metrics.json").read_text())["notes"])
     # the held run's points stay in the material: none lies in the bore
     radial = np.hypot(*result.states[-1].points[:, :2].T)
     assert np.mean(radial < 0.45) < 0.01
@@ -87,3 +89,22 @@ def test_a_point_cloud_is_never_run_again_and_the_flag_reaches_params_json(tmp_p
     assert main(["run", str(tmp_path / "pipe.xyz"), "--out", str(tmp_path / "held"), "--quiet", "--hold-inside"]) == 0
     params = json.loads((tmp_path / "held" / "params.json").read_text())
     assert params["contraction"]["hold_inside"]
+
+
+def test_hold_inside_chosen_either_way_decides_and_nothing_is_run_again(tmp_path, capsys):
+    """`--no-hold-inside` (the API's hold_inside=False) means no hold at all: the pipe keeps the plain run's skeleton
+    and no note; `--hold-inside` holds from the first run, with no second one either."""
+    import skelcore
+    from skelcore.cli import main
+
+    pipe = _tall_pipe()
+    plain = skelcore.skeletonize(pipe, "glskeleton", hold_inside=False)
+    assert plain.topology["cycles"] == 0 and not plain.states[-1].params.hold_inside
+    assert not any("hold_inside" in note for note in plain.cloud.notes)
+    pipe.export(tmp_path / "pipe.stl")
+    for flag, held in (("--no-hold-inside", False), ("--hold-inside", True)):
+        out = tmp_path / flag
+        assert main(["run", str(tmp_path / "pipe.stl"), "--out", str(out), "--method", "glskeleton", flag]) == 0
+        assert "run again" not in capsys.readouterr().out
+        assert json.loads((out / "params.json").read_text())["contraction"]["hold_inside"] is held
+        assert not any("run again" in note for note in json.loads((out / "metrics.json").read_text())["notes"])
