@@ -214,7 +214,7 @@ class Session:
             self._pending = live
         self._live_note = changed and f"{assignments(live, changed)} from iteration {self.latest.iteration + 1}"
         ended = " (the run has ended)" if self.finished else ""
-        self._restart_note = waiting and f"{assignments(params, waiting)} on restart{ended}"
+        self._restart_note = waiting and f"{assignments(params, waiting)} at restart{ended}"
         message = self.pending
         if message:
             self.note(f"tuned at iteration {self.latest.iteration}: {message}")

@@ -87,7 +87,9 @@ class Viewer:
         """The explanation table in the Verdict tab, its headline above the histograms, `hint` after it (what to
         try, app.status.hold_inside_hint)."""
         table = explanation_markdown(verdict)
-        self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{table}\n\n</div>'
+        head, _, rest = table.partition("\n")
+        shown = f"{head}\n\n**{hint}**\n{rest}" if hint else table  # the tab says it under its title too
+        self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{shown}\n\n</div>'
         names = [c["name"] for c in failed_criteria(verdict)]
         failed = ", ".join(names[:HEADLINE_CRITERIA]) + (f" and {len(names) - HEADLINE_CRITERIA} more"
                                                           if len(names) > HEADLINE_CRITERIA else "")

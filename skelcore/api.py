@@ -188,17 +188,19 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       with a part many times denser than the surface around it with that part thinned, every point carried along
       (skelcore.multires); 0 or None: every point contracted (`skelcore run --full-resolution`).
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
-      max_iterations, termination, ...); unset ones take their defaults. hold_inside unset: a closed mesh whose
-      skeleton keeps fewer loops than its genus is contracted again holding its points inside (its notes say so);
-      set either way, it decides.
+      max_iterations, termination, ...); unset ones take their defaults. hold_inside unset (or None): a closed
+      mesh whose skeleton keeps fewer loops than its genus is contracted again holding its points inside (its
+      notes say so); True or False, it decides.
     progress: called with one line per iteration (e.g. print).
     """
+    if params.get("hold_inside", True) is None:  # unset, said as None
+        del params["hold_inside"]
     options = RunOptions(
         params=contraction_params(method, params), sample_radius=sample_radius, seed=seed, sample=sample,
         voxel_size=voxel_size, max_points=max_points, cleaning=cleaning_params(cleaning),
         labels=str(labels) if isinstance(labels, (str, Path)) else None,
         label_weights=tuple(sorted(check_label_weights(label_weights).items())), drop_nonfinite=drop_nonfinite,
-        point_budget=point_budget, hold_retry="hold_inside" not in params)
+        point_budget=point_budget, hold_retry=params.get("hold_inside") is None)
     if isinstance(labels, (str, Path)) and isinstance(points_or_path, (str, Path)):
         labels = None  # read by the load, through options.labels
     return run(points_or_path, options, progress=progress, labels=labels, weights=weights)

@@ -212,7 +212,8 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
         points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
-    loops = solid_loops(faces, len(points))
+    loops, no_solid = solid_loops(faces, len(points))
+    notes += [no_solid] if no_solid else []
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None

@@ -269,11 +269,15 @@ def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str],
     cloud, genus, kept = plain.cloud, plain.cloud.solid_loops, plain.evidence["cycles"]
     held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
                                plain.weights, progress, StageClock())
-    better = kept < held.evidence["cycles"] <= genus
+    again = held.evidence["cycles"]
+    better = kept < again <= genus
     loops = "loop" if genus == 1 else "loops"
+    verdict = ("and is the result" if better else
+               "more than the mesh has, so the first run is the result" if again > genus else
+               "no more, so the first run is the result")
     note = (f"the skeleton keeps {kept} of the {genus} {loops} through the mesh's solid (its genus), so the "
             f"contraction was run again with the points held inside the solid (hold_inside): that run keeps "
-            f"{held.evidence['cycles']}, " + ("and is the result" if better else "so the first run is the result"))
+            f"{again}, {verdict}")
     _say(progress, f"{cloud.name}: {note}")
     chosen = held if better else plain
     return dataclasses.replace(chosen, cloud=dataclasses.replace(cloud, notes=[*cloud.notes, note]))

@@ -313,8 +313,9 @@ WHY = {
     "skeleton pieces": "the graph step can split or join pieces, which the contraction's statistics cannot see",
     "skeleton loops": "the graph step can lose or invent loops, which the contraction's statistics cannot see; "
                       "a closed mesh's genus counts the loops through its solid, which the contraction itself can "
-                      "close (a bore longer than it is wide is pulled onto its axis; hold_inside can keep it) or the "
-                      "skeleton not resolve (a hole a few sample radii across)",
+                      "close (a bore longer than it is wide is pulled onto its axis; holding the points inside the "
+                      "solid can keep it: --hold-inside, or Hold inside in the inspector) or the skeleton not "
+                      "resolve (a hole a few sample radii across)",
 }
 
 

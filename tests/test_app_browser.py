@@ -285,7 +285,7 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     page.get_by_label("Method").click()
     page.get_by_role("option", name="GLSkeleton").click()
     set_value(page, "W_H0", 2)
-    page.get_by_text("Pending: W_H0 2 from iteration 2; Method GLSkeleton on restart").first.wait_for()
+    page.get_by_text("Pending: W_H0 2 from iteration 2; Method GLSkeleton at restart").first.wait_for()
     page.get_by_text("(View: Show provisional)").first.wait_for()
     for name in ("Step", "Play", "Run to end", "Reset", "Restart with these parameters"):
         assert shown_in_panel(page, button(page, name)), name
@@ -917,7 +917,7 @@ def test_method_selector_runs_glskeleton(fresh, page):
     inspector = fresh
     page.get_by_label("Method").click()
     page.get_by_role("option", name="GLSkeleton").click()
-    wait_until(lambda: any("Method GLSkeleton on restart" in line for line in inspector.session.log), "the note")
+    wait_until(lambda: any("Method GLSkeleton at restart" in line for line in inspector.session.log), "the note")
     set_value(page, "W_L0", 20)
     wait_until(lambda: inspector.session.params.wl0 == 20, "W_L0 = 20 in the session")
     click(page, "Restart with these parameters")
@@ -1018,7 +1018,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     # tuning after the end says it waits for a restart
     open_tab(page, "Parameters")
     set_value(page, "s_L", 2)
-    page.get_by_text("s_L 2 on restart (the run has ended)").first.wait_for()
+    page.get_by_text("s_L 2 at restart (the run has ended)").first.wait_for()
     # back to the module's settings
     open_tab(page, "View", "Opacity")
     set_value(page, "Original", 1)

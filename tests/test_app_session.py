@@ -62,7 +62,7 @@ def test_tuning_after_the_end_waits_for_restart(session):
     while session.step() is not None:
         pass
     message = session.tune(session.params.replace(sl=2.0))
-    assert message == "s_L 2 on restart (the run has ended)" and session.pending == message
+    assert message == "s_L 2 at restart (the run has ended)" and session.pending == message
     assert "from iteration" not in message
 
 
@@ -76,7 +76,7 @@ def test_pending_change_is_told_until_used(session):
 def test_restart_only_fields_wait_for_restart(session):
     session.step()
     message = session.tune(session.params.replace(k=12, wh0=2.0))
-    assert "W_H0 2 from iteration 2" in message and "k 12 on restart" in message
+    assert "W_H0 2 from iteration 2" in message and "k 12 at restart" in message
     assert session.step().params.k is None  # the running generator never sees k
     session.restart(session.params.replace(k=12))
     assert len(session.history) == 1 and session.start_params.k == 12

@@ -326,6 +326,7 @@ def test_the_headline_says_to_hold_inside_when_the_skeleton_keeps_fewer_loops_th
     Viewer.show_verdict(viewer, lost, hint)
     assert line.content == ("**Iteration 5: unstable** · failed: skeleton loops · **0 of the mesh's 1 loop kept: try "
                             "More > Hold inside** _(criteria: Verdict tab)_")
+    assert "**Iteration 5: unstable**\n\n**0 of the mesh's 1 loop kept: try More > Hold inside**\n" in table.content
 
 
 def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():

@@ -66,7 +66,7 @@ def test_a_tall_pipes_loop_closed_by_the_contraction_is_kept_by_holding_its_poin
     import skelcore
 
     pipe = _tall_pipe()
-    result = skelcore.skeletonize(pipe, method, point_budget=None)
+    result = skelcore.skeletonize(pipe, method, point_budget=None, hold_inside=None)  # None: unset
     assert result.cloud.solid_loops == 1
     assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside  # the retry's run
     assert any("keeps 0 of the 1 loop through the mesh's solid" in note and "and is the result" in note

@@ -19,14 +19,41 @@ def test_the_genus_of_closed_and_open_surfaces():
     torus, ball = trimesh.creation.torus(1.0, 0.3), trimesh.creation.icosphere(2)
     assert mesh_topology(torus.faces, len(torus.vertices)) == {
         "components": 1, "euler": 0, "boundary_loops": 0, "genus": 1, "closed": True}
-    assert solid_loops(ball.faces, len(ball.vertices)) == 0
+    assert solid_loops(ball.faces, len(ball.vertices)) == (0, "")
     pair = _two_tori()
     assert mesh_topology(pair.faces, len(pair.vertices))["components"] == 2
-    assert solid_loops(pair.faces, len(pair.vertices)) == 2
+    assert solid_loops(pair.faces, len(pair.vertices)) == (2, "")
     opened = torus.faces[1:]  # one triangle removed: a boundary loop, no solid inside
     assert mesh_topology(opened, len(torus.vertices))["boundary_loops"] == 1
-    assert solid_loops(opened, len(torus.vertices)) is None
-    assert solid_loops(None, 10) is None
+    assert solid_loops(opened, len(torus.vertices)) == (
+        None, "the mesh bounds no solid (it has 1 boundary loop), so its skeleton's loops are not checked against "
+              "a genus")
+    assert solid_loops(None, 10) == (None, "")
+
+
+def _touching(mesh, offset):
+    """`mesh` and a copy moved by `offset`, the copy's vertex at the origin's image merged into the original's."""
+    other = mesh.copy()
+    other.apply_translation(offset)
+    merged = trimesh.util.concatenate([mesh, other])
+    merged.merge_vertices()
+    return merged
+
+
+def test_solids_touching_at_a_corner_or_an_edge_bound_no_solid_and_repeated_faces_count_once():
+    """Two cubes sharing a corner: every edge has two faces, but the corner's faces form two fans and the formula
+    would read genus -1 (two tori touching at a vertex read 1 for 2); shared edges have four faces."""
+    cube = trimesh.creation.box((1.0, 1.0, 1.0))
+    corner = _touching(cube, (1.0, 1.0, 1.0))
+    assert not mesh_topology(corner.faces, len(corner.vertices))["closed"]
+    assert solid_loops(corner.faces, len(corner.vertices)) == (
+        None, "the mesh bounds no solid (edges or corners where separate sheets meet), so its skeleton's loops are "
+              "not checked against a genus")
+    edge = _touching(cube, (1.0, 1.0, 0.0))
+    assert solid_loops(edge.faces, len(edge.vertices))[0] is None
+    torus = trimesh.creation.torus(1.0, 0.3)
+    repeated = np.r_[torus.faces, torus.faces[:10], torus.faces[:3, ::-1], [[0, 0, 1]]]
+    assert solid_loops(repeated, len(torus.vertices)) == (1, "")
 
 
 @pytest.mark.parametrize("make", [lambda: trimesh.creation.torus(1.0, 0.3), _two_tori,
@@ -57,7 +84,7 @@ def test_a_loaded_mesh_carries_its_solids_loops_when_its_points_are_drawn_anew(t
     path = tmp_path / f"block{suffix}"
     trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)).export(path)
     cloud = io.load(path)
-    assert cloud.faces is None and cloud.solid_loops == 2
+    assert cloud.faces is None and cloud.solid_loops == 2 and not any("no solid" in note for note in cloud.notes)
     points = tmp_path / "points.xyz"
     np.savetxt(points, cloud.points)
     assert io.load(points).solid_loops is None
