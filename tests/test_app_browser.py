@@ -773,9 +773,17 @@ def test_large_upload_shows_progress(fresh_sized, inspector, big_torus):
     page = fresh_sized
     original = inspector.module_cloud
     seen = {"progress": False, "ours": False, "success": False}
+    # Every notification's text as the page shows it, recorded as it changes: on a loaded machine viser's progress
+    # bar came and went between two looks 0.05 s apart (CI of 15060be)
+    page.evaluate("""() => {
+        window.notificationTexts = [];
+        new MutationObserver(() => document.querySelectorAll('.mantine-Notification-root')
+            .forEach(note => window.notificationTexts.push(note.innerText)))
+            .observe(document.body, {subtree: true, childList: true, characterData: true});
+    }""")
 
     def watch() -> bool:
-        text = " ".join(page.locator(".mantine-Notification-root").all_inner_texts())
+        text = " ".join(page.evaluate("window.notificationTexts.splice(0)"))
         seen["progress"] |= "Uploading big-torus.ply" in text
         seen["ours"] |= "Reading big-torus.ply" in text
         seen["success"] |= "uploaded successfully" in text
