@@ -212,8 +212,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
         points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
-    loops, no_solid = solid_loops(faces, len(points))
-    notes += [no_solid] if no_solid else []
+    loops, no_solid = solid_loops(faces, len(points))  # said after what loading did to the points
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
@@ -254,6 +253,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     points, scale = _scaled(points, name)
     if scale != 1.0:
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
+    notes += [no_solid] if no_solid else []
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale, rows=rows,
                  input_rows=input_rows, solid_loops=loops)
 
