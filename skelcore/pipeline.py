@@ -265,19 +265,22 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
 def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None) -> Computed:
     """A run on a closed mesh whose skeleton keeps fewer loops than the mesh's genus, run again with the points held
     inside the solid (ContractionParams.hold_inside, skelcore.medial): that run when its skeleton keeps more of
-    them, else `plain`; a note says which."""
+    them, else `plain` (also when the second run fails: the first one is not lost); a note says which."""
     cloud, genus, kept = plain.cloud, plain.cloud.solid_loops, plain.evidence["cycles"]
-    held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
-                               plain.weights, progress, StageClock())
-    again = held.evidence["cycles"]
-    better = kept < again <= genus
+    try:
+        held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
+                                   plain.weights, progress, StageClock())
+    except SkelError as error:
+        held, outcome = None, f"failed ({error}), so the first run is the result"
+    else:
+        again = held.evidence["cycles"]
+        outcome = (f"keeps {again}, and is the result" if kept < again <= genus else
+                   f"keeps {again}, more than the mesh has, so the first run is the result" if again > genus else
+                   f"keeps {again}, no more, so the first run is the result")
+    better = held is not None and kept < held.evidence["cycles"] <= genus
     loops = "loop" if genus == 1 else "loops"
-    verdict = ("and is the result" if better else
-               "more than the mesh has, so the first run is the result" if again > genus else
-               "no more, so the first run is the result")
     note = (f"the skeleton keeps {kept} of the {genus} {loops} through the mesh's solid (its genus), so the "
-            f"contraction was run again with the points held inside the solid (hold_inside): that run keeps "
-            f"{again}, {verdict}")
+            f"contraction was run again with the points held inside the solid (hold_inside): that run {outcome}")
     _say(progress, f"{cloud.name}: {note}")
     chosen = held if better else plain
     return dataclasses.replace(chosen, cloud=dataclasses.replace(cloud, notes=[*cloud.notes, note]))

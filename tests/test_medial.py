@@ -108,3 +108,18 @@ def test_hold_inside_chosen_either_way_decides_and_nothing_is_run_again(tmp_path
         assert "run again" not in capsys.readouterr().out
         assert json.loads((out / "params.json").read_text())["contraction"]["hold_inside"] is held
         assert not any("run again" in note for note in json.loads((out / "metrics.json").read_text())["notes"])
+
+
+def test_a_second_run_that_fails_leaves_the_first_as_the_result(monkeypatch):
+    import skelcore
+    from skelcore.errors import SolverError
+    from skelcore.step import RunStart
+
+    def broken(self):
+        raise SolverError("the medial surface broke")
+
+    monkeypatch.setattr(RunStart, "medial", property(broken))
+    result = skelcore.skeletonize(_tall_pipe(), "lbc")
+    assert result.topology["cycles"] == 0 and not result.states[-1].params.hold_inside
+    assert any("that run failed (" in note and "the medial surface broke" in note
+               and "so the first run is the result" in note for note in result.cloud.notes)
