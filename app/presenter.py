@@ -185,7 +185,7 @@ class Presenter:
         if points[1] != index:  # drawn late: the status and legend speak of the points shown
             self.analyses.readiness(run, points[1])
         with viewer.client.atomic():
-            viewer.show_plots(plots, verdict, status.hold_inside_hint(verdict, state, run.cloud.solid_loops))
+            viewer.show_plots(plots, verdict, self._hold_hint(verdict, run, index))
             if colours is not None:
                 viewer.view.set_colours((run, index), colours.contracted, colour_by, colours.original)
             self.update_legend(viewer, "" if colours is None else colours.note)
@@ -220,10 +220,17 @@ class Presenter:
         pinned = self.pinned
         if viewer.showing(run, index):
             with viewer.client.atomic():
-                viewer.show_verdict(verdict, status.hold_inside_hint(verdict, state, run.cloud.solid_loops))
+                viewer.show_verdict(verdict, self._hold_hint(verdict, run, index))
                 if pinned is not None:  # the Compare tab names the same verdict; its figures stand
                     viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict)
             viewer.client.flush()
+
+    def _hold_hint(self, verdict: dict, run, index: int) -> str:
+        """What to try when the skeleton of history[index], if made, keeps fewer loops than the solid has."""
+        if (index, self.session.skeleton_params) not in run.evidence:
+            return ""
+        return status.hold_inside_hint(verdict, run.state(index), self.session.solid_loops(index, run),
+                                       mesh=run.cloud.solid_loops is not None)
 
     # ------------------------------------------------------------------ status and legend
     def update_statuses(self) -> None:

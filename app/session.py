@@ -44,6 +44,7 @@ class Run:
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
     evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
     input_topology: dict[float, dict] = field(default_factory=dict)  # the input's, by skeleton gap unit: one per run
+    solid_loops: dict[tuple[float, int], int | None] = field(default_factory=dict)  # by skeleton radius and loops
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
     weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
     label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any
@@ -354,6 +355,17 @@ class Session:
                 kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original, inside))
             run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
+
+    def solid_loops(self, index: int, run: Run | None = None) -> int | None:
+        """The loops through the solid the run's cloud bounds, as `skelcore run` reads them to try a run held inside
+        (pipeline.solid_loops), when the skeleton of history[index] may lack some; else None."""
+        run = run or self.run
+        skeleton = self.skeleton(index, run)
+        key = (skeleton.radius, skeleton.topology()["cycles"])
+        if key not in run.solid_loops:
+            inside = None if run.metrics is None else run.metrics.reference.inside
+            run.solid_loops[key] = pipeline.solid_loops(run.cloud, inside, key[1], skeleton.radius)[0]
+        return run.solid_loops[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
         """The paper's metrics of history[0..index] (index len(history): the state ahead too), each computed

@@ -9,7 +9,6 @@ to the notes and the legend."""
 from __future__ import annotations
 
 from skelcore.step import TERMINATION_MESSAGES
-from skelcore.verdict import failed_criteria
 
 from .analysis import Readiness
 from .colours import COLOUR_RANGES, POINT_LAYERS, legend_html
@@ -43,14 +42,15 @@ def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = Fal
     return f"{state}; iteration {ahead.iteration} computed ahead"
 
 
-def hold_inside_hint(verdict: dict, state, solid_loops: int | None) -> str:
-    """What to try when the verdict's skeleton keeps fewer loops than the mesh's genus (`solid_loops`) and the
-    run of `state` did not hold its points inside the solid (`skelcore run` tries that by itself); "" otherwise."""
-    loops = next((c for c in failed_criteria(verdict) if c["name"] == "skeleton loops"), None)
+def hold_inside_hint(verdict: dict, state, solid_loops: int | None, mesh: bool = True) -> str:
+    """What to try when the verdict's skeleton keeps fewer loops than the solid has (`solid_loops`: a closed mesh's
+    genus, or with mesh False those a closed point cloud's inside test reads) and the run of `state` did not hold
+    its points inside the solid (`skelcore run` tries that by itself); "" otherwise."""
+    loops = next((c for c in verdict.get("criteria", []) if c["name"] == "skeleton loops"), None)
     if loops is None or solid_loops is None or state.params.hold_inside or int(loops["value"]) >= solid_loops:
         return ""
-    return (f"{loops['value']} of the mesh's {solid_loops} loop{'' if solid_loops == 1 else 's'} kept: "
-            f"try More > {label('hold_inside')}")
+    return (f"{loops['value']} of the {'mesh' if mesh else 'solid'}'s {solid_loops} "
+            f"loop{'' if solid_loops == 1 else 's'} kept: try More > {label('hold_inside')}")
 
 
 def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:

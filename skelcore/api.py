@@ -188,9 +188,10 @@ def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=Non
       with a part many times denser than the surface around it with that part thinned, every point carried along
       (skelcore.multires); 0 or None: every point contracted (`skelcore run --full-resolution`).
     **params: contraction parameters (skelcore.ContractionParams fields: k, wl0, wh0, sl, wl_max,
-      max_iterations, termination, ...); unset ones take their defaults. hold_inside unset (or None): a closed
-      mesh whose skeleton keeps fewer loops than its genus is contracted again holding its points inside (its
-      notes say so); True or False, it decides.
+      max_iterations, termination, ...); unset ones take their defaults. hold_inside unset (or None): a cloud
+      whose skeleton keeps fewer loops than its solid has (a closed mesh's genus, or those a closed point cloud's
+      inside test reads, skelcore.cloud_topology) is contracted again holding its points inside (its notes say
+      so); True or False, it decides.
     progress: called with one line per iteration (e.g. print).
     """
     if params.get("hold_inside", True) is None:  # unset, said as None

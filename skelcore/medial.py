@@ -6,8 +6,9 @@ the material, until wall and outer faces meet on the axis (a pipe taller than wi
 curvature skeletons (Tagliasacchi et al. 2012, eq. 4) keep their flow centred by attracting each point to its
 medial pole; here the pole is a constraint on the points a step takes out of the solid: such a point goes to the
 nearest point of the original's medial surface instead (`MedialHold`), inside the material, and the rest of the
-cloud contracts as before. Switched on by ContractionParams.hold_inside; a run on a closed mesh whose skeleton
-keeps fewer loops than the mesh's genus tries it (skelcore.pipeline).
+cloud contracts as before. Switched on by ContractionParams.hold_inside; a run whose skeleton
+keeps fewer loops than its solid has (a closed mesh's genus, or those a closed point cloud's inside test reads:
+skelcore.cloud_topology) tries it (skelcore.pipeline).
 
 The medial surface is sampled by the centres of the shrinking balls (Ma et al. 2012): the largest ball touching a
 sample on the inward side of its normal and holding no other sample. A ball that never closes (the open side of a

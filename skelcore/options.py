@@ -32,7 +32,7 @@ class RunOptions:
     # larger clouds: multi-resolution; within it, parts far denser than the rest thinned (None or 0: neither)
     point_budget: int | None = multires.POINT_BUDGET
     drop_nonfinite: bool = False  # leave out points with NaN or Inf coordinates instead of refusing the input
-    # a closed mesh whose skeleton keeps fewer loops than its genus is contracted again with params.hold_inside
+    # a cloud whose skeleton keeps fewer loops than its solid has is contracted again with params.hold_inside
     # (skelcore.pipeline); off where hold_inside was chosen either way
     hold_retry: bool = True
 

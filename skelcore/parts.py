@@ -5,8 +5,9 @@ They are the shapes a user brings that no default benchmark shape stands for: fl
 L-bracket), hardware rings of every height (nut, washer, pipe), frames of thin rods (glasses, ladder, wheel),
 bodies with limbs (octopus, star) and plain primitives (capsule, pin, box). Eleven more were built to check the
 skeleton on objects no threshold was set on: containers with handles (kettle, trophy, cups), linked and fused rings,
-a wire hanger, scissors, a bulky body with arches and a branching tree. `skelcore bench-quality --parts` runs
-them all; they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
+a wire hanger, scissors, a bulky body with arches and a branching tree. Seven machined ones, added with the hold
+inside the solid (skelcore.medial), hold bores longer than wide, which plain contraction closes: drilled cubes
+and bars, thick and tall tubes, and a flat frame beside them. `skelcore bench-quality --parts` runs them all; they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
 """
 from __future__ import annotations
 
@@ -80,6 +81,19 @@ def hex_nut():
 def tube(height: float, outer: float = 1.0, inner: float = 0.85):
     """A round tube (a washer when low, a pipe when tall) with a wall of outer - inner."""
     return _cylinder(height, outer) - _cylinder(height + 1.0, inner)
+
+
+def drilled(size, bores):
+    """A block of `size` with round bores through it, each (radius, centre, turn): a machined part."""
+    block = _box(size)
+    for radius, centre, turn in bores:
+        block = block - _cylinder(3.0 * max(size), radius, centre, turn)
+    return block
+
+
+def square_frame():
+    """A flat square frame 2 across and 0.4 thick around a square opening 1.2 across."""
+    return _box((2.0, 2.0, 0.4)) - _box((1.2, 1.2, 1.0))
 
 
 def l_bracket():
@@ -287,4 +301,17 @@ PARTS: dict[str, tuple[Callable, int | None, str]] = {
     "arched_body": (arched_body, None, "bulky body, head, a thick and a thin arch (genus 2)"),
     "thin_handled_cup": (thin_handled_cup, None, "thick-walled cup, handle tube 3% of its height (genus 1)"),
     "branching_tree": (branching_tree, 7, "trunk forking into three branches and six tips"),
+    "drilled_cube": (lambda: drilled((1.0, 1.0, 1.0), [(0.3, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))]), None,
+                     "unit cube drilled through, bore radius 0.3 (genus 1)"),
+    "drilled_bar": (lambda: drilled((1.0, 1.0, 3.0), [(0.3, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))]), None,
+                    "bar 1 x 1 x 3 bored along its length, radius 0.3 (genus 1)"),
+    "cross_drilled_cube": (lambda: drilled((1.0, 1.0, 1.0), [(0.25, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+                                                              (0.25, (0.0, 0.0, 0.0), (90.0, 0.0, 0.0))]), None,
+                           "unit cube drilled through twice, the bores crossing (genus 3)"),
+    "twin_bore_block": (lambda: drilled((2.0, 1.0, 2.0), [(0.25, (-0.5, 0.0, 0.0), (0.0, 0.0, 0.0)),
+                                                           (0.25, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0))]), None,
+                        "block 2 x 1 x 2 with two long bores side by side (genus 2)"),
+    "thick_pipe": (lambda: tube(2.0, 1.0, 0.5), 0, "round tube 2 high, radius 1, wall 0.5 (genus 1)"),
+    "tall_annulus": (lambda: tube(3.0, 1.0, 0.6), 0, "round tube 3 high, radius 1, wall 0.4 (genus 1)"),
+    "square_frame": (square_frame, 0, "flat square frame around a square opening (genus 1)"),
 }

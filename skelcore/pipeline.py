@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import io, multires
+from . import cloud_topology, io, multires
 from .clean import clean, cleaned
 from .contraction import IterationState, contract, record
 from .step import REJECTION_CAUSES
@@ -220,6 +220,7 @@ class Computed:
     weights: np.ndarray | None  # the per-point contraction weights used (None: all 1)
     reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
     evidence: dict | None = None  # skeleton_evidence of the skeleton
+    inside: InsideTest | None = None  # the original solid, as the metrics' boundedness reads it
 
 
 def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
@@ -229,8 +230,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     end, the paper's metrics of every state, the skeleton of the last. `weights`: explicit per-point
     contraction weights of the cloud before cleaning, else those of options.label_weights. A cloud above
     options.point_budget is contracted at reduced resolution, every input point carried (skelcore.multires). A
-    closed mesh whose skeleton keeps fewer loops than its genus is contracted again holding its points inside
-    the solid (`_held_inside`). `clock` records the seconds of each stage."""
+    cloud whose skeleton keeps fewer loops than its solid has (a closed mesh's genus, or those a closed point
+    cloud's inside test reads: skelcore.cloud_topology) is contracted again holding its points inside the solid
+    (`_held_inside`). `clock` records the seconds of each stage."""
     clock = clock or StageClock()
     options.validated()  # bad parameters fail before any work
     if weights is not None and options.label_weights:
@@ -253,20 +255,36 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
         computed = _contract_and_judge(cloud, options, weights, progress, clock)
-        if cloud.solid_loops is not None and computed.evidence["cycles"] < cloud.solid_loops \
-                and options.hold_retry and not options.params.hold_inside:
-            computed = _held_inside(computed, options, progress)
-            clock.mark("hold inside")
+        if options.hold_retry and not options.params.hold_inside:
+            loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
+                                       computed.skeleton.radius)
+            clock.mark("solid loops")
+            if loops is not None and computed.evidence["cycles"] < loops:
+                computed = _held_inside(computed, options, progress, loops, solid)
+                clock.mark("hold inside")
     except SkelError as error:
         raise named(error, cloud.name) from None
     return computed
 
 
-def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None) -> Computed:
-    """A run on a closed mesh whose skeleton keeps fewer loops than the mesh's genus, run again with the points held
-    inside the solid (ContractionParams.hold_inside, skelcore.medial): that run when its skeleton keeps more of
-    them, else `plain` (also when the second run fails: the first one is not lost); a note says which."""
-    cloud, genus, kept = plain.cloud, plain.cloud.solid_loops, plain.evidence["cycles"]
+def solid_loops(cloud: io.Cloud, inside: InsideTest | None, cycles: int, radius: float) -> tuple[int | None, str]:
+    """The loops through the solid a cloud bounds, and whose they are in words, for a skeleton of `cycles` loops
+    drawn at `radius`: a closed mesh's genus; else those its inside test (the metrics' MetricsReference.inside)
+    reads when the cloud reads closed, read only when the test's plain count leaves room for more than `cycles`
+    (skelcore.cloud_topology). None: no solid to go by, or no loop the skeleton could lack."""
+    if cloud.solid_loops is not None:
+        return cloud.solid_loops, "the mesh's solid (its genus)"
+    if inside is None or (cloud_topology.surface_loops(inside) or 0) <= cycles:
+        return None, ""
+    return cloud_topology.solid_loops(inside, radius), "the solid the points bound (as their inside test reads it)"
+
+
+def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None, genus: int,
+                 solid: str) -> Computed:
+    """A run whose skeleton keeps fewer loops than the `genus` loops through `solid` (in words), run again with the
+    points held inside the solid (ContractionParams.hold_inside, skelcore.medial): that run when its skeleton keeps
+    more of them, else `plain` (also when the second run fails: the first one is not lost); a note says which."""
+    cloud, kept = plain.cloud, plain.evidence["cycles"]
     try:
         held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
                                    plain.weights, progress, StageClock())
@@ -275,11 +293,11 @@ def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str],
     else:
         again = held.evidence["cycles"]
         outcome = (f"keeps {again}, and is the result" if kept < again <= genus else
-                   f"keeps {again}, more than the mesh has, so the first run is the result" if again > genus else
+                   f"keeps {again}, more than the solid has, so the first run is the result" if again > genus else
                    f"keeps {again}, no more, so the first run is the result")
     better = held is not None and kept < held.evidence["cycles"] <= genus
     loops = "loop" if genus == 1 else "loops"
-    note = (f"the skeleton keeps {kept} of the {genus} {loops} through the mesh's solid (its genus), so the "
+    note = (f"the skeleton keeps {kept} of the {genus} {loops} through {solid}, so the "
             f"contraction was run again with the points held inside the solid (hold_inside): that run {outcome}")
     _say(progress, f"{cloud.name}: {note}")
     chosen = held if better else plain
@@ -340,7 +358,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
         clock.mark("evidence")
         for note in surface.scale_notes(options.sample_radius):
             _say(progress, f"{cloud.name}: {note}")
-    return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence)
+    return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence, cache.result().reference.inside)
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,

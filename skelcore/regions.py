@@ -24,18 +24,23 @@ def dilated(cells: np.ndarray) -> np.ndarray:
     return grown
 
 
-def label_regions(cells: np.ndarray) -> tuple[np.ndarray, int]:
+FACE_STEPS = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+# the 13 steps to a cell sharing a face, an edge or a corner, one of each opposite pair
+TOUCHING_STEPS = tuple(step for step in np.ndindex(3, 3, 3) if step > (1, 1, 1))
+
+
+def label_regions(cells: np.ndarray, touching: bool = False) -> tuple[np.ndarray, int]:
     """(label of each cell, count) of the face-connected regions of the True cells of a 3D grid: labels 1..count
-    in the order of each region's first cell in C order, 0 for False cells (scipy.ndimage.label's numbering)."""
+    in the order of each region's first cell in C order, 0 for False cells (scipy.ndimage.label's numbering).
+    touching: cells sharing only an edge or a corner are joined too (the pieces of a union of closed cubes)."""
     index = np.full(cells.shape, -1, np.int64)
     members = np.flatnonzero(cells)
     index.ravel()[members] = np.arange(len(members))
     pairs = []
-    for axis in range(3):
-        low = [slice(None)] * 3
-        high = [slice(None)] * 3
-        low[axis], high[axis] = slice(None, -1), slice(1, None)
-        a, b = index[tuple(low)].ravel(), index[tuple(high)].ravel()
+    for step in (np.subtract(TOUCHING_STEPS, 1) if touching else FACE_STEPS):
+        low = tuple(slice(max(-s, 0), cells.shape[d] - max(s, 0)) for d, s in enumerate(step))
+        high = tuple(slice(max(s, 0), cells.shape[d] - max(-s, 0)) for d, s in enumerate(step))
+        a, b = index[low].ravel(), index[high].ravel()
         both = (a >= 0) & (b >= 0)
         pairs.append(np.stack([a[both], b[both]]))
     edges = np.concatenate(pairs, axis=1)

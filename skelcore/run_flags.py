@@ -44,8 +44,9 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--hold-inside", action=argparse.BooleanOptionalAction, default=None,
                        help="points a step would take out of the original solid go to the nearest point of its medial "
                             "surface instead, which keeps loops that contraction closes (a bore longer than wide), "
-                            "with spurs (default: off, and tried by itself on a closed mesh whose skeleton keeps "
-                            "fewer loops than the mesh's genus; either flag decides instead)")
+                            "with spurs (default: off, and tried by itself when the skeleton keeps fewer loops than "
+                            "the solid has: a closed mesh's genus, or those a closed point cloud's inside test "
+                            "reads; either flag decides instead)")
     group.add_argument("--balance-density", action=argparse.BooleanOptionalAction, default=defaults.balance_density,
                        help="weight each point's attraction by the surface area it stands for, so that a sparsely "
                             "sampled part contracts at the pace of a densely sampled one (--no-balance-density: every "

@@ -78,14 +78,15 @@ def test_a_tall_pipes_loop_closed_by_the_contraction_is_kept_by_holding_its_poin
     assert np.mean(radial < 0.45) < 0.01
 
 
-def test_a_point_cloud_is_never_run_again_and_the_flag_reaches_params_json(tmp_path):
+def test_the_flag_reaches_params_json_and_no_hold_inside_leaves_a_cloud_as_contracted(tmp_path):
     from skelcore.cli import main
 
     pipe = _tall_pipe()
-    pipe.export(tmp_path / "pipe.stl")
     np.savetxt(tmp_path / "pipe.xyz", trimesh.sample.sample_surface_even(pipe, 6000, seed=0)[0])
-    assert main(["run", str(tmp_path / "pipe.xyz"), "--out", str(tmp_path / "cloud"), "--quiet"]) == 0
+    assert main(["run", str(tmp_path / "pipe.xyz"), "--out", str(tmp_path / "cloud"), "--quiet",
+                 "--no-hold-inside"]) == 0
     assert not json.loads((tmp_path / "cloud" / "params.json").read_text())["contraction"]["hold_inside"]
+    assert json.loads((tmp_path / "cloud" / "metrics.json").read_text())["skeleton_evidence"]["cycles"] == 0
     assert main(["run", str(tmp_path / "pipe.xyz"), "--out", str(tmp_path / "held"), "--quiet", "--hold-inside"]) == 0
     params = json.loads((tmp_path / "held" / "params.json").read_text())
     assert params["contraction"]["hold_inside"]

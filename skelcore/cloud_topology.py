@@ -1,0 +1,85 @@
+"""The loops through the solid a closed point cloud bounds, read from its inside test's grid.
+
+A mesh's genus is exact from its faces (skelcore.mesh_topology); a point cloud has none, but a closed one bounds a
+solid its inside test (skelcore.inside) already decides cell by cell. Counting that grid's loops as it stands
+over-reads: its shell, the sampled cells dilated by one, closes every gap narrower than about three cells (an
+elephant's ear against its head read 2 loops, the hand with 0.5% noise 1). So the grid is given a signed
+offset, each cell's centre measured along its nearest sample's outward normal (inside cells lowest, outside
+highest), and the loops are those of its sublevel sets that persist (cubical persistent homology, gudhi):
+
+- born at or below offset 0, so a loop of the solid the surface bounds: a gap between two surfaces appears as a
+  loop only once the solid grows past the surface (the elephant's ear and head, 1.8% of its diagonal apart, at
+  about half the gap's width: inside the inside test's band, which is why the band is not the level);
+- still open once the solid has grown by the skeleton's sample radius, so a hole wider than the ball the
+  skeleton is drawn with (one that closes sooner is below the skeleton's resolution, and noise's pinholes die
+  within a cell).
+
+On the benchmark's closed clouds this read is right where the plain grid over-read (the elephant, the noisy
+hand and figure, the ball with three small handles, the kettle, the thinned trefoil), and it reads the bores
+of drilled solids that the contraction closes. It costs a few tenths of a second on a 10,000-point cloud's grid,
+so it is made only where the grid's plain count (`surface_loops`, its Euler characteristic, an upper bound: a
+persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .inside import InsideTest
+from .regions import label_regions
+
+
+def surface_loops(test: InsideTest) -> int | None:
+    """The first Betti number of the solid {offset <= 0} as closed cubes (b1 = b0 + b2 - chi), an upper bound of
+    `solid_loops`; None when the cloud does not read closed (some region of the grid split its votes)."""
+    offset = _offsets(test)
+    if offset is None:
+        return None
+    solid = np.pad(offset <= 0.0, 1)
+    pieces = label_regions(solid, touching=True)[1]  # closed cubes meeting at a corner are one piece
+    count = label_regions(~solid)[1]
+    cavities = count - 1  # the padding joins every empty cell that reaches the outside into one region
+    return int(pieces + cavities - _euler(solid))
+
+
+def solid_loops(test: InsideTest, reach: float) -> int | None:
+    """The loops through the solid the cloud bounds: those of the offset's sublevel sets born at or below 0 and
+    still open at `reach` (the skeleton's sample radius); None when the cloud does not read closed."""
+    offset = _offsets(test)
+    if offset is None:
+        return None
+    import gudhi
+
+    # Only the sublevel sets at 0 and past `reach` decide the count, so the levels outside (0, reach] are merged
+    # (every cell at or below 0 enters at 0, every one above reach never): the same count, in half the time.
+    levels = np.where(offset <= 0.0, 0.0, np.where(offset > reach, np.inf, offset))
+    complex_ = gudhi.CubicalComplex(top_dimensional_cells=levels)
+    pairs = complex_.persistence(homology_coeff_field=2, min_persistence=reach)  # drops those dying by reach
+    return sum(1 for dimension, (birth, death) in pairs if dimension == 1 and birth <= 0.0 and death > reach)
+
+
+def _offsets(test: InsideTest) -> np.ndarray | None:
+    """Each cell's signed offset from the surface (<= 0 inside): the shell's cells by their centres along the
+    nearest sample's outward normal (eq.: (c - s) . n_s, as the test judges a point), inside cells below every
+    such value, outside cells above; None when a region of the grid split its votes (the cloud is open)."""
+    if test.undecided.any():
+        return None
+    shell = test.cells == -1
+    offset = np.empty(test.cells.shape)
+    measured = test.side_of(test.origin + (np.argwhere(shell) + 0.5) * test.size)
+    offset[test.cells == 1] = min(measured.min(initial=0.0), 0.0) - test.size
+    offset[test.cells == 0] = np.inf  # beyond every level: a hole the shell never closes never dies
+    offset[shell] = measured
+    return offset
+
+
+def _euler(solid: np.ndarray) -> int:
+    """The Euler characteristic V - E + F - C of the union of the closed unit cubes at the True cells of a grid
+    padded by one empty cell: a lattice vertex, edge or face is in the union when any cube around it is."""
+    def around(axes) -> int:
+        grown = solid
+        for axis in axes:
+            grown = grown | np.roll(grown, 1, axis=axis)
+        return int(grown.sum())
+    faces = sum(around((axis,)) for axis in range(3))
+    edges = sum(around(tuple(other for other in range(3) if other != axis)) for axis in range(3))
+    return around((0, 1, 2)) - edges + faces - int(solid.sum())

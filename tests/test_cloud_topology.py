@@ -1,0 +1,102 @@
+"""The loops through the solid a closed point cloud bounds, read from its inside test (skelcore.cloud_topology),
+and a run on a cloud whose skeleton lost one of them tried again holding its points inside."""
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from skelcore.cloud_topology import _euler, solid_loops, surface_loops
+from skelcore.loops import cloud_inside
+from skelcore.regions import label_regions
+
+
+def _read(mesh, points=4000):
+    samples = trimesh.sample.sample_surface_even(mesh, points, seed=0)[0]
+    diagonal = float(np.linalg.norm(np.ptp(samples, axis=0)))
+    test = cloud_inside(samples, 0.01 * diagonal)
+    return test, surface_loops(test), solid_loops(test, 0.02 * diagonal)
+
+
+def _euler_b1(cells):
+    """b1 of a grid's True cells as closed cubes, the long way: gudhi's cubical Betti numbers."""
+    import gudhi
+
+    complex_ = gudhi.CubicalComplex(top_dimensional_cells=np.where(np.pad(cells, 1), 0.0, 1.0))
+    complex_.compute_persistence()
+    return complex_.persistent_betti_numbers(0.0, 0.0)[1]
+
+
+def test_closed_clouds_read_their_solids_loops_and_an_open_one_reads_none():
+    assert _read(trimesh.creation.torus(1.0, 0.3))[1:] == (1, 1)
+    assert _read(trimesh.creation.icosphere(3))[1:] == (0, 0)
+    two_holes = trimesh.creation.box((3.0, 1.0, 1.2)).difference(
+        trimesh.creation.cylinder(0.25, 3.0, transform=trimesh.transformations.translation_matrix((-0.7, 0, 0))))
+    two_holes = two_holes.difference(
+        trimesh.creation.cylinder(0.25, 3.0, transform=trimesh.transformations.translation_matrix((0.7, 0, 0))))
+    assert _read(two_holes)[1:] == (2, 2)
+    bowl = trimesh.creation.icosphere(3)
+    bowl.update_faces(bowl.triangles_center[:, 2] < 0.3)
+    assert _read(bowl)[1:] == (None, None)
+
+
+def test_a_gap_the_grids_shell_closes_is_no_loop():
+    """A ring cut through by a gap of about a cell: the shell (sampled cells dilated by one) closes it into a loop;
+    the solid the surface bounds has none, as its offset opens the gap."""
+    import manifold3d as m3d
+
+    from skelcore.solids import solid_arrays, torus
+
+    cut = torus(1.0, 0.3) - m3d.Manifold.cube((0.12, 1.0, 1.0), True).translate((0.0, -1.0, 0.0))
+    test, surface, solid = _read(trimesh.Trimesh(*solid_arrays(cut)))
+    assert 1.0 < 0.12 / test.size < 2.0
+    assert _euler_b1(test.cells != 0) == 1
+    assert (surface, solid) == (0, 0)
+
+
+def test_the_surface_count_is_the_cubical_betti_number_and_pieces_meeting_at_a_corner_are_one():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        cells = rng.random((7, 6, 5)) < 0.45
+        padded = np.pad(cells, 1)
+        pieces = label_regions(padded, touching=True)[1]
+        b1 = pieces + label_regions(~padded)[1] - 1 - _euler(padded)
+        assert b1 == _euler_b1(cells)
+    corner = np.zeros((3, 3, 3), bool)
+    corner[0, 0, 0] = corner[1, 1, 1] = True
+    assert label_regions(corner, touching=True)[1] == 1 and label_regions(corner)[1] == 2
+
+
+def _pipe():
+    import manifold3d as m3d
+
+    from skelcore.solids import solid_arrays
+
+    solid = m3d.Manifold.cylinder(2.0, 1.0, 1.0, 64, True) - m3d.Manifold.cylinder(3.0, 0.5, 0.5, 64, True)
+    return trimesh.Trimesh(*solid_arrays(solid))
+
+
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_a_tall_pipes_point_cloud_keeps_its_loop_by_a_second_run_held_inside(method):
+    """The pipe's points alone (no faces, so no genus): the plain contraction closes the bore, the solid the points
+    bound reads one loop, and the run held inside keeps it."""
+    import skelcore
+
+    points = trimesh.sample.sample_surface_even(_pipe(), 6000, seed=0)[0]
+    plain = skelcore.skeletonize(points, method, hold_inside=False)
+    assert plain.topology["cycles"] == 0
+    result = skelcore.skeletonize(points, method)
+    assert result.cloud.solid_loops is None
+    assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside
+    assert any("keeps 0 of the 1 loop through the solid the points bound" in note and "and is the result" in note
+               for note in result.cloud.notes)
+
+
+def test_a_cloud_whose_skeleton_keeps_its_loops_is_not_run_again(tmp_path, capsys):
+    from skelcore.cli import main
+
+    np.savetxt(tmp_path / "torus.xyz", trimesh.sample.sample_surface_even(trimesh.creation.torus(1.0, 0.3), 4000,
+                                                                          seed=0)[0])
+    assert main(["run", str(tmp_path / "torus.xyz"), "--out", str(tmp_path / "out")]) == 0
+    assert "run again" not in capsys.readouterr().out
+    assert not json.loads((tmp_path / "out" / "params.json").read_text())["contraction"]["hold_inside"]
