@@ -17,7 +17,8 @@ from skelcore import display, pipeline, report
 
 from .colours import COLOUR_RANGES, colour_values
 from .layout import CARD
-from .session import Run, Session
+from .run import Run
+from .session import Session
 
 KEPT = 16  # states whose plots and colours are kept (browsers look at a few iterations at a time)
 

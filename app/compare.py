@@ -18,7 +18,7 @@ RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
 @dataclass
 class Pinned:
     """A run kept for comparison: its metrics up to the pinned iteration and that iteration's skeleton."""
-    run: object  # app.session.Run
+    run: object  # app.run.Run
     name: str
     summary: dict  # report.run_summary
     skeleton: tuple[np.ndarray, np.ndarray] | None  # nodes, edges; None before the cloud has contracted

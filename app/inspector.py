@@ -10,7 +10,7 @@ skeleton thread, both working on what that viewer shows last (app.analysis keeps
 one iteration share them). Anything slower than about a second says so (app.progress). While nothing else
 runs, the worker computes the next iteration ahead (Session.look_ahead), so that a Step shows it at once.
 Widgets live in app.layout, what the parameter boxes say is taken in app.panel, exports in app.delivery,
-status and legend words in app.status.
+what each viewer draws and the View tab's settings in app.presenter, status and legend words in app.status.
 """
 from __future__ import annotations
 
@@ -24,7 +24,6 @@ import viser
 from skelcore.display import UP_AXES, see_through_size
 
 from . import compare, layout, loop_events
-from .colours import COLOUR_RANGES
 from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
@@ -70,7 +69,7 @@ class Inspector:
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server, self.playback)
-        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self._labels_changed,
+        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self.presenter.labels_changed,
                                                          order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
                                  self.presenter.draw_frame, self.presenter.picture_note)
@@ -160,9 +159,9 @@ class Inspector:
         on(ui.params.radius, lambda e: self.panel.changed("radius", e.client, typing=True), person_only=True,
            method="on_update")
         for handle in (*ui.view.show.values(), *ui.view.size.values(), *ui.view.opacity.values(), ui.view.provisional):
-            on(handle, lambda e: submit(self._apply_view, e.client), person_only=True, method="on_update")
+            on(handle, lambda e: submit(self.presenter.apply_view, e.client), person_only=True, method="on_update")
         for handle in (ui.view.colouring, ui.view.colour_original):
-            on(handle, lambda e: submit(self._set_colouring, e.client), person_only=True, method="on_update")
+            on(handle, lambda e: submit(self.presenter.set_colouring, e.client), person_only=True, method="on_update")
         on(ui.view.fit, lambda e: self.presenter.fit(e.client))
         on(ui.view.up, lambda e: submit(lambda: self.presenter.turn_up(ui.view.up.value, chosen=True), e.client),
            person_only=True, method="on_update")
@@ -304,49 +303,6 @@ class Inspector:
         self.session.set_sample_radius(radius)
         self.presenter.reanalyse()
 
-    def _set_colouring(self) -> None:
-        self.presenter.colour_by = self.ui.view.colouring.value
-        self.presenter.colour_original = bool(self.ui.view.colour_original.value)
-        for viewer in self.presenter.all():
-            if self.presenter.colour_by not in COLOUR_RANGES:
-                self.presenter.set_fixed_colours(viewer, self.session.run, viewer.shown)
-            self.presenter.update_legend(viewer)
-        self.presenter.reanalyse()
-
-    def _offer_colourings(self, labelled: bool) -> None:
-        """Colour by "label" only for a cloud with labels; a view coloured by labels the new cloud lacks turns plain."""
-        colouring = self.ui.view.colouring
-        options = tuple(option for option in layout.COLOUR_BY if labelled or option != "label")
-        if colouring.options != options:
-            colouring.options = options  # viser puts the value on the first option when it is gone
-            if self.presenter.colour_by != colouring.value:
-                self._set_colouring()
-
-    def _labels_changed(self) -> None:
-        for viewer in self.presenter.all():
-            self.presenter.update_legend(viewer)
-        self.presenter.update_statuses()
-
-    def _apply_view(self) -> None:
-        for handle in (*self.ui.view.size.values(), *self.ui.view.opacity.values()):
-            # the box beside a slider takes any number: a size of 1000 froze every browser drawing it
-            value = float(handle.value)
-            kept = min(max(value, handle.min), handle.max) if value == value else 1.0  # NaN: as every layer starts
-            if kept != value:
-                handle.value = kept
-        settings = self.presenter.view_settings()
-        for viewer in self.presenter.all():
-            view = viewer.view
-            for layer in layout.LAYERS:
-                if settings["visible"][layer] != view.visible[layer]:
-                    view.set_visible(layer, settings["visible"][layer])
-                if settings["sizes"][layer] != view.sizes[layer]:
-                    view.set_size(layer, settings["sizes"][layer])
-                if settings["opacity"][layer] != view.opacity[layer]:
-                    view.set_opacity(layer, settings["opacity"][layer])
-        self.presenter.reanalyse()  # the skeleton is drawn only when it is wanted
-        self.presenter.update_statuses()
-
     def _draw_new_run(self, frame: bool = False) -> None:
         cloud = self.session.cloud
         self.messages.withdraw(RUN_ENDED)  # said of the run this one replaces
@@ -366,7 +322,7 @@ class Inspector:
         frame_camera(self.server.initial_camera, cloud.points, up=UP_AXES[self.ui.view.up.value])
         self.loader.select_loaded()
         self.labels.refresh()
-        self._offer_colourings(cloud.labels is not None)
+        self.presenter.offer_colourings(cloud.labels is not None)
         self.shown = len(self.session.history) - 1  # iteration 0, or the end of a finished run opened as such
         settings = self.presenter.view_settings()
         for viewer in self.presenter.all():

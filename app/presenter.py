@@ -232,6 +232,53 @@ class Presenter:
         return status.hold_inside_hint(verdict, run.state(index), self.session.solid_loops(index, run),
                                        mesh=run.cloud.solid_loops is not None)
 
+    # ------------------------------------------------------------------ view settings
+    def set_colouring(self) -> None:
+        """The View tab's colouring, for every viewer."""
+        self.colour_by = self.ui.view.colouring.value
+        self.colour_original = bool(self.ui.view.colour_original.value)
+        for viewer in self.all():
+            if self.colour_by not in COLOUR_RANGES:
+                self.set_fixed_colours(viewer, self.session.run, viewer.shown)
+            self.update_legend(viewer)
+        self.reanalyse()
+
+    def offer_colourings(self, labelled: bool) -> None:
+        """Colour by "label" only for a cloud with labels; a view coloured by labels the new cloud lacks turns plain."""
+        colouring = self.ui.view.colouring
+        options = tuple(option for option in layout.COLOUR_BY if labelled or option != "label")
+        if colouring.options != options:
+            colouring.options = options  # viser puts the value on the first option when it is gone
+            if self.colour_by != colouring.value:
+                self.set_colouring()
+
+    def labels_changed(self) -> None:
+        """New label weights: the legends and statuses name them."""
+        for viewer in self.all():
+            self.update_legend(viewer)
+        self.update_statuses()
+
+    def apply_view(self) -> None:
+        """The View tab's layers, sizes and opacities, for every viewer (out-of-range boxes put back in range)."""
+        for handle in (*self.ui.view.size.values(), *self.ui.view.opacity.values()):
+            # the box beside a slider takes any number: a size of 1000 froze every browser drawing it
+            value = float(handle.value)
+            kept = min(max(value, handle.min), handle.max) if value == value else 1.0  # NaN: as every layer starts
+            if kept != value:
+                handle.value = kept
+        settings = self.view_settings()
+        for viewer in self.all():
+            view = viewer.view
+            for layer in layout.LAYERS:
+                if settings["visible"][layer] != view.visible[layer]:
+                    view.set_visible(layer, settings["visible"][layer])
+                if settings["sizes"][layer] != view.sizes[layer]:
+                    view.set_size(layer, settings["sizes"][layer])
+                if settings["opacity"][layer] != view.opacity[layer]:
+                    view.set_opacity(layer, settings["opacity"][layer])
+        self.reanalyse()  # the skeleton is drawn only when it is wanted
+        self.update_statuses()
+
     # ------------------------------------------------------------------ status and legend
     def update_statuses(self) -> None:
         with self._status_lock:

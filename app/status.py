@@ -94,7 +94,7 @@ def pending_markdown(session) -> str:
 
 
 def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
-    """What the status leaves out, of `run` (app.session.Run) and its shown `state`: what loading and cleaning
+    """What the status leaves out, of `run` (app.run.Run) and its shown `state`: what loading and cleaning
     did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), what the
     skeleton's balls cannot resolve (`scale`, OriginalSurface.scale_notes), the contraction at reduced
     resolution, the points held on thin handles, what the view leaves out (`notice`) and the figures the run

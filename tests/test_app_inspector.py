@@ -158,7 +158,7 @@ def test_colour_by_label_is_offered_only_for_a_cloud_with_labels(cloud):
         inspector.open(labelled)
         assert inspector.wait_idle(120) and colouring.options[-1] == "label"
         colouring.value = "label"
-        inspector._set_colouring()
+        inspector.presenter.set_colouring()
         inspector.open(cloud)
         assert inspector.wait_idle(120) and "label" not in colouring.options
         assert colouring.value == "plain" and inspector.presenter.colour_by == "plain"
@@ -402,7 +402,7 @@ def test_view_sizes_and_opacities_typed_past_their_sliders_are_put_back_within_t
         assert inspector.wait_idle(120)
         size, opacity = inspector.ui.view.size, inspector.ui.view.opacity
         size["contracted"].value, size["original"].value, opacity["original"].value = 1000.0, -1.0, float("nan")
-        inspector._apply_view()
+        inspector.presenter.apply_view()
         assert (size["contracted"].value, size["original"].value, opacity["original"].value) == (
             size["contracted"].max, size["original"].min, 1.0)
         view = inspector.presenter.all()[0].view
