@@ -39,7 +39,9 @@ from .params import is_integer, is_real
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
 NOISE = 0.002  # Gaussian noise of the bench tori, a fraction of the bounding-box diagonal
-STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "evidence", "write")
+# in run order; "solid loops" reads a closed cloud's loops and "hold inside" is a second run when one was lost
+STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics", "evidence", "solid loops",
+          "hold inside", "write")
 
 
 def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,
