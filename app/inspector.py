@@ -69,8 +69,8 @@ class Inspector:
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server, self.playback)
-        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit, self.presenter.labels_changed,
-                                                         order=self.ui.labels_order)
+        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit,
+                                                         self.presenter.labels_changed, order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
                                  self.presenter.draw_frame, self.presenter.picture_note)
         self.loader = Loader(session, self.ui.files, self.worker, self.playback, self.activity, self.messages,

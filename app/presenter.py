@@ -184,8 +184,9 @@ class Presenter:
             return
         if points[1] != index:  # drawn late: the status and legend speak of the points shown
             self.analyses.readiness(run, points[1])
+        hint = self._hold_hint(verdict, run, index)  # before the atomic block: it may read the solid (0.1-0.4 s)
         with viewer.client.atomic():
-            viewer.show_plots(plots, verdict, self._hold_hint(verdict, run, index))
+            viewer.show_plots(plots, verdict, hint)
             if colours is not None:
                 viewer.view.set_colours((run, index), colours.contracted, colour_by, colours.original)
             self.update_legend(viewer, "" if colours is None else colours.note)
@@ -219,17 +220,21 @@ class Presenter:
         verdict = self.session.verdict(index, run, with_skeleton=index > 0)  # the skeleton's checks complete it
         pinned = self.pinned
         if viewer.showing(run, index):
+            hint = self._hold_hint(verdict, run, index)
             with viewer.client.atomic():
-                viewer.show_verdict(verdict, self._hold_hint(verdict, run, index))
+                viewer.show_verdict(verdict, hint)
                 if pinned is not None:  # the Compare tab names the same verdict; its figures stand
                     viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict)
             viewer.client.flush()
 
     def _hold_hint(self, verdict: dict, run, index: int) -> str:
-        """What to try when the skeleton of history[index], if made, keeps fewer loops than the solid has."""
-        if (index, self.session.skeleton_params) not in run.evidence:
+        """What to try when the skeleton of history[index], if made, keeps fewer loops than the solid has (the
+        solid read only where the hint could be given: a skeleton judged, its run not held inside already)."""
+        state = run.state(index)
+        if state.params.hold_inside or (index, self.session.skeleton_params) not in run.evidence \
+                or not any(c["name"] == "skeleton loops" for c in verdict.get("criteria", [])):
             return ""
-        return status.hold_inside_hint(verdict, run.state(index), self.session.solid_loops(index, run),
+        return status.hold_inside_hint(verdict, state, self.session.solid_loops(index, run),
                                        mesh=run.cloud.solid_loops is not None)
 
     # ------------------------------------------------------------------ view settings

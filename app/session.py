@@ -330,8 +330,10 @@ class Session:
         skeleton = self.skeleton(index, run)
         key = (skeleton.radius, skeleton.topology()["cycles"])
         if key not in run.solid_loops:
-            inside = None if run.metrics is None else run.metrics.reference.inside
-            run.solid_loops[key] = pipeline.solid_loops(run.cloud, inside, key[1], skeleton.radius)[0]
+            if run.metrics is None:  # its inside test comes with the metrics: asked again once they are made
+                return run.cloud.solid_loops
+            run.solid_loops[key] = pipeline.solid_loops(run.cloud, run.metrics.reference.inside, key[1],
+                                                        skeleton.radius)[0]
         return run.solid_loops[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:

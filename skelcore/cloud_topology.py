@@ -18,22 +18,41 @@ On the benchmark's closed clouds this read is right where the plain grid over-re
 hand and figure, the ball with three small handles, the kettle, the thinned trefoil), and it reads the bores
 of drilled solids that the contraction closes. It costs a few tenths of a second on a 10,000-point cloud's grid,
 so it is made only where the grid's plain count (`surface_loops`, its Euler characteristic, an upper bound: a
-persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks.
+persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks. Both read the same
+offsets (`offsets`), measured out to the skeleton's sample radius beyond the surface.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .inside import InsideTest
-from .regions import label_regions
+from .regions import dilated, label_regions
 
 
-def surface_loops(test: InsideTest) -> int | None:
-    """The first Betti number of the solid {offset <= 0} as closed cubes (b1 = b0 + b2 - chi), an upper bound of
-    `solid_loops`; None when the cloud does not read closed (some region of the grid split its votes)."""
-    offset = _offsets(test)
-    if offset is None:
+def offsets(test: InsideTest, reach: float) -> np.ndarray | None:
+    """Each cell's signed offset from the surface (<= 0 inside), as far as `reach` outside it: the shell's cells,
+    and the outside cells within reach of it, by their centres along the nearest sample's outward normal (eq.:
+    (c - s) . n_s, as the test judges a point; from a bore's axis, the bore's radius), inside cells below every
+    such value, the outside beyond reach at +inf (no level the read looks at); None when a region of the grid
+    split its votes (the cloud is open)."""
+    if test.undecided.any():
         return None
+    measured = test.cells == -1
+    for _ in range(int(np.ceil(reach / test.size)) + 1):  # the cells a growth by reach can reach, and one more
+        measured = dilated(measured) & (test.cells != 1)
+    offset = np.full(test.cells.shape, np.inf)
+    values = test.side_of(test.origin + (np.argwhere(measured) + 0.5) * test.size)
+    offset[test.cells == 1] = min(values.min(initial=0.0), 0.0) - test.size
+    offset[measured] = values
+    # a cell the test decided is outside stays outside: a noisy normal there must not join it to the solid
+    outside = measured & (test.cells == 0)
+    offset[outside] = np.maximum(offset[outside], 1e-6 * test.size)
+    return offset
+
+
+def surface_loops(offset: np.ndarray) -> int:
+    """The first Betti number of the solid {offset <= 0} as closed cubes (b1 = b0 + b2 - chi), an upper bound of
+    `solid_loops` (its loops are among these)."""
     solid = np.pad(offset <= 0.0, 1)
     pieces = label_regions(solid, touching=True)[1]  # closed cubes meeting at a corner are one piece
     count = label_regions(~solid)[1]
@@ -41,12 +60,9 @@ def surface_loops(test: InsideTest) -> int | None:
     return int(pieces + cavities - _euler(solid))
 
 
-def solid_loops(test: InsideTest, reach: float) -> int | None:
+def solid_loops(offset: np.ndarray, reach: float) -> int:
     """The loops through the solid the cloud bounds: those of the offset's sublevel sets born at or below 0 and
-    still open at `reach` (the skeleton's sample radius); None when the cloud does not read closed."""
-    offset = _offsets(test)
-    if offset is None:
-        return None
+    still open at `reach` (the skeleton's sample radius; `offset` measured that far, see `offsets`)."""
     import gudhi
 
     # Only the sublevel sets at 0 and past `reach` decide the count, so the levels outside (0, reach] are merged
@@ -55,21 +71,6 @@ def solid_loops(test: InsideTest, reach: float) -> int | None:
     complex_ = gudhi.CubicalComplex(top_dimensional_cells=levels)
     pairs = complex_.persistence(homology_coeff_field=2, min_persistence=reach)  # drops those dying by reach
     return sum(1 for dimension, (birth, death) in pairs if dimension == 1 and birth <= 0.0 and death > reach)
-
-
-def _offsets(test: InsideTest) -> np.ndarray | None:
-    """Each cell's signed offset from the surface (<= 0 inside): the shell's cells by their centres along the
-    nearest sample's outward normal (eq.: (c - s) . n_s, as the test judges a point), inside cells below every
-    such value, outside cells above; None when a region of the grid split its votes (the cloud is open)."""
-    if test.undecided.any():
-        return None
-    shell = test.cells == -1
-    offset = np.empty(test.cells.shape)
-    measured = test.side_of(test.origin + (np.argwhere(shell) + 0.5) * test.size)
-    offset[test.cells == 1] = min(measured.min(initial=0.0), 0.0) - test.size
-    offset[test.cells == 0] = np.inf  # beyond every level: a hole the shell never closes never dies
-    offset[shell] = measured
-    return offset
 
 
 def _euler(solid: np.ndarray) -> int:

@@ -54,7 +54,7 @@ class ContractionParams:
     drop_jumps: bool = True
     # points a step would take out of the original solid go to the nearest point of its medial surface instead
     # (skelcore.medial; not in cloudcontr): loops through a solid that contraction closes (a bore longer than
-    # wide) are kept, at the price of spurs; off by default, tried on a closed mesh that lost loops
+    # wide) are kept, at the price of spurs; off by default, tried on a closed mesh or cloud that lost loops
     hold_inside: bool = False
     bbox_growth: float = 1.2  # stop when the bounding box grows past this factor of the original
     collapse: float = 0.5  # stop when one step shrinks the longest extent, or a second one spanned at least this share

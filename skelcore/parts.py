@@ -7,7 +7,8 @@ bodies with limbs (octopus, star) and plain primitives (capsule, pin, box). Elev
 skeleton on objects no threshold was set on: containers with handles (kettle, trophy, cups), linked and fused rings,
 a wire hanger, scissors, a bulky body with arches and a branching tree. Seven machined ones, added with the hold
 inside the solid (skelcore.medial), hold bores longer than wide, which plain contraction closes: drilled cubes
-and bars, thick and tall tubes, and a flat frame beside them. `skelcore bench-quality --parts` runs them all; they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
+and bars, thick and tall tubes, and a flat frame beside them. `skelcore bench-quality --parts` runs them all;
+they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
 """
 from __future__ import annotations
 

@@ -274,16 +274,18 @@ def solid_loops(cloud: io.Cloud, inside: InsideTest | None, cycles: int, radius:
     (skelcore.cloud_topology). None: no solid to go by, or no loop the skeleton could lack."""
     if cloud.solid_loops is not None:
         return cloud.solid_loops, "the mesh's solid (its genus)"
-    if inside is None or (cloud_topology.surface_loops(inside) or 0) <= cycles:
+    offset = None if inside is None else cloud_topology.offsets(inside, radius)
+    if offset is None or cloud_topology.surface_loops(offset) <= cycles:
         return None, ""
-    return cloud_topology.solid_loops(inside, radius), "the solid the points bound (as their inside test reads it)"
+    return cloud_topology.solid_loops(offset, radius), "the solid the input bounds (as its inside test reads it)"
 
 
-def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None, genus: int,
+def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None, wanted: int,
                  solid: str) -> Computed:
-    """A run whose skeleton keeps fewer loops than the `genus` loops through `solid` (in words), run again with the
-    points held inside the solid (ContractionParams.hold_inside, skelcore.medial): that run when its skeleton keeps
-    more of them, else `plain` (also when the second run fails: the first one is not lost); a note says which."""
+    """A run whose skeleton keeps fewer loops than the `wanted` loops through `solid` (in words: a closed mesh's
+    genus, or a closed cloud's read), run again with the points held inside the solid (ContractionParams.hold_inside,
+    skelcore.medial): that run when its skeleton keeps more of them, no more than `wanted`, else `plain` (also when
+    the second run fails: the first one is not lost); a note says which."""
     cloud, kept = plain.cloud, plain.evidence["cycles"]
     try:
         held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
@@ -292,12 +294,12 @@ def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str],
         held, outcome = None, f"failed ({error}), so the first run is the result"
     else:
         again = held.evidence["cycles"]
-        outcome = (f"keeps {again}, and is the result" if kept < again <= genus else
-                   f"keeps {again}, more than the solid has, so the first run is the result" if again > genus else
+        outcome = (f"keeps {again}, and is the result" if kept < again <= wanted else
+                   f"keeps {again}, more than the solid has, so the first run is the result" if again > wanted else
                    f"keeps {again}, no more, so the first run is the result")
-    better = held is not None and kept < held.evidence["cycles"] <= genus
-    loops = "loop" if genus == 1 else "loops"
-    note = (f"the skeleton keeps {kept} of the {genus} {loops} through {solid}, so the "
+    better = held is not None and kept < held.evidence["cycles"] <= wanted
+    loops = "loop" if wanted == 1 else "loops"
+    note = (f"the skeleton keeps {kept} of the {wanted} {loops} through {solid}, so the "
             f"contraction was run again with the points held inside the solid (hold_inside): that run {outcome}")
     _say(progress, f"{cloud.name}: {note}")
     chosen = held if better else plain

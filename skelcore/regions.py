@@ -1,6 +1,7 @@
-"""Regions of boolean voxel grids: dilation by a cell, face-connected labelling and the labels on the grid's
-border, for the inside test's shell and regions (skelcore.inside), the open space the loop rule looks through
-(skelcore.loops) and the coarse grid that finds pieces far apart (skelcore.normalise)."""
+"""Regions of boolean voxel grids: dilation by a cell, face-connected (or corner-connected) labelling and the labels
+on the grid's border, for the inside test's shell and regions (skelcore.inside), the open space the loop rule looks
+through (skelcore.loops), the coarse grid that finds pieces far apart (skelcore.normalise) and the loops of a closed
+cloud's solid (skelcore.cloud_topology)."""
 from __future__ import annotations
 
 import numpy as np

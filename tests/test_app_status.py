@@ -309,7 +309,8 @@ def test_the_verdict_line_above_the_histograms_names_the_failed_criteria():
 
 def test_the_headline_says_to_hold_inside_when_the_skeleton_keeps_fewer_loops_than_the_solid():
     """A tall pipe's bore pulled onto its axis: the headline names what to try, unless the run held its points inside
-    already, the input is no closed mesh, or the skeleton keeps every loop."""
+    already, no solid is known (neither a closed mesh's genus nor a closed cloud's read), or the skeleton keeps
+    every loop."""
     from app.status import hold_inside_hint
     from app.viewer import Viewer
 

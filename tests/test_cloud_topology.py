@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelcore.cloud_topology import _euler, solid_loops, surface_loops
+from skelcore.cloud_topology import _euler, offsets, solid_loops, surface_loops
 from skelcore.loops import cloud_inside
 from skelcore.regions import label_regions
 
@@ -14,8 +14,9 @@ from skelcore.regions import label_regions
 def _read(mesh, points=4000):
     samples = trimesh.sample.sample_surface_even(mesh, points, seed=0)[0]
     diagonal = float(np.linalg.norm(np.ptp(samples, axis=0)))
-    test = cloud_inside(samples, 0.01 * diagonal)
-    return test, surface_loops(test), solid_loops(test, 0.02 * diagonal)
+    test, reach = cloud_inside(samples, 0.01 * diagonal), 0.02 * diagonal
+    offset = offsets(test, reach)
+    return (test, None, None) if offset is None else (test, surface_loops(offset), solid_loops(offset, reach))
 
 
 def _euler_b1(cells):
@@ -38,6 +39,18 @@ def test_closed_clouds_read_their_solids_loops_and_an_open_one_reads_none():
     bowl = trimesh.creation.icosphere(3)
     bowl.update_faces(bowl.triangles_center[:, 2] < 0.3)
     assert _read(bowl)[1:] == (None, None)
+
+
+def test_a_hole_narrower_than_the_skeletons_ball_is_not_read():
+    """A cube drilled with bores of radius 0.12 and 0.3: read at the default sample radius (2% of the diagonal,
+    0.035) both are loops; at 10% (0.17) the narrow bore closes before the solid has grown that far."""
+    for radius, wide_ball in ((0.12, 0), (0.3, 1)):
+        cube = trimesh.creation.box((1.0, 1.0, 1.0)).difference(trimesh.creation.cylinder(radius, 3.0))
+        samples = trimesh.sample.sample_surface_even(cube, 4000, seed=0)[0]
+        diagonal = float(np.linalg.norm(np.ptp(samples, axis=0)))
+        test = cloud_inside(samples, 0.01 * diagonal)
+        read = [solid_loops(offsets(test, share * diagonal), share * diagonal) for share in (0.02, 0.1)]
+        assert read == [1, wide_ball]
 
 
 def test_a_gap_the_grids_shell_closes_is_no_loop():
@@ -88,7 +101,7 @@ def test_a_tall_pipes_point_cloud_keeps_its_loop_by_a_second_run_held_inside(met
     result = skelcore.skeletonize(points, method)
     assert result.cloud.solid_loops is None
     assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside
-    assert any("keeps 0 of the 1 loop through the solid the points bound" in note and "and is the result" in note
+    assert any("keeps 0 of the 1 loop through the solid the input bounds" in note and "and is the result" in note
                for note in result.cloud.notes)
 
 
