@@ -57,7 +57,7 @@ def solid_loops(faces: np.ndarray | None, vertex_count: int) -> tuple[int | None
         return topology["genus"], ""
     why = (f"it has {topology['boundary_loops']} boundary loop{'' if topology['boundary_loops'] == 1 else 's'}"
            if topology["boundary_loops"] else "edges or corners where separate sheets meet")
-    return None, f"the mesh bounds no solid ({why}), so its skeleton's loops are not checked against a genus"
+    return None, f"the mesh's faces close no solid ({why}), so its skeleton's loops are not checked against a genus"
 
 
 def _fans(ends: np.ndarray, order: np.ndarray, face_count: int) -> int:

@@ -113,3 +113,18 @@ def test_a_cloud_whose_skeleton_keeps_its_loops_is_not_run_again(tmp_path, capsy
     assert main(["run", str(tmp_path / "torus.xyz"), "--out", str(tmp_path / "out")]) == 0
     assert "run again" not in capsys.readouterr().out
     assert not json.loads((tmp_path / "out" / "params.json").read_text())["contraction"]["hold_inside"]
+
+
+def test_a_triangle_soup_pipe_whose_faces_close_no_solid_keeps_its_loop_by_its_inside_test(tmp_path):
+    """An STL whose triangles' corners differ by 1e-6: no faces are shared, so no genus; its samples' inside test
+    still reads the pipe's solid, and the second run keeps its loop."""
+    import skelcore
+
+    pipe = _pipe()
+    corners = pipe.vertices[pipe.faces].reshape(-1, 3)
+    corners = corners + np.random.default_rng(0).normal(scale=1e-6, size=corners.shape)
+    trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False).export(tmp_path / "soup.stl")
+    result = skelcore.skeletonize(tmp_path / "soup.stl", "lbc")
+    assert result.cloud.solid_loops is None
+    assert any(note.startswith("the mesh's faces close no solid") for note in result.cloud.notes)
+    assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside

@@ -26,8 +26,8 @@ def test_the_genus_of_closed_and_open_surfaces():
     opened = torus.faces[1:]  # one triangle removed: a boundary loop, no solid inside
     assert mesh_topology(opened, len(torus.vertices))["boundary_loops"] == 1
     assert solid_loops(opened, len(torus.vertices)) == (
-        None, "the mesh bounds no solid (it has 1 boundary loop), so its skeleton's loops are not checked against "
-              "a genus")
+        None, "the mesh's faces close no solid (it has 1 boundary loop), so its skeleton's loops are not checked "
+              "against a genus")
     assert solid_loops(None, 10) == (None, "")
 
 
@@ -47,8 +47,8 @@ def test_solids_touching_at_a_corner_or_an_edge_bound_no_solid_and_repeated_face
     corner = _touching(cube, (1.0, 1.0, 1.0))
     assert not mesh_topology(corner.faces, len(corner.vertices))["closed"]
     assert solid_loops(corner.faces, len(corner.vertices)) == (
-        None, "the mesh bounds no solid (edges or corners where separate sheets meet), so its skeleton's loops are "
-              "not checked against a genus")
+        None, "the mesh's faces close no solid (edges or corners where separate sheets meet), so its skeleton's "
+              "loops are not checked against a genus")
     edge = _touching(cube, (1.0, 1.0, 0.0))
     assert solid_loops(edge.faces, len(edge.vertices))[0] is None
     torus = trimesh.creation.torus(1.0, 0.3)
