@@ -324,16 +324,15 @@ class Session:
         return run.skeletons[key]
 
     def solid_loops(self, index: int, run: Run | None = None) -> int | None:
-        """The loops through the solid the run's cloud bounds, as `skelcore run` reads them to try a run held inside
-        (pipeline.solid_loops), when the skeleton of history[index] may lack some; else None."""
+        """The loops through the run's solid (pipeline.solid_loops: the verdict's floor for its skeletons, and why
+        `skelcore run` tries a run held inside), when the skeleton of history[index] may lack some; else None."""
         run = run or self.run
         skeleton = self.skeleton(index, run)
-        key = (skeleton.radius, skeleton.topology()["cycles"])
+        key = (skeleton.topology()["cycles"], skeleton.radius)
         if key not in run.solid_loops:
             if run.metrics is None:  # its inside test comes with the metrics: asked again once they are made
                 return run.cloud.solid_loops
-            run.solid_loops[key] = pipeline.solid_loops(run.cloud, run.metrics.reference.inside, key[1],
-                                                        skeleton.radius)[0]
+            run.solid_loops[key] = pipeline.solid_loops(run.cloud, run.metrics.reference.inside, *key)[0]
         return run.solid_loops[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
@@ -359,9 +358,11 @@ class Session:
                 skeleton = self.skeleton(index, run)
                 if skeleton.gap not in run.input_topology:  # the same at every iteration: computed once
                     run.input_topology[skeleton.gap] = input_evidence(run.cloud.points, skeleton.gap)
+                self.metrics_upto(index, run)  # a point cloud's solid is read from the metrics' inside test
                 run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
                                                       run.input_topology[skeleton.gap],
-                                                      solid_loops=run.cloud.solid_loops)
+                                                      solid_loops=self.solid_loops(index, run),
+                                                      solid_read=run.cloud.solid_loops is None)
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 
@@ -370,8 +371,10 @@ class Session:
         for the run up to history[index]."""
         run = self.run
         cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name)  # never the server's paths
+        self.verdict(index, run, with_skeleton=True)  # the evidence the inspector judged by (a cloud's solid read)
         Result(cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
-               self.run_options(run), run.weights, reduction=run.reduction).save(out_dir)
+               self.run_options(run), run.weights, reduction=run.reduction,
+               evidence=run.evidence[(index, self.skeleton_params)]).save(out_dir)
 
     def note(self, line: str) -> None:
         self.log.append(line)

@@ -12,21 +12,23 @@ from .step import IterationState
 
 
 def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
-                      cloud: dict | None = None, solid_loops: int | None = None) -> dict:
+                      cloud: dict | None = None, solid_loops: int | None = None, solid_read: bool = False) -> dict:
     """What the verdict's skeleton checks read: the skeleton's nodes (with those GLSkeleton's light graph left out
     of a straight stretch, which are no collapse), pieces and loops, and the pieces and loops
     of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
     and of its gap unit (only the contracted cloud's loops need a complex: the input's pieces come from
     piece_counts). source: input_evidence of `original` at the gap unit, and cloud: persistence_summary of the
-    state's points at the radius, when already known (see `cloud_evidence`). solid_loops: the input's
-    io.Cloud.solid_loops (None: a point cloud, or a mesh that bounds no solid)."""
+    state's points at the radius, when already known (see `cloud_evidence`). solid_loops: the loops through the
+    input's solid, the skeleton's floor: a closed mesh's genus (io.Cloud.solid_loops), or with solid_read those
+    a closed cloud's inside test reads (skelcore.cloud_topology); None: no solid known."""
     topology = skeleton.topology()
     cloud = cloud or persistence_summary(state.points, skeleton.radius)
     source = source or input_evidence(original, skeleton.gap)
     nodes = skeleton.graph.number_of_nodes()
     return {"nodes": nodes, "nodes_with_dropped": nodes + skeleton.dropped, "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
-            "input_pieces": source["pieces"], "input_loops": solid_loops}
+            "input_pieces": source["pieces"], "input_loops": solid_loops,
+            "input_loops_read": bool(solid_read and solid_loops is not None)}
 
 
 def cloud_evidence(state: IterationState, original: np.ndarray, radius: float, gap: float) -> tuple[dict, dict]:

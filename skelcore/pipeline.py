@@ -255,13 +255,16 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
         computed = _contract_and_judge(cloud, options, weights, progress, clock)
-        if options.hold_retry and not options.params.hold_inside:
-            loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
-                                       computed.skeleton.radius)
-            clock.mark("solid loops")
-            if loops is not None and computed.evidence["cycles"] < loops:
-                computed = _held_inside(computed, options, progress, loops, solid)
-                clock.mark("hold inside")
+        loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
+                                   computed.skeleton.radius)
+        clock.mark("solid loops")
+        if loops is not None and computed.evidence["cycles"] < loops and options.hold_retry \
+                and not options.params.hold_inside:
+            computed = _held_inside(computed, options, progress, loops, solid)
+            clock.mark("hold inside")
+        if loops is not None and cloud.solid_loops is None:  # a closed cloud's read: the verdict's floor too
+            computed = dataclasses.replace(computed, evidence={**computed.evidence, "input_loops": loops,
+                                                               "input_loops_read": True})
     except SkelError as error:
         raise named(error, cloud.name) from None
     return computed

@@ -257,9 +257,10 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
                      f"as many as the contracted cloud ({_span(held)}) and the input ({_span(given)})")
     loops, solid = count_loops(v["skeleton_cloud_loops"], t), v.get("skeleton_input_loops")
     cycles = v["skeleton_cycles"]
+    floor = ("" if solid is None else f", and no fewer than its solid holds ({solid}, read from its inside test)"
+             if v.get("skeleton_input_loops_read") else f", and no fewer than the mesh's genus ({solid})")
     yield _criterion("skeleton loops", cycles == loops and (solid is None or cycles >= solid), "unstable", f"{cycles}",
-                     f"as many as the contracted cloud holds ({loops})"
-                     + ("" if solid is None else f", and no fewer than the mesh's genus ({solid})"))
+                     f"as many as the contracted cloud holds ({loops})" + floor)
 
 
 def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:

@@ -103,6 +103,9 @@ def test_a_tall_pipes_point_cloud_keeps_its_loop_by_a_second_run_held_inside(met
     assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside
     assert any("keeps 0 of the 1 loop through the solid the input bounds" in note and "and is the result" in note
                for note in result.cloud.notes)
+    assert result.evidence["input_loops"] == 1 and result.evidence["input_loops_read"]
+    loops = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton loops")
+    assert "no fewer than its solid holds (1, read from its inside test)" in loops["threshold"]
 
 
 def test_a_cloud_whose_skeleton_keeps_its_loops_is_not_run_again(tmp_path, capsys):
@@ -128,3 +131,24 @@ def test_a_triangle_soup_pipe_whose_faces_close_no_solid_keeps_its_loop_by_its_i
     assert result.cloud.solid_loops is None
     assert any(note.startswith("the mesh's faces close no solid") for note in result.cloud.notes)
     assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside
+
+
+def test_the_inspector_judges_a_point_clouds_skeleton_against_its_solid_too(tmp_path):
+    """The inspector's verdict on the pipe's points fails "skeleton loops" against the loop its solid holds, as the
+    command line's does, names Hold inside, and its saved metrics.json says the same."""
+    from app.session import Session
+    from app.status import hold_inside_hint
+    from skelcore.io import validate
+
+    session = Session(validate(trimesh.sample.sample_surface_even(_pipe(), 6000, seed=0)[0], name="pipe.xyz"))
+    while not session.finished:
+        session.step()
+    last = len(session.history) - 1
+    verdict = session.verdict(last, with_skeleton=True)
+    loops = next(c for c in verdict["criteria"] if c["name"] == "skeleton loops")
+    assert loops["value"] == "0" and loops["passed"] is False and "read from its inside test" in loops["threshold"]
+    assert hold_inside_hint(verdict, session.latest, session.solid_loops(last), mesh=False).startswith(
+        "0 of the solid's 1 loop kept")
+    session.write_results(last, tmp_path)
+    saved = json.loads((tmp_path / "metrics.json").read_text())
+    assert saved["skeleton_evidence"]["input_loops"] == 1 and saved["verdict"]["label"] == "unstable"
