@@ -20,13 +20,13 @@ from pathlib import Path
 
 from skelcore.cli import OneLineParser
 from skelcore.errors import SkelError, TooLargeError
-from skelcore.io import Cloud, check_sampling, load, validate
+from skelcore.io import FORMATS, Cloud, check_sampling, load, validate
 from skelcore.paths import writable_folder
 from skelcore.memory import INSPECTOR_SHARE, budget_bytes
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
 
-from .session import Session, bundled_assets
+from .session import Session
 
 DEFAULT_ASSETS = ("torus.ply", "y_branch.ply")  # first that exists is opened when no INPUT is given
 FALLBACK_SHAPE = ("torus", 3000)  # synthesised when assets/ holds nothing
@@ -194,6 +194,15 @@ def main(argv: list[str] | None = None) -> int:
         inspector.close()
         server.stop()
     return 0
+
+
+def bundled_assets(directory: Path | None = None) -> dict[str, Path]:
+    """Shape files shipped in assets/, by file name."""
+    directory = directory or Path(__file__).resolve().parents[1] / "assets"
+    if not directory.is_dir():
+        return {}
+    return {path.name: path for path in sorted(directory.iterdir())
+            if path.is_file() and path.suffix.lower() in FORMATS}
 
 
 if __name__ == "__main__":

@@ -386,15 +386,7 @@ def _weights_text(label_weights: dict[int, float]) -> str:
 
 
 def _describe(params: ContractionParams) -> str:
-    return assignments(params, [name for name in PARAMETER_LABELS if name not in ("hold_curves", "hold_inside")])
-
-
-def bundled_assets(directory: Path | None = None) -> dict[str, Path]:
-    """Shape files shipped in assets/, by file name."""
-    from skelcore.io import FORMATS
-
-    directory = directory or Path(__file__).resolve().parents[1] / "assets"
-    if not directory.is_dir():
-        return {}
-    return {path.name: path for path in sorted(directory.iterdir())
-            if path.is_file() and path.suffix.lower() in FORMATS}
+    """The parameters of a start, the two holds only where they differ from their defaults ("Hold inside on")."""
+    switches = ("hold_curves", "hold_inside")
+    changed = [name for name in switches if getattr(params, name) != getattr(ContractionParams(), name)]
+    return assignments(params, [name for name in PARAMETER_LABELS if name not in switches] + changed)

@@ -82,7 +82,7 @@ def test_the_asset_list_selects_the_cloud_loaded_or_none(assets_dir):
 
     from app.inspector import Inspector
     from app.layout import NO_ASSET
-    from app.session import bundled_assets
+    from app.main import bundled_assets
     from skelcore.io import load
 
     assets = bundled_assets(assets_dir)

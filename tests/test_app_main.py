@@ -9,7 +9,7 @@ import urllib.request
 from pathlib import Path
 
 from app.main import default_cloud, main
-from app.session import bundled_assets
+from app.main import bundled_assets
 
 
 def test_missing_input_is_one_line_and_non_zero(capsys, tmp_path):

@@ -926,3 +926,10 @@ def test_a_dense_patch_is_thinned_for_the_contraction_and_about_says_so():
     assert session.history[-1].points.shape == (len(session.run.cloud.points), 3) == (reduction.n_input, 3)
     assert "Dense parts thinned for the contraction" in run_notes(session.run, session.history[-1], notice="")
     assert Session(cloud, point_budget=None).run.reduction is None
+
+
+def test_a_start_names_the_holds_only_where_they_differ_from_their_defaults():
+    session = Session(validate(make_shape("torus", 800).points, name="torus.xyz"))
+    assert "Hold" not in session.log[-1]
+    session.restart(ContractionParams(hold_inside=True, hold_curves=False))
+    assert session.log[-1].endswith("Hold curves off, Hold inside on")
