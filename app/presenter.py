@@ -228,13 +228,10 @@ class Presenter:
             viewer.client.flush()
 
     def _hold_hint(self, verdict: dict, run, index: int) -> str:
-        """What to try when the skeleton of history[index], if made, keeps fewer loops than the solid has (the
-        solid read only where the hint could be given: a skeleton judged, its run not held inside already)."""
-        state = run.state(index)
-        if state.params.hold_inside or (index, self.session.skeleton_params) not in run.evidence \
-                or not any(c["name"] == "skeleton loops" for c in verdict.get("criteria", [])):
+        """What to try when the skeleton of history[index], if made, keeps fewer loops than the solid has."""
+        if (index, self.session.skeleton_params) not in run.evidence:
             return ""
-        return status.hold_inside_hint(verdict, state, self.session.solid_loops(index, run),
+        return status.hold_inside_hint(verdict, run.state(index), lambda: self.session.solid_loops(index, run),
                                        mesh=run.cloud.solid_loops is not None)
 
     # ------------------------------------------------------------------ view settings

@@ -8,6 +8,8 @@ shown cloud's figures; a warning or the skeleton's state), and leaves figures of
 to the notes and the legend."""
 from __future__ import annotations
 
+from typing import Callable
+
 from skelcore.step import TERMINATION_MESSAGES
 
 from .analysis import Readiness
@@ -42,15 +44,19 @@ def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = Fal
     return f"{state}; iteration {ahead.iteration} computed ahead"
 
 
-def hold_inside_hint(verdict: dict, state, solid_loops: int | None, mesh: bool = True) -> str:
-    """What to try when the verdict's skeleton keeps fewer loops than the solid has (`solid_loops`: a closed mesh's
-    genus, or with mesh False those a closed point cloud's inside test reads) and the run of `state` did not hold
-    its points inside the solid (`skelcore run` tries that by itself); "" otherwise."""
+def hold_inside_hint(verdict: dict, state, solid_loops: Callable[[], int | None], mesh: bool = True) -> str:
+    """What to try when the verdict's skeleton keeps fewer loops than the solid has (`solid_loops()`: a closed mesh's
+    genus, or with mesh False those a closed point cloud's inside test reads; asked only for a judged skeleton of a
+    run that did not hold its points inside the solid, as reading a cloud's takes a few tenths of a second) and the
+    run did not hold them (`skelcore run` tries that by itself); "" otherwise."""
     loops = next((c for c in verdict.get("criteria", []) if c["name"] == "skeleton loops"), None)
-    if loops is None or solid_loops is None or state.params.hold_inside or int(loops["value"]) >= solid_loops:
+    if loops is None or state.params.hold_inside:
         return ""
-    return (f"{loops['value']} of the {'mesh' if mesh else 'solid'}'s {solid_loops} "
-            f"loop{'' if solid_loops == 1 else 's'} kept: try More > {label('hold_inside')}")
+    solid = solid_loops()
+    if solid is None or int(loops["value"]) >= solid:
+        return ""
+    return (f"{loops['value']} of the {'mesh' if mesh else 'solid'}'s {solid} "
+            f"loop{'' if solid == 1 else 's'} kept: try More > {label('hold_inside')}")
 
 
 def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:

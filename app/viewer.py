@@ -93,8 +93,7 @@ class Viewer:
         names = [c["name"] for c in failed_criteria(verdict)]
         failed = ", ".join(names[:HEADLINE_CRITERIA]) + (f" and {len(names) - HEADLINE_CRITERIA} more"
                                                           if len(names) > HEADLINE_CRITERIA else "")
-        headline = ((table.splitlines()[0] if table else "") + (f" · failed: {failed}" if names else "")
-                    + (f" · **{hint}**" if hint else ""))
+        headline = head + (f" · failed: {failed}" if names else "") + (f" · **{hint}**" if hint else "")
         self.ui.plots.verdict_line.content = f"{headline} _(criteria: Verdict tab)_"
 
     def show_comparison(self, note: str, convergence, theta, kappa, shown: bool = True) -> None:

@@ -147,7 +147,7 @@ def test_the_inspector_judges_a_point_clouds_skeleton_against_its_solid_too(tmp_
     verdict = session.verdict(last, with_skeleton=True)
     loops = next(c for c in verdict["criteria"] if c["name"] == "skeleton loops")
     assert loops["value"] == "0" and loops["passed"] is False and "read from its inside test" in loops["threshold"]
-    assert hold_inside_hint(verdict, session.latest, session.solid_loops(last), mesh=False).startswith(
+    assert hold_inside_hint(verdict, session.latest, lambda: session.solid_loops(last), mesh=False).startswith(
         "0 of the solid's 1 loop kept")
     session.write_results(last, tmp_path)
     saved = json.loads((tmp_path / "metrics.json").read_text())
