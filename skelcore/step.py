@@ -34,7 +34,7 @@ from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
-KEPT = "the last good state is kept"
+KEPT = "so that step was discarded and the last good state is kept"  # the words name the step left out of the result
 REJECTION_CAUSES = {  # a step rejected for these ends the run on the state before it
     "nan": "the solve produced NaN",
     "solver_failure": "the sparse solver failed",
@@ -47,7 +47,7 @@ TERMINATION_MESSAGES = {
     "ring_ratio": "the one-ring size ratio stopped falling",
     "max_iterations": "the maximum number of iterations was reached",
     "covariance": "the cloud's covariance shows a converged curve",
-    **{reason: f"{cause}; {KEPT}" for reason, cause in REJECTION_CAUSES.items()},
+    **{reason: f"{cause}, {KEPT}" for reason, cause in REJECTION_CAUSES.items()},
 }
 RESTART_FIELDS = ("method", "k", "normalise", "balance_density", "drop_jumps")
 
