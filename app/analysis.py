@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from skelcore import display, pipeline, report
+from skelcore import display, provisional, report
 
 from .colours import COLOUR_RANGES, colour_values
 from .layout import CARD
@@ -40,7 +40,7 @@ class Colours:
 @dataclass(frozen=True)
 class Readiness:
     """Whether a state's skeleton means something yet, and why not."""
-    share: float  # of the points, curve-like (skelcore.pipeline.state_curve_share)
+    share: float  # of the points, curve-like (skelcore.provisional.state_curve_share)
     provisional: bool
     barely_contracted: str  # why a run's last state is, in words; "" when it is not (skelcore.pipeline)
 
@@ -50,7 +50,7 @@ class Readiness:
             return ""
         if state.iteration == 0:  # drawn in the colour the Legend names "contracted": it says what they are
             return "iteration 0 is the input itself, drawn as the contracted points"
-        return f"{self.share:.0%} of points curve-like, {pipeline.provisional_target(state):.0%} needed"
+        return f"{self.share:.0%} of points curve-like, {provisional.provisional_target(state):.0%} needed"
 
 
 class Analyses:
@@ -82,9 +82,9 @@ class Analyses:
         state = run.state(index)
 
         def compute() -> Readiness:
-            share = pipeline.state_curve_share(state, run.cloud)
-            return Readiness(share, pipeline.skeleton_is_provisional(state, share),
-                             pipeline.barely_contracted(state, share))
+            share = provisional.state_curve_share(state, run.cloud)
+            return Readiness(share, provisional.skeleton_is_provisional(state, share),
+                             provisional.barely_contracted(state, share))
         # a run's last state is never provisional: a step rejected at the end replaces its state with the ended one
         return self._cached(run, ("readiness", index, state.termination), compute if compute else lambda: None)
 

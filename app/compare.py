@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from skelcore import pipeline, report
+from skelcore import provisional, report
 from skelcore.params import ContractionParams
 
 from .layout import CARD
@@ -39,7 +39,7 @@ def pin(session) -> Pinned:
     index, run, state = len(session.history) - 1, session.run, session.latest
     metrics = session.metrics_upto(index, run)
     skeleton = None
-    if not pipeline.skeleton_is_provisional(state, pipeline.state_curve_share(state, run.cloud)):
+    if not provisional.skeleton_is_provisional(state, provisional.state_curve_share(state, run.cloud)):
         found = session.skeleton(index, run)
         skeleton = (found.nodes_array(), found.edges_array())
     name = describe(state, "pinned")

@@ -27,6 +27,7 @@ from skelcore.metrics import IterationMetrics
 from skelcore.options import RunOptions
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
+from skelcore.provisional import skeleton_is_provisional, state_curve_share
 from skelcore.skeleton import Skeleton, SkeletonParams
 
 from .run import Run
@@ -244,7 +245,7 @@ class Session:
         if skeleton:
             if paused():
                 return False
-            if provisional or not pipeline.skeleton_is_provisional(ahead, pipeline.state_curve_share(ahead, run.cloud)):
+            if provisional or not skeleton_is_provisional(ahead, state_curve_share(ahead, run.cloud)):
                 self.skeleton(index, run)
         return True
 

@@ -28,9 +28,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .coordinates import on_one_line
 from .density import group_medians
 from .errors import InputError
-from .io import Cloud, on_one_line
+from .io import Cloud
 from .neighbours import CHUNK, joined_pieces, knn, leaf_knn, local_frames, stray_pieces
 from .normalise import far_pieces
 from .params import CleaningParams

@@ -26,9 +26,9 @@ import networkx as nx
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .coordinates import EXTREME
 from .distinct import distinct_rows
 from .errors import InputError
-from .io import EXTREME
 from .normalise import binary_unit, half_extent
 
 SAMPLE_SPACING = 1e-3  # edge sampling step, fraction of the truth's bounding-box diagonal

@@ -11,9 +11,10 @@ import html
 
 import numpy as np
 
-from .errors import InputError, ParameterError
+from .errors import ParameterError
 from .metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE, IterationMetrics
-from .verdict import StabilityThresholds, convergence, run_verdict
+from .metric_entries import metrics_entries, metrics_entry
+from .verdict import StabilityThresholds, convergence
 
 # key -> (title, axis label, histogram range, target)
 MEASURES = {
@@ -56,7 +57,7 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
     import plotly.graph_objects as go
 
     key = measure_key(measure)
-    entry = _entry(metrics)
+    entry = metrics_entry(metrics)
     stats = entry[key]
     name, axis_label, value_range, target = MEASURES[key]
     iteration = entry.get("iteration") if iteration is None else iteration
@@ -116,7 +117,7 @@ def histograms_over_iterations_figure(iterations, measure: str, title: str | Non
     from plotly.colors import sample_colorscale
 
     key = measure_key(measure)
-    entries = _entries(iterations)
+    entries = metrics_entries(iterations)
     name, axis_label, value_range, target = MEASURES[key]
     colours = sample_colorscale("Viridis", np.linspace(0, 0.9, max(len(entries), 2)).tolist())
     figure = go.Figure()
@@ -138,7 +139,7 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
-    entries = _entries(iterations)
+    entries = metrics_entries(iterations)
     trend = convergence(entries, thresholds)
     labels = [e["verdict"]["label"] for e in entries]
     figure = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.12,
@@ -296,14 +297,6 @@ def final_histograms_figure(runs, measure: str, title: str | None = None, colour
     return figure
 
 
-def run_summary(name: str, metrics, verdict: dict | None = None) -> dict:
-    """A run as the comparison figures take it, from its per-iteration metrics (objects or dicts). verdict: the
-    run's verdict when the caller has it with the skeleton's checks (skelcore.verdict.run_verdict with evidence);
-    None: judged from the metrics alone."""
-    entries = _entries(metrics)
-    return {"name": name, "iterations": entries, "verdict": verdict or run_verdict(entries)}
-
-
 def verdict_text(verdict: dict, max_reasons: int = 6) -> str:
     """Markdown: the label in bold and its reasons as a list."""
     reasons = verdict.get("reasons", [])
@@ -321,51 +314,6 @@ def per_point_values(metrics: IterationMetrics, measure: str) -> np.ndarray:
     if not isinstance(metrics, IterationMetrics):
         raise ParameterError("per_point_values: needs an IterationMetrics (a metrics dict holds no per-point values)")
     return metrics.per_point(measure_key(measure))
-
-
-def entry_problem(entry) -> str | None:
-    """What makes `entry` unusable as one iteration of metrics.json (its histograms, statistics, boundedness
-    and verdict), or None."""
-    if not isinstance(entry, dict):
-        return "is not an object"
-    if "iteration" in entry and (not isinstance(entry["iteration"], int) or isinstance(entry["iteration"], bool)):
-        return f"has an iteration that is no whole number ({entry['iteration']!r:.30})"
-    for key in ("d_theta", "delta_kappa"):
-        stats = entry.get(key)
-        if not isinstance(stats, dict):
-            return f"lacks {key}"
-        histogram = stats.get("histogram")
-        if (not isinstance(histogram, dict) or not isinstance(histogram.get("edges"), list)
-                or not isinstance(histogram.get("counts"), list)
-                or len(histogram["edges"]) != len(histogram["counts"]) + 1):
-            return f"{key} has no histogram with edges and counts"
-        try:
-            edges, counts = np.asarray(histogram["edges"], float), np.asarray(histogram["counts"], float)
-        except (TypeError, ValueError):
-            edges = counts = np.array([np.nan])
-        if not (np.isfinite(edges).all() and np.isfinite(counts).all() and (np.diff(edges) > 0).all()):
-            return f"{key} has histogram edges or counts that are not increasing finite numbers"
-        missing = [field for field in ("mean", "median", "skewness", "kurtosis", "symmetry", "unimodality", "n")
-                   if field not in stats]
-        if missing or not isinstance(stats.get("peaks"), dict):
-            return f"{key} lacks {', '.join(missing) or 'peaks'}"
-    if not isinstance(entry.get("boundedness"), dict) or not isinstance(entry.get("verdict"), dict):
-        return "lacks boundedness or verdict"
-    return None
-
-
-def _entry(metrics) -> dict:
-    if isinstance(metrics, IterationMetrics):
-        return {"iteration": metrics.iteration, **metrics.to_dict()}
-    problem = entry_problem(metrics)
-    if problem:
-        raise InputError(f"metrics: {problem}")
-    return metrics
-
-
-def _entries(iterations) -> list[dict]:
-    entries = [_entry(item) for item in iterations]
-    return [{"iteration": position, **entry} for position, entry in enumerate(entries)]
 
 
 def _thin(points: np.ndarray) -> np.ndarray:

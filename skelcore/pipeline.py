@@ -18,7 +18,6 @@ from . import cloud_topology, io, multires
 from .clean import clean, cleaned
 from .contraction import IterationState, contract, record
 from .step import REJECTION_CAUSES
-from .curveness import skeleton_scale_share
 from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
@@ -29,7 +28,6 @@ from .params import ContractionParams
 from .results import write_results
 from .skeleton import Skeleton, SkeletonParams, extract_skeleton
 from .surface import OriginalSurface
-from .verdict import StabilityThresholds
 
 
 @dataclass
@@ -51,40 +49,6 @@ class RunResult:
                 f"skeleton {self.skeleton.graph.number_of_nodes()} nodes, {topology['cycles']} cycles, "
                 f"{topology['junctions']} junctions, {topology['ends']} ends; "
                 f"verdict {self.metrics['verdict']['label']}; {self.elapsed:.1f} s -> {self.out_dir}")
-
-
-def provisional_target(state: IterationState) -> float:
-    """The curve-like share below which a state's skeleton is provisional: the share the contraction itself aims
-    at (its params.curve_share; the owner's default when the run turned that aim off)."""
-    return state.params.curve_share if state.params.curve_share > 0 else ContractionParams.curve_share
-
-
-def skeleton_is_provisional(state: IterationState, share: float) -> bool:
-    """True while the cloud is not curve-like enough for its curve skeleton to mean anything: fewer than
-    provisional_target of its points are curve-like (`share`, from state_curve_share). Iteration 0 always is;
-    a run's last state never is: its skeleton is the run's result."""
-    if state.iteration == 0:
-        return True
-    return state.termination is None and share < provisional_target(state)
-
-
-def barely_contracted(state: IterationState, share: float) -> str:
-    """Why a run's last state is barely contracted, in a few words ("" when it is not, or `state` is not a run's
-    last): the run stopped after fewer steps than a verdict needs to see a trend (StabilityThresholds.min_steps),
-    or at the iteration limit with fewer than provisional_target of its points curve-like (`share`, from
-    state_curve_share). A run that ends by its own rules is not: bulky shapes (blocks, a bunny, a mug) end their
-    good runs well below the curve-like aim, on the ring-ratio rule or a rejected last step. Its skeleton is still
-    the run's result (skeleton_is_provisional), so whoever shows it should say this."""
-    if state.termination is None or state.iteration == 0:
-        return ""
-    target = provisional_target(state)
-    steps = f"{state.iteration} step{'' if state.iteration == 1 else 's'}"
-    if state.iteration < StabilityThresholds.min_steps:
-        return f"stopped after {steps} with {share:.0%} of points curve-like ({target:.0%} aimed at)"
-    if state.termination == "max_iterations" and share < target:
-        return (f"stopped at the iteration limit after {steps} with {share:.0%} of points curve-like "
-                f"({target:.0%} aimed at)")
-    return ""
 
 
 def skeleton_of_state(state: IterationState, original: np.ndarray, params: SkeletonParams,
@@ -388,13 +352,6 @@ def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[s
                           f"was contracted: check the per-point weights and the cloud's coordinates")
     _say(progress, f"stopped after iteration {final.iteration}: {final.message or final.termination}")
     return states
-
-
-def state_curve_share(state: IterationState, cloud: io.Cloud) -> float:
-    """The share of a state's points that are curve-like (skelcore.curveness) at the skeleton's default sample
-    radius, a fraction of the input cloud's object diagonal (the skeleton's own scale, which the
-    contraction's stop rule, skelcore.stop_rules.goes_on, and the verdict also use)."""
-    return skeleton_scale_share(state.points, cloud.diagonal)
 
 
 def named(error: SkelError, name: str) -> SkelError:

@@ -21,10 +21,11 @@ import numpy as np
 from .errors import InputError, ParameterError, SkelError
 # The figure builders stay importable from here: the inspector and the tests read them as report.X.
 from .figures import (LABEL_COLOURS, MAX_CLOUD_POINTS, MEASURES, cloud_figure,  # noqa: F401
-                      convergence_comparison_figure, convergence_figure, empty_figure, entry_problem,
+                      convergence_comparison_figure, convergence_figure, empty_figure,
                       final_histograms_figure, final_means_figure, fitted_edges, histogram_figure,
-                      histograms_over_iterations_figure, measure_key, per_point_values, run_summary,
+                      histograms_over_iterations_figure, measure_key, per_point_values,
                       skeleton_figure, verdict_colour, verdict_text)
+from .metric_entries import entry_problem, run_summary  # noqa: F401 (run_summary: read as report.run_summary)
 from .verdict import PREDICTIVE_POWER, run_verdict
 
 FAILED_COLOUR = "#8b1a1a"

@@ -257,7 +257,7 @@ def test_pipeline_writes_results(tmp_path):
 def test_a_drilled_plate_contracts_past_its_sheet_and_keeps_its_hole():
     """The covariance of a whole plate barely changes while it thins to its medial sheet: the rule alone
     stopped GLSkeleton there (3 steps, a 5-node tree). It now waits for a curve-like cloud."""
-    from skelcore.pipeline import state_curve_share
+    from skelcore.provisional import state_curve_share
     from skelcore.solids import solid_shape
     shape = solid_shape("block_1_hole", 4000)
     states = run_contraction(shape.points, GLSKELETON)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from skelcore import io, pipeline
+from skelcore import io, pipeline, provisional
 from skelcore.contraction import contract
 from skelcore.io import load
 from skelcore.params import ContractionParams
@@ -17,24 +17,24 @@ TORUS = Path(__file__).resolve().parents[1] / "assets" / "torus.ply"
 def test_a_contracted_but_still_surface_like_torus_is_provisional():
     cloud = load(TORUS)
     states = list(contract(cloud.points, ContractionParams()))
-    shares = [pipeline.state_curve_share(state, cloud) for state in states]
-    provisional = [pipeline.skeleton_is_provisional(state, share) for state, share in zip(states, shares)]
-    assert provisional[0]
+    shares = [provisional.state_curve_share(state, cloud) for state in states]
+    marked = [provisional.skeleton_is_provisional(state, share) for state, share in zip(states, shares)]
+    assert marked[0]
     # the ring-size ratio alone (a_t < 0.6) took some state whose points are not yet curve-like as final
     early = [i for i, state in enumerate(states[1:-1], 1) if state.ring_ratio < 0.6 and shares[i] < 0.5]
-    assert early and all(provisional[i] for i in early)
-    assert not provisional[-1]  # a run's result is never provisional
-    assert shares[-1] >= pipeline.provisional_target(states[-1])
+    assert early and all(marked[i] for i in early)
+    assert not marked[-1]  # a run's result is never provisional
+    assert shares[-1] >= provisional.provisional_target(states[-1])
 
 
 def test_the_target_is_the_contraction_s_own():
     from types import SimpleNamespace
 
     state = SimpleNamespace(iteration=3, termination=None, params=ContractionParams(curve_share=0.8))
-    assert pipeline.provisional_target(state) == 0.8
-    assert pipeline.skeleton_is_provisional(state, 0.7) and not pipeline.skeleton_is_provisional(state, 0.85)
+    assert provisional.provisional_target(state) == 0.8
+    assert provisional.skeleton_is_provisional(state, 0.7) and not provisional.skeleton_is_provisional(state, 0.85)
     off = SimpleNamespace(iteration=3, termination=None, params=ContractionParams(curve_share=0.0))
-    assert pipeline.provisional_target(off) == ContractionParams.curve_share  # the owner's default
+    assert provisional.provisional_target(off) == ContractionParams.curve_share  # the owner's default
 
 
 def test_a_run_that_stops_after_one_step_or_at_the_limit_short_of_curves_is_barely_contracted():
@@ -47,13 +47,13 @@ def test_a_run_that_stops_after_one_step_or_at_the_limit_short_of_curves_is_bare
         return SimpleNamespace(iteration=iteration, termination=termination, params=ContractionParams())
 
     aim = "of points curve-like (50% aimed at)"
-    assert pipeline.barely_contracted(state(1), 0.9) == f"stopped after 1 step with 90% {aim}"
-    assert pipeline.barely_contracted(state(6), 0.2) == f"stopped at the iteration limit after 6 steps with 20% {aim}"
-    assert pipeline.barely_contracted(state(6), 0.6) == ""
+    assert provisional.barely_contracted(state(1), 0.9) == f"stopped after 1 step with 90% {aim}"
+    assert provisional.barely_contracted(state(6), 0.2) == f"stopped at the iteration limit after 6 steps with 20% {aim}"
+    assert provisional.barely_contracted(state(6), 0.6) == ""
     for own_end in ("ring_ratio", "covariance", "torn", "flung"):  # a bunny's good run ends 24% curve-like
-        assert pipeline.barely_contracted(state(5, termination=own_end), 0.2) == ""
-    assert pipeline.barely_contracted(state(1, termination=None), 0.0) == ""  # not the end: provisional instead
-    assert pipeline.barely_contracted(state(0, termination="solver"), 0.0) == ""  # nothing contracted: provisional
+        assert provisional.barely_contracted(state(5, termination=own_end), 0.2) == ""
+    assert provisional.barely_contracted(state(1, termination=None), 0.0) == ""  # not the end: provisional instead
+    assert provisional.barely_contracted(state(0, termination="solver"), 0.0) == ""  # nothing contracted: provisional
 
 
 def test_a_good_run_on_a_bulky_solid_is_not_called_barely_contracted():
@@ -64,7 +64,7 @@ def test_a_good_run_on_a_bulky_solid_is_not_called_barely_contracted():
 
     computed = pipeline.compute(io.validate(solid_shape("block_1_hole", 4000).points, name="block"), RunOptions())
     final = computed.states[-1]
-    share = pipeline.state_curve_share(final, computed.cloud)
-    assert final.termination == "ring_ratio" and share < pipeline.provisional_target(final)
+    share = provisional.state_curve_share(final, computed.cloud)
+    assert final.termination == "ring_ratio" and share < provisional.provisional_target(final)
     assert computed.skeleton.topology()["cycles"] == 1
-    assert pipeline.barely_contracted(final, share) == ""
+    assert provisional.barely_contracted(final, share) == ""

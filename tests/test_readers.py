@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelcore import io, readers
+from skelcore import io, readers, text_clouds
 
 
 @pytest.fixture
@@ -129,9 +129,9 @@ def test_an_off_file_of_bare_rows_is_parsed_once(tmp_path, cloud, monkeypatch):
     path = tmp_path / "rows.off"
     path.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in points.tolist()))
     parses = []
-    equal_rows = readers._equal_rows
-    monkeypatch.setattr(readers, "_equal_rows", lambda *args: parses.append(1) or equal_rows(*args))
-    monkeypatch.setattr(readers, "_rows", lambda *args: pytest.fail("parsed line by line as well"))
+    equal_rows = text_clouds._equal_rows
+    monkeypatch.setattr(text_clouds, "_equal_rows", lambda *args: parses.append(1) or equal_rows(*args))
+    monkeypatch.setattr(text_clouds, "_rows", lambda *args: pytest.fail("parsed line by line as well"))
     np.testing.assert_array_equal(io.load(path).points, points)
     assert parses == [1]
 
