@@ -152,8 +152,8 @@ class Inspector:
         on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True,
            typed=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
-        for handle in ui.params.contraction_handles():  # a number box is typed key by key; a list or switch is not
-            typing = isinstance(handle, viser.GuiNumberHandle)
+        for handle in ui.params.contraction_handles():  # a box is typed key by key; a list or switch is not
+            typing = isinstance(handle, (viser.GuiNumberHandle, viser.GuiTextHandle))
             on(handle, lambda e, typing=typing: self.panel.changed("parameters", e.client, typing), person_only=True,
                method="on_update")
         on(ui.params.radius, lambda e: self.panel.changed("radius", e.client, typing=True), person_only=True,

@@ -33,7 +33,7 @@ from skelcore.display import UP_AXES
 from skelcore.io import FORMATS as INPUT_FORMATS
 from skelcore.params import LIMITS, ContractionParams
 
-from .words import METHOD_LABELS, box_label, label
+from .words import AUTOMATIC, METHOD_LABELS, box_label, label, number_text
 
 # px, fixed: viser sizes a docked panel in px only and tells the server no window size (its camera reports the
 # canvas in device pixels). 470 is about the widest at which both histograms, under iteration 0's two-line
@@ -88,13 +88,13 @@ class ViewerControls:
 @dataclass
 class ParameterWidgets:
     method: viser.GuiDropdownHandle
-    wl0: viser.GuiNumberHandle
-    wh0: viser.GuiNumberHandle
-    sl: viser.GuiNumberHandle
-    wl_max: viser.GuiNumberHandle
+    wl0: viser.GuiTextHandle  # the real values in text boxes (_real)
+    wh0: viser.GuiTextHandle
+    sl: viser.GuiTextHandle
+    wl_max: viser.GuiTextHandle
     k: viser.GuiNumberHandle
     max_iterations: viser.GuiNumberHandle
-    termination: viser.GuiNumberHandle
+    termination: viser.GuiTextHandle
     hold_curves: viser.GuiCheckboxHandle
     hold_inside: viser.GuiCheckboxHandle
     radius: viser.GuiSliderHandle
@@ -217,10 +217,16 @@ def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerC
     return ViewerControls(timeline, follow, status, notes_folder, notes, plots, legend, plots_panel, legend_panel)
 
 
-def _number(gui: viser.GuiApi, name: str, value, step: float, hint: str | None = None):
+def _integer(gui: viser.GuiApi, name: str, value: int, hint: str | None = None):
     low, high, _ = LIMITS[name]
-    return gui.add_number(label(name), initial_value=value, min=low, max=None if math.isinf(high) else high, step=step,
-                          hint=hint)
+    return gui.add_number(box_label(name), initial_value=value, min=0 if name in AUTOMATIC else low,
+                          max=None if math.isinf(high) else high, step=1, hint=hint)
+
+
+def _real(gui: viser.GuiApi, name: str, value: float, hint: str | None = None):
+    """A text box: a number box would turn a typed 1e-3 into -13 (viser's drops the "e"); words.typed_number
+    reads it."""
+    return gui.add_text(box_label(name), initial_value=number_text(value), hint=hint)
 
 
 def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: ContractionParams,
@@ -230,17 +236,15 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
     with tabs.add_tab("Parameters"):
         method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()),
                                   initial_value=METHOD_LABELS[params.method], hint="applies on Restart")
-        wl0 = gui.add_number(box_label("wl0"), initial_value=params.wl0 or 0.0, min=0.0, step=0.01)
-        wh0 = _number(gui, "wh0", params.wh0, 0.1)
-        sl = _number(gui, "sl", params.sl, 0.1)
+        wl0 = _real(gui, "wl0", params.wl0 or 0.0)
+        wh0 = _real(gui, "wh0", params.wh0)
+        sl = _real(gui, "sl", params.sl)
         restart = gui.add_button("Restart with these parameters")
     with tabs.add_tab("More"):
-        wl_max = _number(gui, "wl_max", params.wl_max, 0.1)  # step 1 rounded a typed 2.5 to 2
-        k = gui.add_number(box_label("k"), initial_value=params.k or 0, min=0, max=LIMITS["k"][1], step=1,
-                           hint="applies on Restart")
-        max_iterations = _number(gui, "max_iterations", params.max_iterations, 1)
-        termination = _number(gui, "termination", params.termination, 0.0001,
-                              hint="stop when the ring-size ratio falls by less")
+        wl_max = _real(gui, "wl_max", params.wl_max)
+        k = _integer(gui, "k", params.k or 0, hint="applies on Restart")
+        max_iterations = _integer(gui, "max_iterations", params.max_iterations)
+        termination = _real(gui, "termination", params.termination, hint="stop when the ring-size ratio falls by less")
         hold_curves = gui.add_checkbox(label("hold_curves"), params.hold_curves,
                                        hint="points the first step brought to a thin part's axis keep that W_L, and "
                                             "handles thinner than a skeleton ball stay in place: small handles and "

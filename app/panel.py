@@ -18,7 +18,7 @@ from skelcore.options import RunOptions
 from skelcore.params import ContractionParams
 
 from .layout import ParameterWidgets
-from .words import METHOD_LABELS, METHODS_BY_LABEL, refused
+from .words import METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, typed_number
 
 TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
 PARTS = ("parameters", "radius")
@@ -68,19 +68,20 @@ class ParameterPanel:
         self.accepted = params
         p = self.widgets
         p.method.value = METHOD_LABELS[params.method]
-        p.wl0.value = params.wl0 or 0.0
-        p.wh0.value, p.sl.value, p.wl_max.value = params.wh0, params.sl, params.wl_max
-        p.k.value = params.k or 0
-        p.max_iterations.value, p.termination.value = params.max_iterations, params.termination
+        p.wl0.value = number_text(params.wl0 or 0.0)
+        p.wh0.value, p.sl.value = number_text(params.wh0), number_text(params.sl)
+        p.wl_max.value, p.termination.value = number_text(params.wl_max), number_text(params.termination)
+        p.k.value, p.max_iterations.value = params.k or 0, params.max_iterations
         p.hold_curves.value, p.hold_inside.value = params.hold_curves, params.hold_inside
 
     def _parameters_shown(self) -> ContractionParams:
         """The panel's values on top of the run's parameters (fields the panel lacks stay); refused: ParameterError."""
         p = self.widgets
         self.accepted = self.session.params.replace(
-            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None, wl0=float(p.wl0.value) or None,
-            wh0=float(p.wh0.value), sl=float(p.sl.value), wl_max=float(p.wl_max.value),
-            max_iterations=int(p.max_iterations.value), termination=float(p.termination.value),
+            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None,
+            wl0=typed_number("wl0", p.wl0.value) or None, wh0=typed_number("wh0", p.wh0.value),
+            sl=typed_number("sl", p.sl.value), wl_max=typed_number("wl_max", p.wl_max.value),
+            max_iterations=int(p.max_iterations.value), termination=typed_number("termination", p.termination.value),
             hold_curves=bool(p.hold_curves.value), hold_inside=bool(p.hold_inside.value))
         return self.accepted
 

@@ -36,6 +36,24 @@ def assignments(params, names) -> str:
     return ", ".join(f"{label(name)} {value_text(name, getattr(params, name))}" for name in names)
 
 
+def number_text(value: float) -> str:
+    """A real parameter as its text box shows it: the shortest form that reads back as the same float."""
+    short = f"{value:g}"
+    return short if float(short) == value else repr(float(value))
+
+
+def typed_number(name: str, text) -> float:
+    """The number a person typed into a parameter's text box ("1e-3", " 0.5 "); ParameterError (the engine's
+    naming, which `refused` turns into the panel's) for anything else. Text boxes, not number boxes: viser's
+    number box drops the "e" of 1e3 as it is typed and sends 13."""
+    from skelcore.errors import ParameterError
+
+    try:
+        return float(str(text).strip())
+    except ValueError:
+        raise ParameterError(f"parameter {name}={str(text).strip()!r}: must be a number (like 0.5 or 1e-3)") from None
+
+
 def box_label(name: str) -> str:
     """The label of a parameter's box: a field with an automatic value says that 0 asks for it."""
     return f"{label(name)} (0 = auto)" if name in AUTOMATIC else label(name)

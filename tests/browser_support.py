@@ -71,10 +71,11 @@ def click(page, name: str) -> None:
 
 
 def number_input(page, label: str):
-    """The text box of a viser number input or slider, found from its label among those shown (a tab within a tab
-    keeps its hidden tabs' widgets: Opacity's "Original" and Size's)."""
-    row = page.locator("label:visible", has_text=label).first.locator("xpath=ancestor::*[.//input[@inputmode='decimal']][1]")
-    return row.locator("input[inputmode='decimal']").first
+    """The box of a viser number input, slider or text input (the real parameters), found from its label among those
+    shown (a tab within a tab keeps its hidden tabs' widgets: Opacity's "Original" and Size's)."""
+    typed = "@inputmode='decimal' or (not(@type) or @type='text') and contains(@class, 'TextInput')"
+    row = page.locator("label:visible", has_text=label).first.locator(f"xpath=ancestor::*[.//input[{typed}]][1]")
+    return row.locator(f"xpath=.//input[{typed}]").first
 
 
 def set_value(page, label: str, value) -> None:

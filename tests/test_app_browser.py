@@ -489,14 +489,14 @@ def test_a_value_typed_key_by_key_is_taken_with_no_refusal_on_the_way(fresh, pag
     close_browser_notices(page)
     open_tab(page, "More")
     radius = inspector.session.sample_radius
-    for label, text in (("Termination", "0.02"), ("Sample radius", "0.03")):
+    for label, text in (("Termination", "2e-2"), ("Sample radius", "0.03")):  # an exponent too: a text box
         number_input(page, label).click()
         page.keyboard.press("Control+A")
         page.keyboard.type(text, delay=50)
     try:
         wait_until(lambda: inspector.panel.accepted.termination == 0.02 and inspector.session.sample_radius == 0.03
                    and not inspector.panel.typing, "the values typed")
-        assert number_input(page, "Termination").input_value() == "0.02"
+        assert number_input(page, "Termination").input_value() == "2e-2"
         assert page.locator(".mantine-Notification-root").count() == 0  # neither refused nor an error
     finally:
         set_value(page, "Termination", RUN["termination"])

@@ -9,6 +9,7 @@ import types
 
 import pytest
 
+from app import words
 from app.analysis import Analyses
 from app.session import Session
 from app.status import legend, run_notes, run_state, skeleton_note, status_markdown
@@ -174,8 +175,8 @@ def _panel(monkeypatch):
 
     monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     box = types.SimpleNamespace
-    boxes = box(method=box(value="LBC"), k=box(value=0), wl0=box(value=0.0), wh0=box(value=1.0), sl=box(value=3.0),
-                wl_max=box(value=2048.0), max_iterations=box(value=20), termination=box(value=0.01),
+    boxes = box(method=box(value="LBC"), k=box(value=0), wl0=box(value="0"), wh0=box(value="1"), sl=box(value="3"),
+                wl_max=box(value="2048"), max_iterations=box(value=20), termination=box(value="0.01"),
                 hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value=0.02))
     notices, taken = [], []
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
@@ -213,23 +214,38 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     put back only if it still stands once the person stops typing into its part (the contraction's parameters, or
     the sample radius); a Restart's refusal is said at once."""
     panel, boxes, pauses, notices, taken = _panel(monkeypatch)
-    boxes.termination.value = 0.0
+    boxes.termination.value = "0"
     panel.changed("parameters", None, typing=True)
     boxes.radius.value = 0.0
     panel.changed("radius", None, typing=True)
-    boxes.termination.value = 0.02
+    boxes.termination.value = "0.02"
     panel.changed("parameters", None, typing=True)
     assert taken == [] and set(panel.typing) == {"parameters", "radius"}
     pauses[0]()  # the person typed on: 0 is neither refused nor taken
-    assert notices == [] and taken == [] and boxes.termination.value == 0.02
+    assert notices == [] and taken == [] and boxes.termination.value == "0.02"
     pauses[2]()
     assert [(part, value.termination) for part, value in taken] == [("parameters", 0.02)]
     pauses[1]()  # the radius was left at 0
     assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the last value taken"]
     assert boxes.radius.value == 0.02 and not panel.typing and len(taken) == 1
-    boxes.wh0.value = 0.0
+    boxes.wh0.value = "0"
     assert panel.parameters(None) is None  # Restart: said at once
-    assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == 1.0 and len(pauses) == 3
+    assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == "1" and len(pauses) == 3
+
+
+def test_the_real_parameters_are_read_as_typed_with_an_exponent_and_words_are_refused(monkeypatch):
+    """viser's number box drops the "e" as it is typed (1e9 arrived as 19, 1e-3 as -13): the real parameters are
+    text boxes read as the person wrote them, and a box holding no number is refused in the panel's words and
+    put back, showing the value in force as it reads back."""
+    panel, boxes, pauses, notices, taken = _panel(monkeypatch)
+    boxes.termination.value, boxes.wl_max.value, boxes.sl.value = " 1e-3 ", "2e3", "2.5"
+    params = panel.parameters(None)
+    assert (params.termination, params.wl_max, params.sl) == (0.001, 2000.0, 2.5) and notices == []
+    boxes.wh0.value = "abc"
+    assert panel.parameters(None) is None
+    assert notices == ["W_H0 = 'abc': must be a number (like 0.5 or 1e-3); put back to the last value taken"]
+    assert (boxes.wh0.value, boxes.termination.value, boxes.wl_max.value) == ("1", "0.001", "2000")
+    assert words.number_text(0.1 + 0.2) == "0.30000000000000004" and words.number_text(2048.0) == "2048"
 
 
 def test_a_double_click_on_pause_pauses(monkeypatch):
