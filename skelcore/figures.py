@@ -64,12 +64,14 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
     edges = np.asarray(stats["histogram"]["edges"], float)
     counts = np.asarray(stats["histogram"]["counts"], float)
     peaks = stats["peaks"]
-    shown_range = list(value_range)
     if fit and isinstance(metrics, IterationMetrics):
         values = getattr(metrics, key)
         edges = fitted_edges(values, value_range, target, len(counts))
         counts = np.histogram(values[np.isfinite(values)], bins=edges)[0].astype(float)
         shown_range = [edges[0], edges[-1]]
+    else:  # the verdict's own bins, the view zoomed onto those that hold points (a delta_kappa within 0.06 of 0)
+        filled = edges[np.r_[counts > 0, False] | np.r_[False, counts > 0]]
+        shown_range = list(fitted_edges(filled, value_range, target, len(counts))[[0, -1]])
     figure = go.Figure(go.Bar(x=(edges[:-1] + edges[1:]) / 2, y=counts, width=np.diff(edges), name="points",
                               marker_color="#5b7fb5", marker_line_width=0, showlegend=False))
     if not fit:

@@ -255,6 +255,25 @@ def test_fitted_histogram_spans_the_values_and_the_target(history):
     assert not figure.layout.annotations  # labels are legend entries: they cannot overlap
 
 
+def test_the_verdicts_histogram_is_drawn_on_its_own_bins_zoomed_onto_those_that_hold_points(history):
+    """A saved run's histogram keeps the bins and peaks the verdict counted, but a delta_kappa within a few
+    hundredths of 0 is not shown as three bars in the middle of its whole range (the exported pages)."""
+    _, _, metrics = history
+    entry = metrics[-1].to_dict()
+    for key in ("d_theta", "delta_kappa"):
+        figure = report.histogram_figure(entry, key)
+        low, high = figure.layout.xaxis.range
+        edges = np.asarray(entry[key]["histogram"]["edges"])
+        counts = np.asarray(entry[key]["histogram"]["counts"])
+        held = np.flatnonzero(counts)
+        target = report.MEASURES[key][3]
+        assert low <= min(edges[held[0]], target) and high >= max(edges[held[-1] + 1], target)
+        assert list(figure.data[0].y) == counts.tolist()  # the verdict's own bins
+    full = report.MEASURES["delta_kappa"][2]
+    low, high = report.histogram_figure(entry, "delta_kappa").layout.xaxis.range
+    assert high - low < (full[1] - full[0]) / 2
+
+
 def test_a_verdict_without_a_label_is_written_in_words():
     from skelcore.report import _verdict_html
 
