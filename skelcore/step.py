@@ -34,20 +34,22 @@ from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
-KEPT = "so that step was discarded and the last good state is kept"  # the words name the step left out of the result
-REJECTION_CAUSES = {  # a step rejected for these ends the run on the state before it
-    "nan": "the solve produced NaN",
+# A step rejected for these ends the run on the state before it; the words name the rejected step (`it`), so that
+# a verdict of the state kept does not read as contradicting them
+REJECTION_CAUSES = {
+    "nan": "its solve produced NaN",
     "solver_failure": "the sparse solver failed",
-    "bbox_growth": "the bounding box grew past its limit",
-    "collapse": "one step pulled the cloud together past its limit (a curve or a loop collapsing)",
-    "torn": "the step tore the cloud apart (many one-rings widened)",
-    "flung": "the step flung points out of the input's bounding box",
+    "bbox_growth": "it grew the bounding box past its limit",
+    "collapse": "it pulled the cloud together past its limit (a curve or a loop collapsing)",
+    "torn": "it tore the cloud apart (many one-rings widened)",
+    "flung": "it flung points out of the input's bounding box",
 }
 TERMINATION_MESSAGES = {
     "ring_ratio": "the one-ring size ratio stopped falling",
     "max_iterations": "the maximum number of iterations was reached",
     "covariance": "the cloud's covariance shows a converged curve",
-    **{reason: f"{cause}, {KEPT}" for reason, cause in REJECTION_CAUSES.items()},
+    **{reason: f"the next step was discarded: {cause}; the last good state is kept"
+       for reason, cause in REJECTION_CAUSES.items()},
 }
 RESTART_FIELDS = ("method", "k", "normalise", "balance_density", "drop_jumps")
 
