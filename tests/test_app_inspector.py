@@ -441,13 +441,15 @@ def test_a_cloud_in_map_coordinates_is_drawn_from_its_own_centre():
         server.stop()
 
 
-def test_every_box_of_a_fractional_parameter_keeps_a_typed_tenth():
-    """The browser rounds a number box to its step's decimals: the W_L cap's step of 1 turned a typed 2.5 into 2."""
+def test_every_box_of_a_fractional_parameter_keeps_what_is_typed():
+    """The browser rounds a number box to its step's decimals (the W_L cap's step of 1 turned a typed 2.5 into 2)
+    and drops the "e" of 1e-3 as it is typed: every real parameter is a text box, read as typed."""
     import dataclasses
 
     import viser
 
     from app.layout import build_parameters
+    from app.words import typed_number
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
@@ -456,6 +458,7 @@ def test_every_box_of_a_fractional_parameter_keeps_a_typed_tenth():
         fractional = [f.name for f in dataclasses.fields(params) if f.type in ("float", "float | None")]
         boxes = {name: getattr(widgets, name) for name in fractional if hasattr(widgets, name)}
         assert {"wl0", "wh0", "sl", "wl_max", "termination"} <= set(boxes)
-        assert {name: box.step for name, box in boxes.items() if not box.step <= 0.1} == {}
+        assert all(isinstance(box, viser.GuiTextHandle) for box in boxes.values())
+        assert [typed_number(name, text) for name, text in (("wl_max", "2.5"), ("termination", "1e-3"))] == [2.5, 0.001]
     finally:
         server.stop()
