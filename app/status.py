@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+from skelcore.metrics import JUDGED_POINTS
 from skelcore.step import TERMINATION_MESSAGES
 
 from .analysis import Readiness
@@ -103,8 +104,8 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     """What the status leaves out, of `run` (app.run.Run) and its shown `state`: what loading and cleaning
     did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), what the
     skeleton's balls cannot resolve (`scale`, OriginalSurface.scale_notes), the contraction at reduced
-    resolution, the points held on thin handles, what the view leaves out (`notice`) and the figures the run
-    ended on."""
+    resolution, the points held on thin handles, what the view leaves out (`notice`), the sample the histograms
+    judge and the figures the run ended on."""
     input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
                    for note in [*run.cloud.notes, *(scale or [])]]
     reduction = run.reduction
@@ -118,12 +119,15 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     else:
         reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "
                    f"carried along (skel-inspect --full-resolution turns it off).")
+    sampled = (f"The histograms judge a fixed random sample of {JUDGED_POINTS:,} of the {len(run.cloud.points):,} "
+               f"points; their n counts those with a value (a point whose neighbourhood has collapsed to a point "
+               f"has no normal or curvature)." if len(run.cloud.points) > JUDGED_POINTS else "")
     held = (f"{state.anchored:,} points on thin handles are held in place and drawn on their axis "
             f"(More: {label('hold_curves')})." if state.anchored else "")
     latest = run.history[-1]
     end_figures = (f"Run ended at iteration {latest.iteration}: {latest.message}."
                    if latest.termination and latest.message != ending_words(latest) else "")
-    return "\n\n".join(filter(None, [*input_notes, reduced, held, notice, end_figures]))
+    return "\n\n".join(filter(None, [*input_notes, reduced, held, notice, sampled, end_figures]))
 
 
 def legend(colour_by: str, state, readiness: Readiness | None, *, note: str, visible: dict[str, bool],

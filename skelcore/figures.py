@@ -85,14 +85,13 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
                   (stats["median"], f"median {stats['median']:.3f}", dict(dash="dot", color="#111111", width=1.5))]
     for x, label, line in marks:
         figure.add_trace(go.Scatter(x=[x, x], y=[0, top], mode="lines", name=label, line=line, hoverinfo="name"))
-    undefined = stats.get("n_undefined", 0)
-    judged = stats["n"] + undefined
-    # the points not counted, said: those collapsed to a point (no normal or curvature) and those not sampled
-    left_out = ([f"{undefined:,} collapsed, undefined"] if undefined else []) + (
-        [f"a sample of {judged:,} of {of_points:,} points"]
-        if isinstance(of_points, (int, np.integer)) and of_points > judged else [])
+    # n counts the points with a value: not those collapsed to a point (undefined), nor those left out of the
+    # sample a large cloud is judged on (`of_points`: the input's count)
+    judged = stats["n"] + stats.get("n_undefined", 0)
+    total = of_points if isinstance(of_points, (int, np.integer)) and of_points > judged else judged
+    counted = f"n {stats['n']:,}" + (f" of {total:,}" if total > stats["n"] else "")
     summary = (f"skew {_number(stats['skewness'])} · symmetry {_number(stats['symmetry'])} · "
-               f"peaks {peaks['count']} · n {stats['n']:,}" + (f" ({'; '.join(left_out)})" if left_out else ""))
+               f"peaks {peaks['count']} · {counted}")
     heading = title or (name if iteration is None else f"{name}, iteration {iteration}")
     figure.update_layout(title=dict(text=heading, subtitle=dict(text=summary)), height=FIGURE_HEIGHT, bargap=0,
                          margin=dict(l=50, r=20, t=60, b=95), xaxis=dict(title=axis_label, range=shown_range),

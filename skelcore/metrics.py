@@ -69,6 +69,7 @@ from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, feat
 
 NORMAL_CONVENTIONS = ("outward", "tracked")
 NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
+JUDGED_POINTS = 5_000  # a larger cloud is judged on a fixed random sample of this many of its points (Scale)
 
 
 # --- per-point features -------------------------------------------------------------------------
@@ -133,7 +134,7 @@ class MetricsReference:
 
     @classmethod
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
-                    thresholds: StabilityThresholds | None = None, max_points: int | None = 5_000,
+                    thresholds: StabilityThresholds | None = None, max_points: int | None = JUDGED_POINTS,
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
                     reduction: Reduction | None = None, tree: cKDTree | None = None) -> "MetricsReference":
         """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction

@@ -365,10 +365,13 @@ def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
     session = Session(validate(vertices, faces, name="block.stl"), look_ahead=False)
     notes = run_notes(session.run, session.history[0], notice="")
     assert notes.startswith(f"Mesh: its {len(vertices):,} vertices leave ") and "points are drawn evenly over it" in notes
+    drawn = len(session.run.cloud.points)
+    assert drawn > 5000 and f"The histograms judge a fixed random sample of 5,000 of the {drawn:,} points" in notes
     points = np.vstack([make_shape("torus", 3000, seed=0).points, [[9.0, 9.0, 9.0], [-9.0, 9.0, 9.0]]])
     session = Session(validate(points, name="torus.xyz"), look_ahead=False)
-    assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in run_notes(
-        session.run, session.history[0], notice="")
+    notes = run_notes(session.run, session.history[0], notice="")
+    assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in notes
+    assert "sample" not in notes  # every point judged
 
 
 def test_about_this_run_says_a_cloud_is_sparser_than_the_skeletons_balls():

@@ -286,16 +286,13 @@ def test_a_histogram_of_a_sample_says_how_many_points_the_input_has(history):
     stats = final.d_theta_stats
     judged = stats["n"] + stats["n_undefined"]
     subtitle = report.histogram_figure(final, "d_theta", of_points=judged + 10_000).layout.title.subtitle.text
-    undefined = f"{stats['n_undefined']:,} collapsed, undefined; " if stats["n_undefined"] else ""
-    assert subtitle.endswith(f"n {stats['n']:,} ({undefined}a sample of {judged:,} of {judged + 10_000:,} points)")
-    for whole in (None, judged):  # every point judged: only the undefined ones to say
+    assert subtitle.endswith(f"n {stats['n']:,} of {judged + 10_000:,}")
+    for whole in (None, judged):  # every point judged: only those without a value to say
         text = report.histogram_figure(final, "d_theta", of_points=whole).layout.title.subtitle.text
-        assert text.endswith(f"n {stats['n']:,}" + (f" ({stats['n_undefined']:,} collapsed, undefined)"
-                                                    if stats["n_undefined"] else ""))
+        assert text.endswith(f"n {stats['n']:,}" + (f" of {judged:,}" if stats["n_undefined"] else ""))
     entry = final.to_dict()
     entry["d_theta"] = {**entry["d_theta"], "n": 4694, "n_undefined": 306}
-    text = report.histogram_figure(entry, "d_theta", of_points=6000).layout.title.subtitle.text
-    assert text.endswith("n 4,694 (306 collapsed, undefined; a sample of 5,000 of 6,000 points)")
+    assert report.histogram_figure(entry, "d_theta").layout.title.subtitle.text.endswith("n 4,694 of 5,000")
 
 
 def test_the_convergence_marks_the_iteration_shown(history):
