@@ -102,8 +102,10 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     summary = metrics_document(cloud, states, metrics, reduction, evidence)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
-    labels = None if cloud.labels is None else cloud.labels[final.point_ids]  # a labelled input: its labels too
-    contracted, skeleton = final.points * cloud.scale, _at_scale(skeleton, cloud.scale)
+    # every input point at its contracted place, in the input's order, whatever the method (GLSkeleton's merged
+    # points are each written for every point they absorbed), so a row of the file is a row of the input
+    contracted, skeleton = final.points[final.owner] * cloud.scale, _at_scale(skeleton, cloud.scale)
+    labels = cloud.labels  # a labelled input: its labels too
     write_together(out_dir, {
         "contracted.ply": lambda path: write_points_ply(path, contracted, labels=labels),
         "skeleton.ply": lambda path: write_skeleton_ply(path, skeleton),

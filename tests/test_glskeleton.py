@@ -338,3 +338,17 @@ def test_a_capsule_drawn_as_one_edge_is_not_called_collapsed():
     assert result.skeleton.graph.number_of_nodes() == 2 and result.topology["ends"] == 2
     nodes = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton nodes")
     assert nodes["passed"] and nodes["value"].startswith("2 drawn of ")
+
+
+
+def test_contracted_ply_holds_every_input_point_in_the_inputs_order(tmp_path):
+    """GLSkeleton contracts fewer points than it was given; its contracted.ply still has a row per input point, at
+    the place of the point that absorbed it, as LBC's and a reduced run's have (it held the merged points)."""
+    from skelcore.readers import read_ply
+
+    path = next(path for path in write_shape(make_shape("torus", 3000, seed=0), tmp_path) if path.suffix == ".ply")
+    result = run_pipeline(path, tmp_path / "out", RunOptions(params=GLSKELETON))
+    final = result.states[-1]
+    assert len(final.points) < len(result.cloud.points)  # merged
+    written = read_ply(tmp_path / "out" / "contracted.ply")[0]
+    np.testing.assert_allclose(written, final.points[final.owner], atol=1e-5)  # float32 in the file
