@@ -42,7 +42,7 @@ class Readiness:
     """Whether a state's skeleton means something yet, and why not."""
     share: float  # of the points, curve-like (skelcore.provisional.state_curve_share)
     provisional: bool
-    barely_contracted: str  # why a run's last state is, in words; "" when it is not (skelcore.pipeline)
+    barely_contracted: str  # why a run's last state is, in words; "" when it is not (skelcore.provisional)
 
     def reason(self, state) -> str:
         """The legend's words for a provisional skeleton ("" when it is not)."""

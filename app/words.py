@@ -1,8 +1,11 @@
 """The names the inspector gives the contraction's parameters and methods: the panel's labels, which its status,
-log and notices use too, so a person reads the same name everywhere."""
+log and notices use too, so a person reads the same name everywhere; and a real parameter's text as its box shows
+it and as a person types it."""
 from __future__ import annotations
 
 import re
+
+from skelcore.errors import ParameterError
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves",
@@ -46,8 +49,6 @@ def typed_number(name: str, text) -> float:
     """The number a person typed into a parameter's text box ("1e-3", " 0.5 "); ParameterError (the engine's
     naming, which `refused` turns into the panel's) for anything else. Text boxes, not number boxes: viser's
     number box drops the "e" of 1e3 as it is typed and sends 13."""
-    from skelcore.errors import ParameterError
-
     try:
         return float(str(text).strip())
     except ValueError:
