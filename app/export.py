@@ -146,8 +146,9 @@ def bundle(session, index: int, screenshot_png: bytes) -> bytes:
         (out / PLOTLY_JS).write_text(get_plotlyjs(), encoding="utf-8")
         # the session's Log in full (its tab shows the newest lines), oldest first, no server path in it
         (out / "log.txt").write_text("".join(f"{without_paths(line)}\n" for line in session.log), encoding="utf-8")
-        (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration,
-                                                                    plotly=PLOTLY_JS), encoding="utf-8")
+        (out / "histograms.html").write_text(report.histograms_html(metrics[-1], iteration=iteration, plotly=PLOTLY_JS,
+                                                                    of_points=len(session.run.cloud.points)),
+                                             encoding="utf-8")
         (out / "convergence.html").write_text(report.figures_html("Convergence", [report.convergence_figure(metrics)],
                                                                   plotly=PLOTLY_JS), encoding="utf-8")
         buffer = io.BytesIO()

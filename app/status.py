@@ -119,9 +119,13 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     else:
         reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "
                    f"carried along (skel-inspect --full-resolution turns it off).")
-    sampled = (f"The histograms judge a fixed random sample of {JUDGED_POINTS:,} of the {len(run.cloud.points):,} "
-               f"points; their n counts those with a value (a point whose neighbourhood has collapsed to a point "
-               f"has no normal or curvature)." if len(run.cloud.points) > JUDGED_POINTS else "")
+    points, merging = len(run.cloud.points), state.params.method == "glskeleton"
+    judged = (f"a fixed random sample of {JUDGED_POINTS:,} of the {points:,} points" if points > JUDGED_POINTS
+              else f"the {points:,} points")
+    unmerged = ", those of them GLSkeleton has not merged into others" if merging else ""
+    sampled = (f"The histograms judge {judged}{unmerged}; their n counts those with a value (a point whose "
+               f"neighbourhood has collapsed to a point has no normal or curvature)."
+               if points > JUDGED_POINTS or merging else "")
     held = (f"{state.anchored:,} points on thin handles are held in place and drawn on their axis "
             f"(More: {label('hold_curves')})." if state.anchored else "")
     latest = run.history[-1]

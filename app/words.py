@@ -3,6 +3,7 @@ log and notices use too, so a person reads the same name everywhere; and a real 
 it and as a person types it."""
 from __future__ import annotations
 
+import math
 import re
 
 from skelcore.errors import ParameterError
@@ -49,10 +50,15 @@ def typed_number(name: str, text) -> float:
     """The number a person typed into a parameter's text box ("1e-3", " 0.5 "); ParameterError (the engine's
     naming, which `refused` turns into the panel's) for anything else. Text boxes, not number boxes: viser's
     number box drops the "e" of 1e3 as it is typed and sends 13."""
+    typed = str(text).strip()
     try:
-        return float(str(text).strip())
+        value = float(typed)
     except ValueError:
-        raise ParameterError(f"parameter {name}={str(text).strip()!r}: must be a number (like 0.5 or 1e-3)") from None
+        value = None
+    if value is None or not math.isfinite(value):  # 1e400 too: named as typed, not as the inf it reads as
+        shown = f"{typed!r:.30}" if typed else "(empty)"
+        raise ParameterError(f"parameter {name}={shown}: must be a finite number (like 0.5 or 1e-3)")
+    return value
 
 
 def box_label(name: str) -> str:

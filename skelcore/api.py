@@ -90,7 +90,8 @@ class Result:
 
     @property
     def contracted(self) -> np.ndarray:
-        """The contracted points of the last state (GLSkeleton: fewer than the input; see states[-1].owner)."""
+        """The contracted points of the last state (GLSkeleton: fewer than the input; see states[-1].owner).
+        contracted.ply holds `contracted[states[-1].owner]`: a row per point of `cloud`."""
         return self.states[-1].points
 
     @functools.cached_property

@@ -85,8 +85,8 @@ def histogram_figure(metrics, measure: str, iteration: int | None = None, title:
                   (stats["median"], f"median {stats['median']:.3f}", dict(dash="dot", color="#111111", width=1.5))]
     for x, label, line in marks:
         figure.add_trace(go.Scatter(x=[x, x], y=[0, top], mode="lines", name=label, line=line, hoverinfo="name"))
-    # n counts the points with a value: not those collapsed to a point (undefined), nor those left out of the
-    # sample a large cloud is judged on (`of_points`: the input's count)
+    # n counts the points with a value: not those collapsed to a point (undefined), nor those GLSkeleton merged
+    # into others, nor those left out of the sample a large cloud is judged on (`of_points`: the input's count)
     judged = stats["n"] + stats.get("n_undefined", 0)
     total = of_points if isinstance(of_points, (int, np.integer)) and of_points > judged else judged
     counted = f"n {stats['n']:,}" + (f" of {total:,}" if total > stats["n"] else "")

@@ -41,10 +41,12 @@ TABLE_COLUMNS = {
 }
 
 
-def histograms_html(metrics, iteration: int | None = None, plotly: bool | str = True) -> str:
-    """A page with the two histograms of one iteration (plotly: see figures_html)."""
-    return figures_html("Histograms", [histogram_figure(metrics, key, iteration=iteration) for key in MEASURES],
-                        plotly)
+def histograms_html(metrics, iteration: int | None = None, plotly: bool | str = True,
+                    of_points: int | None = None) -> str:
+    """A page with the two histograms of one iteration (plotly: see figures_html; of_points: see
+    histogram_figure)."""
+    return figures_html("Histograms", [histogram_figure(metrics, key, iteration=iteration, of_points=of_points)
+                                       for key in MEASURES], plotly)
 
 
 def figures_html(title: str, figures, plotly: bool | str = True) -> str:

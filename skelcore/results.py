@@ -102,8 +102,8 @@ def write_results(out_dir, cloud: io.Cloud, states: list[IterationState], skelet
     summary = metrics_document(cloud, states, metrics, reduction, evidence)
     if elapsed is not None:
         summary["elapsed_seconds"] = elapsed
-    # every input point at its contracted place, in the input's order, whatever the method (GLSkeleton's merged
-    # points are each written for every point they absorbed), so a row of the file is a row of the input
+    # every point the run kept (cloud.points: after duplicates and cleaning) at its contracted place, in their
+    # order, whatever the method (GLSkeleton's merged points once for each point they absorbed)
     contracted, skeleton = final.points[final.owner] * cloud.scale, _at_scale(skeleton, cloud.scale)
     labels = cloud.labels  # a labelled input: its labels too
     write_together(out_dir, {

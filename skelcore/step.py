@@ -34,8 +34,8 @@ from .params import ContractionParams, default_k
 from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 
-# A step rejected for these ends the run on the state before it; the words name the rejected step (`it`), so that
-# a verdict of the state kept does not read as contradicting them
+# A step rejected for these ends the run on the state before it (or, see `rejected`, the one before that); the
+# words name the rejected step (`it`), so that a verdict of the state kept does not read as contradicting them
 REJECTION_CAUSES = {
     "nan": "its solve produced NaN",
     "solver_failure": "the sparse solver failed",
@@ -48,8 +48,7 @@ TERMINATION_MESSAGES = {
     "ring_ratio": "the one-ring size ratio stopped falling",
     "max_iterations": "the maximum number of iterations was reached",
     "covariance": "the cloud's covariance shows a converged curve",
-    **{reason: f"the next step was discarded: {cause}; the last good state is kept"
-       for reason, cause in REJECTION_CAUSES.items()},
+    **{reason: f"the next step was discarded, as {cause}" for reason, cause in REJECTION_CAUSES.items()},
 }
 RESTART_FIELDS = ("method", "k", "normalise", "balance_density", "drop_jumps")
 

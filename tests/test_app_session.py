@@ -848,8 +848,8 @@ def test_a_run_that_ends_a_step_back_drops_that_step_and_what_came_of_it(monkeyp
     run = session.run
     assert all(index < len(session.history) for index, _ in [*run.skeletons, *run.evidence])
     assert len(session.metrics_upto(2, run)) == 3
-    assert run_state(session.history, "", False) == ("ended: the next step was discarded: it grew the bounding box "
-                                                     "past its limit; the last good state is kept")
+    assert run_state(session.history, "", False) == ("ended: the next step was discarded, as it grew the bounding "
+                                                     "box past its limit")
 
 
 def test_the_panels_words_name_every_method_and_a_refused_value():

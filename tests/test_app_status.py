@@ -243,7 +243,10 @@ def test_the_real_parameters_are_read_as_typed_with_an_exponent_and_words_are_re
     assert (params.termination, params.wl_max, params.sl) == (0.001, 2000.0, 2.5) and notices == []
     boxes.wh0.value = "abc"
     assert panel.parameters(None) is None
-    assert notices == ["W_H0 = 'abc': must be a number (like 0.5 or 1e-3); put back to the last value taken"]
+    assert notices == ["W_H0 = 'abc': must be a finite number (like 0.5 or 1e-3); put back to the last value taken"]
+    for typed, shown in (("", "(empty)"), ("1e400", "'1e400'")):
+        boxes.sl.value = typed
+        assert panel.parameters(None) is None and notices[-1].startswith(f"s_L = {shown}: must be a finite number")
     assert (boxes.wh0.value, boxes.termination.value, boxes.wl_max.value) == ("1", "0.001", "2000")
     assert words.number_text(0.1 + 0.2) == "0.30000000000000004" and words.number_text(2048.0) == "2048"
 
@@ -371,7 +374,10 @@ def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
     session = Session(validate(points, name="torus.xyz"), look_ahead=False)
     notes = run_notes(session.run, session.history[0], notice="")
     assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in notes
-    assert "sample" not in notes  # every point judged
+    assert "The histograms judge" not in notes  # every point judged
+    merging = Session(validate(points, name="torus.xyz"), ContractionParams(method="glskeleton"), look_ahead=False)
+    assert ("The histograms judge the 3,000 points, those of them GLSkeleton has not merged into others; their n "
+            "counts those with a value") in run_notes(merging.run, merging.history[0], notice="")
 
 
 def test_about_this_run_says_a_cloud_is_sparser_than_the_skeletons_balls():
