@@ -9,7 +9,7 @@ here too, a header-less one of bare vertex rows as a text cloud. PCD files with 
 their header's field layout (skelcore.pcd), binary_compressed ones by open3d. LAS and LAZ (airborne and
 terrestrial laser scans) by laspy.
 
-Text clouds (XYZ, TXT, PTS, header-less OFF) by skelcore.text_clouds.
+Text clouds (XYZ, TXT, PTS) are read by skelcore.text_clouds.
 """
 from __future__ import annotations
 
