@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     # -- bench-quality (skelcore.quality_bench) --
     from .params import METHODS
-    from .quality_bench import BENCH_VARIANTS
+    from .quality_bench import BENCH_VARIANTS, NAMED_VARIANTS
     from .solids import DEFAULT_POINTS
 
     quality = commands.add_parser("bench-quality",
@@ -86,9 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
                          help="run the everyday parts (wrench, key, nut, pipe, ...) and the held-out shapes (kettle, "
                               "trophy, ring chain, ...: skelcore.parts), not in the default set, instead of the "
                               "default shapes")
-    quality.add_argument("--variants", nargs="+", choices=BENCH_VARIANTS, default=list(BENCH_VARIANTS),
-                         metavar="VARIANT", help=f"of: {' '.join(BENCH_VARIANTS)} ('mesh': the shape's mesh file "
-                                                 f"itself, sampled by the loader) (default: all)")
+    quality.add_argument("--variants", nargs="+", choices=NAMED_VARIANTS, default=list(BENCH_VARIANTS),
+                         metavar="VARIANT", help=f"of: {' '.join(NAMED_VARIANTS)} ('mesh': the shape's mesh file "
+                                                 f"itself, sampled by the loader; 'two_scans' and 'layered' only "
+                                                 f"when named) (default: {' '.join(BENCH_VARIANTS)})")
     quality.add_argument("--points", type=_point_count, default=DEFAULT_POINTS, help="points per shape (default: %(default)s)")
     quality.add_argument("--seeds", type=random_seed, nargs="+", default=[0], metavar="SEED",
                          help="draws of the shapes' samples and of the variants, each a run of the whole grid "

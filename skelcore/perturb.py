@@ -14,6 +14,8 @@ from scipy.spatial import cKDTree
 from .errors import ParameterError
 
 VARIANTS = ("clean", "noise_0.5", "noise_1", "outliers_2", "density_30", "partial")
+# Run only when named: two registered scans of the object slightly misaligned; a depth sensor's layered values
+MORE_VARIANTS = ("two_scans", "layered")
 
 NOISE = {"noise_0.5": 0.005, "noise_1": 0.01}  # std of Gaussian noise per coordinate, share of the bbox diagonal
 OUTLIER_SHARE = 0.02  # uniform points added in the bounding box, share of the cloud's size
@@ -25,11 +27,15 @@ LINK_SPACINGS = 3.0
 ISLAND_SHARE = 0.02  # largest share of the visible points a view may lose as islands
 # A neighbourhood this linear is a curve at the sampling's scale (a surface patch stays below about 0.7).
 LINEAR = 0.8
+# A registration error: half the points (a second scan) turned this many radians about the principal axis through
+# the centre and moved this share of the diagonal across it, as two scans' alignment commonly leaves them
+MISREGISTRATION = (0.01, 0.004)
+LAYER_STEP = 0.005  # coordinates rounded to multiples of this share of the diagonal (a depth camera's layers)
 
 
 def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray | None = None,
             loops: bool = False) -> np.ndarray:
-    """The `variant` (one of VARIANTS) of a clean cloud; the same inputs give the same points.
+    """The `variant` (one of VARIANTS or MORE_VARIANTS) of a clean cloud; the same inputs give the same points.
 
     normals: outward unit normals at the points (from the mesh), used by 'partial'; without them PCA normals
     are estimated and oriented outward. loops: the shape has loops, so the partial view keeps every patch it
@@ -38,11 +44,12 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or len(points) < 20:
         raise ParameterError(f"perturb: expected at least 20 points as an (n,3) array, got shape {points.shape}")
-    if variant not in VARIANTS:
-        raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(VARIANTS)})")
+    named = (*VARIANTS, *MORE_VARIANTS)
+    if variant not in named:
+        raise ParameterError(f"perturb: unknown variant {variant!r} (choose from {', '.join(named)})")
     # A stream of the variant's own: a sampler drawing from default_rng(seed) too would have placed the points
     # by the very draws that thin or move them (the capsule's thinned half lost its cap and a band, 2 pieces).
-    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(VARIANTS.index(variant),)))
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(named.index(variant),)))
     if variant == "clean":
         return points.copy()
     if variant in NOISE:
@@ -52,6 +59,11 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
         return np.vstack([points, rng.uniform(low, high, (round(OUTLIER_SHARE * len(points)), 3))])
     if variant == "density_30":
         return thin_half(points, DENSITY_KEPT, rng)
+    if variant == "two_scans":
+        return misregistered_half(points, rng)
+    if variant == "layered":
+        step = LAYER_STEP * _diagonal(points)
+        return np.round(points / step) * step
     return points[partial_scan(points, normals, 0.0 if loops else ISLAND_SHARE)[0]]  # "partial"
 
 
@@ -63,6 +75,22 @@ def thin_half(points: np.ndarray, kept: float, rng: np.random.Generator) -> np.n
     thinned = along > np.median(along)
     keep = ~thinned | (rng.random(len(points)) < kept)
     return points[keep]
+
+
+def misregistered_half(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A random half of the points as a second scan registered slightly wrong (MISREGISTRATION): turned about
+    the principal axis through the centre and moved across it, so every surface is two sheets a fraction of a
+    percent apart."""
+    angle, shift = MISREGISTRATION
+    axes = _principal_axes(points)
+    centre = points.mean(axis=0)
+    second = rng.random(len(points)) < 0.5
+    local = (points[second] - centre) @ axes  # the principal frame: the turn is about its first axis
+    cos, sin = np.cos(angle), np.sin(angle)
+    local[:, 1], local[:, 2] = cos * local[:, 1] - sin * local[:, 2], sin * local[:, 1] + cos * local[:, 2]
+    moved = points.copy()
+    moved[second] = centre + local @ axes.T + shift * _diagonal(points) * axes[:, 1]
+    return moved
 
 
 def partial_scan(points: np.ndarray, normals: np.ndarray | None = None,

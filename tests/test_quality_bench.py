@@ -149,7 +149,7 @@ def _diagonal(points):
 
 
 def test_variants_are_pure_functions_of_points_and_seed(rings):
-    for variant in perturbations.VARIANTS:
+    for variant in (*perturbations.VARIANTS, *perturbations.MORE_VARIANTS):
         first = perturbations.perturb(rings.points, variant, seed=1, normals=rings.normals)
         assert np.array_equal(first, perturbations.perturb(rings.points, variant, seed=1, normals=rings.normals))
     assert not np.array_equal(perturbations.perturb(rings.points, "noise_1", seed=1),
@@ -168,6 +168,29 @@ def test_outliers_are_two_percent_inside_the_bounding_box(rings):
     assert len(noisy) == N + 60 and np.array_equal(noisy[:N], rings.points)
     extra = noisy[N:]
     assert (extra >= rings.points.min(axis=0)).all() and (extra <= rings.points.max(axis=0)).all()
+
+
+def test_two_scans_are_half_the_points_each_registered_a_fraction_of_a_percent_apart(rings):
+    """A second scan's half is moved rigidly: its points keep their distances to one another, and move by about
+    the misregistration's shift (a turn of 0.01 rad adds at most 0.01 of the radius)."""
+    moved = perturbations.perturb(rings.points, "two_scans", seed=0)
+    shifted = np.linalg.norm(moved - rings.points, axis=1) > 0
+    assert len(moved) == N and 0.4 < shifted.mean() < 0.6
+    angle, shift = perturbations.MISREGISTRATION
+    diagonal = _diagonal(rings.points)
+    offsets = np.linalg.norm(moved[shifted] - rings.points[shifted], axis=1)
+    assert (np.abs(offsets - shift * diagonal) <= angle * diagonal).all()
+    pairs = np.flatnonzero(shifted)[:50]
+    before = np.linalg.norm(rings.points[pairs, None] - rings.points[pairs], axis=2)
+    after = np.linalg.norm(moved[pairs, None] - moved[pairs], axis=2)
+    np.testing.assert_allclose(after, before, atol=1e-12)
+
+
+def test_layered_coordinates_are_multiples_of_the_step(rings):
+    layered = perturbations.perturb(rings.points, "layered", seed=0)
+    step = perturbations.LAYER_STEP * _diagonal(rings.points)
+    np.testing.assert_allclose(layered / step, np.round(layered / step), atol=1e-9)
+    assert np.abs(layered - rings.points).max() <= step / 2 * (1 + 1e-9) * np.sqrt(3)
 
 
 def test_density_keeps_thirty_percent_on_one_half(rings):
