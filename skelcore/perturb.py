@@ -1,8 +1,10 @@
 """Scan-like variants of a clean cloud for the quality benchmark: each a pure function of (points, seed).
 
 Every variant keeps the truth of the shape it perturbs (cycles and components of its curve skeleton):
-noise and outliers are small or sparse, the thinned half still covers its surface, and the partial scan is
-taken from a view that leaves every piece of the shape in one piece (see `partial_scan`).
+noise and outliers are small or sparse, the thinned half still covers its surface, the partial scan is
+taken from a view that leaves every piece of the shape in one piece (see `partial_scan`), and the two scans'
+sheets and the layers lie a fraction of the skeleton's sample radius apart (0.4% and 0.5% of the diagonal
+against 2%).
 """
 from __future__ import annotations
 
