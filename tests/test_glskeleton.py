@@ -340,10 +340,10 @@ def test_a_capsule_drawn_as_one_edge_is_not_called_collapsed():
     assert nodes["passed"] and nodes["value"].startswith("2 drawn of ")
 
 
-
-def test_contracted_ply_holds_every_input_point_in_the_inputs_order(tmp_path):
-    """GLSkeleton contracts fewer points than it was given; its contracted.ply still has a row per input point, at
-    the place of the point that absorbed it, as LBC's and a reduced run's have (it held the merged points)."""
+def test_contracted_ply_holds_a_row_per_point_the_run_kept(tmp_path):
+    """GLSkeleton contracts fewer points than it was given; its contracted.ply still has a row per point of the
+    run's cloud, in its order, at the place of the point that absorbed it, as LBC's and a reduced run's have (it
+    held the merged points)."""
     from skelcore.readers import read_ply
 
     path = next(path for path in write_shape(make_shape("torus", 3000, seed=0), tmp_path) if path.suffix == ".ply")
