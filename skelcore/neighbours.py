@@ -131,6 +131,9 @@ NEAREST_FIRST = 16
 
 
 CHUNK = 16_384  # points per block: the (block, k, 3) temporaries stay small and cache-friendly
+# Two neighbours' directions from the centre this close are one ray (behind_nearer): rounding leaves equal angles
+# about 1e-15 apart, and a fan triangle this thin has cotangents of 1e9, far past the Laplacian's COT_LIMIT.
+RAY_TIE = 1e-9
 
 
 def one_rings(points: np.ndarray, k: int, drop_jumps: bool = False) -> OneRings:
@@ -198,13 +201,15 @@ def _fans_nearest_first(planar: np.ndarray):
 
 def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):
     """Delaunay fan of the origin among each row's valid 2-D points (planar (rows, w, 2)), by inversion and
-    a convex chain (module docstring). Rows may differ in length: the empty slots repeat the row's nearest point,
-    always a vertex of the inverted hull, so they only add repeated entries and degenerate triangles (dropped).
-    Returns (row, slot) of the ring entries in fan order and (row, slot_j, slot_l) of the triangles."""
+    a convex chain (module docstring). Rows may differ in length: the empty slots, and points behind a nearer one
+    on its ray (behind_nearer), repeat the row's nearest point, always a vertex of the inverted hull, so they only
+    add repeated ring entries and degenerate triangles, both dropped. Returns (row, slot) of the ring entries in
+    fan order and (row, slot_j, slot_l) of the triangles."""
     count, width = planar.shape[:2]
     valid = np.ones((count, width), dtype=bool) if valid is None else valid
     rows = np.arange(count)
     radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
+    valid = valid & ~behind_nearer(np.arctan2(planar[..., 1], planar[..., 0]), radius2, valid)
     nearest = np.argmin(np.where(valid, radius2, np.inf), axis=1)
     slot = np.where(valid, np.arange(width), nearest[:, None])
     planar, radius2 = planar[rows[:, None], slot], radius2[rows[:, None], slot]
@@ -214,7 +219,7 @@ def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):
     inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
     gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
     widest = np.argmax(gaps, axis=1)
-    is_open = gaps[rows, widest] >= np.pi
+    is_open = gaps[rows, widest] >= np.pi - RAY_TIE  # a centre on a straight edge (a lattice's) has an open fan
     start = np.where(is_open, widest + 1, np.argmin(np.take_along_axis(radius2, order, axis=1), axis=1))
     sequence = np.mod(start[:, None] + np.arange(width + 1), width)
     sequence[is_open] = np.concatenate([np.full((is_open.sum(), 1), width), sequence[is_open, :width]], axis=1)
@@ -229,7 +234,30 @@ def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):
     tri_row = np.repeat(rows, length - is_open)
     tri_j, tri_l = slot[tri_row, hull[:, :-1][in_pairs]], slot[tri_row, hull[:, 1:][in_pairs]]
     proper = tri_j != tri_l
-    return ring_row, slot[ring_row, hull[in_ring]], tri_row[proper], tri_j[proper], tri_l[proper]
+    ring_slot = slot[ring_row, hull[in_ring]]
+    # the repeats of the nearest point lie together in the fan order (they share its angle)
+    single = np.ones(len(ring_row), dtype=bool)
+    single[1:] = (ring_slot[1:] != ring_slot[:-1]) | (ring_row[1:] != ring_row[:-1])
+    return ring_row[single], ring_slot[single], tri_row[proper], tri_j[proper], tri_l[proper]
+
+
+def behind_nearer(angle: np.ndarray, radius2: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(rows, w) which valid points lie on the ray from the centre through a nearer valid point of their row (their
+    angles within RAY_TIE): the segment from the centre to such a point is a chord of every circle through both,
+    so the nearer point lies inside each and the farther one is no Delaunay neighbour. Sampled on a grid (a depth
+    camera's layers, a regular mesh's vertices) whole rows of neighbours tie; left in, they invert onto one ray,
+    the convex chain keeps them as collinear, and their flat fan triangles take cotangents of COT_LIMIT."""
+    count, width = angle.shape
+    angle = np.where(angle > np.pi - RAY_TIE, angle - 2 * np.pi, angle)  # a ray along -x sorts as one at -pi
+    order = np.argsort(np.where(valid, angle, np.inf), axis=1, kind="stable")
+    angle, radius2, present = (np.take_along_axis(values, order, axis=1) for values in (angle, radius2, valid))
+    starts = np.ones((count, width), dtype=bool)  # the first of each ray in angular order
+    starts[:, 1:] = ~(present[:, 1:] & (np.diff(angle, axis=1) <= RAY_TIE))
+    nearest = np.minimum.reduceat(radius2.ravel(), np.flatnonzero(starts.ravel()))
+    ray = np.cumsum(starts.ravel()).reshape(count, width) - 1
+    hidden = np.zeros((count, width), dtype=bool)
+    np.put_along_axis(hidden, order, present & (radius2 > nearest[ray]), axis=1)
+    return hidden
 
 
 def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

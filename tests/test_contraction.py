@@ -74,6 +74,27 @@ def test_degenerate_triangles_stay_finite():
     assert np.isfinite(values).all()
 
 
+@pytest.mark.parametrize("k", [12, 30])
+def test_a_grid_s_rings_hold_the_nearest_point_of_each_ray_and_no_flat_triangle(k):
+    """On a lattice (a depth camera's layers, a regular mesh's vertices) whole rows of neighbours lie on one ray
+    from the centre: only the nearest is a Delaunay neighbour, and the others made flat fan triangles whose
+    cotangents hit the clamp (a layered plate's contraction pulled such points together 1000-fold in one step)."""
+    grid = np.stack(np.meshgrid(np.arange(20.0), np.arange(20.0), [0.0], indexing="ij"), axis=-1).reshape(-1, 3)
+    turn, _ = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))
+    points = grid @ turn.T  # turned out of the axes: equal angles differ by rounding only
+    rings = one_rings(points, k)
+    inner = np.flatnonzero((grid[:, :2] >= 3).all(axis=1) & (grid[:, :2] <= 16).all(axis=1))
+    for i in inner:
+        ring = rings.indices[rings.indptr[i]:rings.indptr[i + 1]]
+        offsets = (grid[ring] - grid[i])[:, :2]
+        directions = {tuple((offset / np.gcd.reduce(offset.astype(int))).astype(int)) for offset in offsets}
+        assert len(directions) == len(ring), f"point {i}: two ring neighbours on one ray, or one twice"
+    i, j, l = rings.triangles.T
+    areas = 0.5 * np.linalg.norm(np.cross(points[j] - points[i], points[l] - points[i]), axis=1)
+    assert areas.min() > 0.25  # a lattice triangle has area 0.5 or more
+    assert np.abs(cotangent_weights(points, rings.triangles)[2]).max() < 10
+
+
 def spd_system(n: int, density: float, seed: int) -> tuple[sp.csr_matrix, np.ndarray]:
     """A sparse symmetric positive-definite matrix (A^T A + I of a random sparse A) and three right-hand sides."""
     a = sp.random(n, n, density=density, random_state=seed)

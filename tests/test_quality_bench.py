@@ -467,3 +467,16 @@ def test_flat_and_framed_parts_keep_their_loops_and_ends():
     for result in results:
         assert result.exact and result.topology["ends"] == result.expected["ends"], (result.shape, result.method,
                                                                                       result.topology)
+
+
+def test_a_depth_camera_s_layers_add_no_loop_to_a_drilled_plate():
+    """The plate with one hole at 10,000 points with coordinates in layers of 0.5% of the diagonal (draw 0): the
+    rows of points on its faces used to make flat one-ring triangles whose clamped cotangents pulled points 0.1
+    apart together in one step (W_H up to 3,000), and the run ended flung with a second loop."""
+    from skelcore.quality_bench import run_case
+
+    plate = solids.benchmark_shapes(seed=0, names=["block_1_hole"])[0]
+    cloud = perturbations.perturb(plate.points, "layered", seed=0)
+    outcome = run_case(cloud, "lbc", name="plate", seed=0)
+    assert outcome["topology"]["cycles"] == 1 and outcome["topology"]["components"] == 1
+    assert outcome["termination"] != "flung"
