@@ -1007,7 +1007,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     click(page, "Run to end")
     wait_until(lambda: inspector.session.finished, "the run to end")
     inspector.wait_idle()
-    button(page, "Play").wait_for()
+    button(page, "Replay").wait_for()
     last = len(inspector.session.history) - 1
     wait_shown(page, inspector.session.latest.iteration)
     open_tab(page, "View", "Layers")
