@@ -354,7 +354,8 @@ def _the_panel_fits_under_the_status(page) -> None:
               ("More",): number_input(page, "Sample radius")}
     lowest.update({tabs: button(page, name).or_(page.locator("label:visible", has_text=name))
                    for tabs, name in INNER_TABS.items()})
-    run_controls = (*(button(page, name) for name in ("Step", "Play", "Run to end", "Reset")),
+    play = page.get_by_role("button", name=re.compile("^(Play|Replay)$"))  # Replay once the run has ended
+    run_controls = (*(button(page, name) for name in ("Step", "Run to end", "Reset")), play,
                     number_input(page, "Play interval (s)"), number_input(page, "Iteration"))
     for tabs, widget in lowest.items():
         open_tab(page, *tabs)

@@ -265,18 +265,18 @@ def test_a_double_click_on_pause_pauses(monkeypatch):
     controls = types.SimpleNamespace(interval=types.SimpleNamespace(value=0.5))
     play = playback.Playback(worker, controls, changed=lambda: None)
     me, other = types.SimpleNamespace(client_id=1), types.SimpleNamespace(client_id=2)
-    play.toggle(lambda: True, me)
+    play.toggle(lambda: lambda: True, me)
     clock[0] += 0.1
-    play.toggle(lambda: True, me)  # Pause at once: never dropped
+    play.toggle(lambda: lambda: True, me)  # Pause at once: never dropped
     assert not worker.playing
     clock[0] += 0.2
-    play.toggle(lambda: True, me)  # the double click's second half
+    play.toggle(lambda: lambda: True, me)  # the double click's second half
     assert not worker.playing
-    play.toggle(lambda: True, other)  # another browser's Play is its own
+    play.toggle(lambda: lambda: True, other)  # another browser's Play is its own
     assert worker.playing
-    play.toggle(lambda: True, other)
+    play.toggle(lambda: lambda: True, other)
     clock[0] += playback.DOUBLE_CLICK
-    play.toggle(lambda: True, me)
+    play.toggle(lambda: lambda: True, me)
     assert worker.playing
 
 
@@ -293,8 +293,8 @@ def test_the_run_reads_paused_only_after_a_pause():
     history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
     play.stepped()
     assert not play.paused and run_state(history, "", worker.playing, paused=play.paused) == "ready"
-    play.toggle(lambda: True, None)
-    play.toggle(lambda: True, None)  # Pause
+    play.toggle(lambda: lambda: True, None)
+    play.toggle(lambda: lambda: True, None)  # Pause
     assert play.paused and run_state(history, "", worker.playing, paused=play.paused) == "paused"
     play.stepped()
     assert not play.paused
