@@ -200,10 +200,7 @@ class Inspector:
 
     def _on_play(self, event) -> None:
         viewer = self.presenter.viewer(event.client)
-        if self.session.finished and viewer is not None:  # nothing left to compute: play the run again
-            self.playback.toggle(lambda: self._replay_tick(viewer), event.client)
-        else:
-            self.playback.toggle(lambda: self._tick(True), event.client)
+        self.playback.toggle(lambda: self._play_tick(viewer), event.client)
 
     def _on_restart(self, client) -> None:
         params = self.panel.parameters(client)
@@ -264,6 +261,12 @@ class Inspector:
         if state is not None:
             self._advance(full=full or not going)
         return going
+
+    def _play_tick(self, viewer: Viewer | None):
+        """What Play does, read as it starts: on an ended run, nothing is left to compute: play it again."""
+        if self.session.finished and viewer is not None:
+            return lambda: self._replay_tick(viewer)
+        return lambda: self._tick(True)
 
     def _replay_tick(self, viewer: Viewer) -> bool:
         """One iteration of Play on a finished run, in the browser that asked: the next iteration it has not

@@ -45,7 +45,8 @@ HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # included), so a white one would paint over the card's right border.
 CARD = dict(paper_bgcolor="rgba(0,0,0,0)")
 PIN, PIN_AGAIN = "Pin this run", "Pin this run instead"  # the Compare tab's button, before and after a pin
-PLAY, PAUSE = "Play", "Pause"  # the Play button's label: what a click does
+# the Play button's label: what a click does (on an ended run it shows the run again, from iteration 0)
+PLAY, PAUSE, REPLAY = "Play", "Pause", "Replay"
 COMPARE_TITLES = ("convergence, pinned and current", "final D_theta", "final delta_kappa")  # the Compare tab's plots
 NO_ASSET = "(choose an asset)"  # the asset list's first entry while the cloud loaded is none of them
 PROVISIONAL = "Show provisional"  # the View tab's checkbox that draws a skeleton before the cloud is curve-like

@@ -25,15 +25,18 @@ class Playback:
         # after a Step: walk-throughs read "paused" there as a Pause they had not made)
         self.paused = False
 
-    def toggle(self, tick: Callable[[], bool], client) -> None:
-        """Play (tick once per iteration until it returns False), or Pause; a double click on Pause pauses."""
+    def toggle(self, choose: Callable[[], Callable[[], bool]], client) -> None:
+        """Play, or Pause; a double click on Pause pauses. Play runs the tick `choose()` returns once per iteration
+        until it returns False; `choose` is called on the worker as Play starts, after the jobs queued before the
+        click: a Step clicked just before may end the run meanwhile, and Play on an ended run does something else
+        (it replays it) than Play on a run going on."""
         who, now = getattr(client, "client_id", None), time.monotonic()
         if self.worker.playing:
             self._paused_by[who] = now
             self.paused = True
             self.pause()
         elif now - self._paused_by.get(who, -DOUBLE_CLICK) >= DOUBLE_CLICK:
-            self.start(tick, client, full=True)
+            self.start(_chosen_on_first_tick(choose), client, full=True)
 
     def start(self, tick: Callable[[], bool], client, full: bool) -> None:
         """full: Play, paced by the interval slider; otherwise Run to end, as fast as it goes."""
@@ -52,3 +55,14 @@ class Playback:
         """A Step: Play stops, and the run is no longer where a Pause left it."""
         self.paused = False
         self.pause()
+
+
+def _chosen_on_first_tick(choose: Callable[[], Callable[[], bool]]) -> Callable[[], bool]:
+    """A tick that runs the one `choose()` returns when it first runs."""
+    chosen: list[Callable[[], bool]] = []
+
+    def tick() -> bool:
+        if not chosen:
+            chosen.append(choose())
+        return chosen[0]()
+    return tick

@@ -297,7 +297,8 @@ class Presenter:
     def _play_button(self) -> bool:
         """Whether the run plays, read once for the Play button and the statuses pushed with it (app.playback)."""
         playing = self.worker.playing
-        self.ui.run.play.label = layout.PAUSE if playing else layout.PLAY
+        self.ui.run.play.label = (layout.PAUSE if playing else layout.REPLAY if self.session.finished
+                                  else layout.PLAY)
         return playing
 
     def _update_status(self, viewer: Viewer, playing: bool) -> None:

@@ -1,6 +1,6 @@
 """The words a browser shows about the iteration it looks at: the status under the run controls, the notes on the
-run folded below the tabs, and the legend over the 3-D view. Plain functions of what is shown; nothing here
-computes.
+run folded below the tabs, the verdict's headline above the histograms, and the legend over the 3-D view. Plain
+functions of what is shown; nothing here computes.
 
 The status sits above the tabs, so every line it has pushes the tabs' boxes towards the window's edge (app.layout):
 it says each fact once, in few words, in three or four paragraphs (where the browser is and what the run does; the
@@ -58,6 +58,31 @@ def hold_inside_hint(verdict: dict, state, solid_loops: Callable[[], int | None]
         return ""
     return (f"{loops['value']} of the {'mesh' if mesh else 'solid'}'s {solid} "
             f"loop{'' if solid == 1 else 's'} kept: try More > {label('hold_inside')}")
+
+
+# The verdict's headline above the histograms, in characters shown: two lines of the 470 px plots panel (118, a
+# third of them bold, took two lines in Chromium; 124 took three). A third line gave the panel a scrollbar at 1280x720.
+HEADLINE_CHARS = 115
+HEADLINE_CRITERIA = 2  # failed criteria named in it, at most
+VERDICT_TAB = "(see Verdict tab)"
+
+
+def verdict_headline(head: str, failed: list[str], hint: str = "") -> str:
+    """The verdict above the histograms (markdown), within HEADLINE_CHARS where it can be (the panel clamps the rest,
+    app.viewer.HEADLINE_STYLE): `head` (markdown, "**Iteration 4: unstable**"), the failed criteria, named while
+    that fits and counted when it does not, and `hint` (what to try). The Verdict tab shows every criterion and the
+    hint."""
+    said = [f"failed: {', '.join(failed[:shown])}" + (f" and {len(failed) - shown} more" if len(failed) > shown
+                                                      else "")
+            for shown in range(min(len(failed), HEADLINE_CRITERIA), 0, -1)]
+    if len(failed) > 1:
+        said.append(f"{len(failed)} criteria failed")
+
+    def line(failures: str, bold: str = "**", italic: str = "_") -> str:
+        return (" · ".join(filter(None, [head.replace("**", bold), failures, hint and f"{bold}{hint}{bold}"]))
+                + f" {italic}{VERDICT_TAB}{italic}")
+    failures = next((each for each in said if len(line(each, "", "")) <= HEADLINE_CHARS), said[-1] if said else "")
+    return line(failures)
 
 
 def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional_wanted: bool) -> str:

@@ -7,6 +7,7 @@ scene's view settings (layers shown, sizes, opacities) are the shared View tab's
 """
 from __future__ import annotations
 
+import html
 import warnings
 
 import viser
@@ -16,6 +17,7 @@ from skelcore.verdict import explanation_markdown, failed_criteria
 from . import layout
 from .analysis import Plots
 from .scene import SceneView
+from .status import verdict_headline
 
 # What viser says when an update reaches a browser that closed while its view was being brought up to date (the
 # analysis and skeleton threads work on what each viewer shows): the update is dropped, which is all there is to do.
@@ -29,7 +31,10 @@ def quiet_closed_browsers() -> None:
 
 # viser's markdown tables draw their cells unpadded: "100.0%" ran into "at least 90%"
 VERDICT_STYLE = "<style>.verdict th, .verdict td { padding: 0 4px; }</style>"
-HEADLINE_CRITERIA = 2  # failed criteria named above the histograms, at most: two lines at 1280x720 keep both in view
+# The headline never takes a third line, whatever the browser's font (status.HEADLINE_CHARS keeps it to two in
+# ours): one more pushed the histograms past a 720 px window. Cut short, it ends in an ellipsis and its hover says it
+HEADLINE_STYLE = ("<style>.headline p { display: -webkit-box; -webkit-line-clamp: 2; -webkit-box-orient: vertical;"
+                  " overflow: hidden; }</style>")
 
 
 class Viewer:
@@ -91,10 +96,9 @@ class Viewer:
         shown = f"{head}\n\n**{hint}**\n{rest}" if hint else table  # the tab says it under its title too
         self.ui.plots.verdict.content = f'{VERDICT_STYLE}<div class="verdict">\n\n{shown}\n\n</div>'
         names = [c["name"] for c in failed_criteria(verdict)]
-        failed = ", ".join(names[:HEADLINE_CRITERIA]) + (f" and {len(names) - HEADLINE_CRITERIA} more"
-                                                          if len(names) > HEADLINE_CRITERIA else "")
-        headline = head + (f" · failed: {failed}" if names else "") + (f" · **{hint}**" if hint else "")
-        self.ui.plots.verdict_line.content = f"{headline} _(criteria: Verdict tab)_"
+        whole = " · ".join(filter(None, [head.replace("**", ""), names and f"failed: {', '.join(names)}", hint]))
+        self.ui.plots.verdict_line.content = (f'{HEADLINE_STYLE}<div class="headline" title="{html.escape(whole)}">'
+                                              f'\n\n{verdict_headline(head, names, hint)}\n\n</div>')
 
     def show_comparison(self, note: str, convergence, theta, kappa, shown: bool = True) -> None:
         plots = self.ui.plots

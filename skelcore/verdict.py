@@ -40,7 +40,9 @@ LABELS = ("stable", "not yet converged", "unstable")
 D_THETA_RANGE = (0.0, 1.0)
 DELTA_KAPPA_RANGE = (-1.0 / 3.0, 1.0 / 3.0)  # kappa lies in [0, 1/3]
 MANY_PEAKS = 100  # max_peaks at least this: the peak criterion is off (no histogram the metrics draw holds so many)
-_OFF = "off (added nothing in the calibration study)"
+# The threshold of a criterion the calibration switched off, and its result: the row keeps its value, in a table
+# cell's few words; OFF_NOTE says once, under the table, why it does not count
+_OFF, NOT_COUNTED = "for information only", "not counted"
 
 
 @dataclass(frozen=True)
@@ -54,8 +56,9 @@ class StabilityThresholds:
     to label as many right runs stable as possible at 90% break-even precision, with no bad setting, collapsed or
     disconnected skeleton stable, and of equally good values the loosest. On the 13 held-out shapes "stable" was
     right in 126 of 126 runs and labelled 126 of 252 right runs (README, "The stability verdict"); shrink_tolerance
-    was moved one candidate looser on 2026-12-06 (its comment says why). A loose value ("off") means the study found
-    that the criterion adds nothing (what each one contributes is on the study's page)."""
+    was moved one candidate looser on 2026-12-06 (its comment says why). A loose value ("off", its rows "not
+    counted") means the study found that the criterion adds nothing (what each one contributes is on the study's
+    page)."""
     peak_drop: float = 0.02  # paper: a peak counts if the frequency falls by this share of the points on both sides
     max_peaks: int = 1  # study: more significant peaks than this in either histogram: unstable (the paper's unimodality)
     min_symmetry: float = 0.0  # study: quantile symmetry below this: not yet converged (adds nothing: off)
@@ -201,10 +204,10 @@ def judge(values: dict, iteration: int, thresholds: StabilityThresholds = Stabil
 def _criterion(name: str, passed: bool | None, severity: str, value: str, threshold: str,
                off: str | None = None) -> dict:
     """One criterion's row. off: the threshold's text when the threshold is at its loosest, where the criterion
-    cannot fail (the study switched it off): the row then shows the value, that text, and n/a."""
+    cannot fail (the study switched it off): the row then shows the value, that text, and NOT_COUNTED."""
     if off is not None:
         passed, threshold = None, off
-    verdict = "n/a" if passed is None else ("pass" if passed else "fail")
+    verdict = NOT_COUNTED if passed is None else ("pass" if passed else "fail")
     return {"name": name, "value": value, "threshold": threshold, "passed": passed, "severity": severity,
             "text": f"{name}: {value} ({threshold}): {verdict}"}
 
@@ -298,9 +301,9 @@ def run_verdict(iterations, skeleton: dict | None = None,
     return verdict
 
 
-OFF_NOTE = ("*off*: the calibration study (`skelcore study`: runs on shapes whose skeletons are known, good "
-            "and deliberately broken) found that this criterion told right skeletons from wrong ones no better "
-            "than the others, so its value is shown and not judged.")
+OFF_NOTE = (f"*{NOT_COUNTED}*: the criterion is shown for information and does not count in the verdict: when the "
+            "verdict was calibrated (`skelcore study`: runs on shapes whose skeletons are known, good and "
+            "deliberately broken), judging it did not make the verdict agree better with those skeletons.")
 
 # Why each criterion beyond the paper's is there (module docstring), shown under the table when it fails.
 WHY = {
@@ -338,7 +341,7 @@ def explanation_markdown(verdict: dict) -> str:
     lines = [f"**Iteration {verdict['iteration']}: {verdict['label']}**", "",
              "| criterion | value | threshold | result |", "|---|---|---|---|"]
     for c in verdict.get("criteria", []):
-        result = "n/a" if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
+        result = NOT_COUNTED if c["passed"] is None else ("pass" if c["passed"] else f"**fail** ({c['severity']})")
         lines.append(f"| {c['name']} | {c['value']} | {c['threshold']} | {result} |")
     if any(c["passed"] is None for c in verdict.get("criteria", [])):
         lines += ["", OFF_NOTE]

@@ -248,6 +248,35 @@ def test_both_histograms_and_the_run_controls_fit_the_window(fresh_sized, inspec
     save_page(page, f"browser-layout-{page.size_name}.png")
 
 
+def test_a_long_verdict_headline_leaves_both_histograms_in_the_window(fresh_sized, inspector):
+    """An unstable verdict naming long criteria, with what to try: its headline took a third line at 1280x720 and
+    the plots panel scrolled. It keeps to two lines (app.status.HEADLINE_CHARS), and one longer still is clamped
+    there, its whole text on hover."""
+    page = fresh_sized
+    open_tab(page, "Histograms")
+    step(inspector, page)
+    wait_until(lambda: drawn(page, "plots") == 1, "iteration 1 plotted")
+    inspector.wait_idle()
+    names = ["curve-like share of the cloud", "spread against the original", "points inside the original",
+             "contraction steps taken", "skeleton loops"]
+    criteria = [{"name": name, "value": "1", "threshold": "t", "passed": False, "severity": "unstable", "text": name}
+                for name in names]
+    headline = page.locator(".headline p").first
+    for iteration, hint, clamped in ((12, "1 of the mesh's 2 loops kept: try More > Hold inside", False),
+                                     (123, "12 of the solid's 15 loops kept: try More > Hold inside, or Restart "
+                                           "with a smaller s_L", True)):
+        page.viewer.show_verdict({"label": "unstable", "iteration": iteration, "criteria": criteria}, hint)
+        wait_until(lambda: f"Iteration {iteration}: unstable" in headline.inner_text(), "the long headline")
+        page.wait_for_timeout(300)
+        _both_histograms_fit(page)
+        height, line, full = headline.evaluate("p => [p.clientHeight, parseFloat(getComputedStyle(p).lineHeight),"
+                                               " p.scrollHeight]")
+        assert height <= 2 * line + 1 and (full > height + 1) == clamped, (height, line, full)
+        assert hint in page.locator(".headline").first.get_attribute("title")
+    close_browser_notices(page)
+    save_page(page, f"browser-long-headline-{page.size_name}.png")
+
+
 # The tabs within View and Files, and in each the widget lowest in it
 INNER_TABS = {("View", "Layers"): "Show removed", ("View", "Colour"): "Colour original", ("View", "Opacity"): "Removed",
               ("View", "Size"): "Removed", ("Files", "Open"): "Upload cloud", ("Files", "Export"): "Export bundle",
@@ -325,7 +354,8 @@ def _the_panel_fits_under_the_status(page) -> None:
               ("More",): number_input(page, "Sample radius")}
     lowest.update({tabs: button(page, name).or_(page.locator("label:visible", has_text=name))
                    for tabs, name in INNER_TABS.items()})
-    run_controls = (*(button(page, name) for name in ("Step", "Play", "Run to end", "Reset")),
+    play = page.get_by_role("button", name=re.compile("^(Play|Replay)$"))  # Replay once the run has ended
+    run_controls = (*(button(page, name) for name in ("Step", "Run to end", "Reset")), play,
                     number_input(page, "Play interval (s)"), number_input(page, "Iteration"))
     for tabs, widget in lowest.items():
         open_tab(page, *tabs)
@@ -1007,7 +1037,7 @@ def test_run_to_end_shows_skeleton(fresh, page):
     click(page, "Run to end")
     wait_until(lambda: inspector.session.finished, "the run to end")
     inspector.wait_idle()
-    button(page, "Play").wait_for()
+    button(page, "Replay").wait_for()
     last = len(inspector.session.history) - 1
     wait_shown(page, inspector.session.latest.iteration)
     open_tab(page, "View", "Layers")

@@ -314,13 +314,58 @@ def test_play_on_an_ended_run_replays_its_iterations_in_the_browser_that_asked(c
         inspector._on_play(click)
         assert inspector.wait_idle(120) and not inspector.worker.playing
         assert shown == list(range(newest + 1)) and viewer.shown == newest and viewer.following
-        assert inspector.ui.run.play.label == "Play"
+        assert inspector.ui.run.play.label == "Replay"
         shown.clear()
         inspector._view_iteration(viewer, 1)
         assert inspector.wait_idle(120)
         inspector._on_play(click)
         assert inspector.wait_idle(120)
         assert shown == list(range(1, newest + 1))  # the scrub, then on from the iteration after it
+    finally:
+        inspector.close()
+        server.stop()
+
+
+def test_play_clicked_while_the_step_that_ends_the_run_waits_replays_the_run(cloud):
+    """Play chose between stepping and replaying when clicked, before the Step queued ahead of it had run: a Step
+    that ended the run left Play stepping past the end, which showed nothing, the button flashing Pause. It chooses
+    as it starts, after that Step; and once the run has ended the button says Replay, what a click then does."""
+    import threading
+    import types
+
+    import viser
+
+    from app.inspector import Inspector
+
+    params = ContractionParams(wl0=1.0, sl=3.0)
+    counting, steps = Session(cloud, params, look_ahead=False), 0
+    while not counting.finished:
+        counting.step()
+        steps += 1
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(cloud, params, look_ahead=False))
+    inspector.ui.run.interval.value = 0.0
+    browser = _Broadcast(server)
+    shown: list[int] = []
+    try:
+        inspector._connect(browser)
+        assert inspector.wait_idle(120)
+        click = types.SimpleNamespace(client=browser)
+        for _ in range(steps - 1):  # up to the Step that ends the run
+            inspector._on_step(click)
+            assert inspector.wait_idle(120)
+        assert not inspector.session.finished and inspector.ui.run.play.label == "Play"
+        show = inspector.presenter.show
+        inspector.presenter.show = lambda v, index, full=True: (shown.append(index), show(v, index, full))
+        busy = threading.Event()
+        inspector.worker.submit(busy.wait)  # the worker is still at work when both clicks arrive
+        inspector._on_step(click)
+        inspector._on_play(click)
+        busy.set()
+        assert inspector.wait_idle(120) and inspector.session.finished
+        newest = len(inspector.session.history) - 1
+        assert shown == [newest, *range(newest + 1)]  # the Step's end, then the run from its first iteration
+        assert inspector.ui.run.play.label == "Replay"
     finally:
         inspector.close()
         server.stop()

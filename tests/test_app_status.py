@@ -265,18 +265,18 @@ def test_a_double_click_on_pause_pauses(monkeypatch):
     controls = types.SimpleNamespace(interval=types.SimpleNamespace(value=0.5))
     play = playback.Playback(worker, controls, changed=lambda: None)
     me, other = types.SimpleNamespace(client_id=1), types.SimpleNamespace(client_id=2)
-    play.toggle(lambda: True, me)
+    play.toggle(lambda: lambda: True, me)
     clock[0] += 0.1
-    play.toggle(lambda: True, me)  # Pause at once: never dropped
+    play.toggle(lambda: lambda: True, me)  # Pause at once: never dropped
     assert not worker.playing
     clock[0] += 0.2
-    play.toggle(lambda: True, me)  # the double click's second half
+    play.toggle(lambda: lambda: True, me)  # the double click's second half
     assert not worker.playing
-    play.toggle(lambda: True, other)  # another browser's Play is its own
+    play.toggle(lambda: lambda: True, other)  # another browser's Play is its own
     assert worker.playing
-    play.toggle(lambda: True, other)
+    play.toggle(lambda: lambda: True, other)
     clock[0] += playback.DOUBLE_CLICK
-    play.toggle(lambda: True, me)
+    play.toggle(lambda: lambda: True, me)
     assert worker.playing
 
 
@@ -293,8 +293,8 @@ def test_the_run_reads_paused_only_after_a_pause():
     history = [types.SimpleNamespace(iteration=i, termination=None) for i in (0, 1)]
     play.stepped()
     assert not play.paused and run_state(history, "", worker.playing, paused=play.paused) == "ready"
-    play.toggle(lambda: True, None)
-    play.toggle(lambda: True, None)  # Pause
+    play.toggle(lambda: lambda: True, None)
+    play.toggle(lambda: lambda: True, None)  # Pause
     assert play.paused and run_state(history, "", worker.playing, paused=play.paused) == "paused"
     play.stepped()
     assert not play.paused
@@ -309,21 +309,56 @@ def _criterion(name: str, passed: bool) -> dict:
     return {"name": name, "value": "1", "threshold": "t", "passed": passed, "severity": "unstable", "text": name}
 
 
+def _headline(line) -> str:
+    """The markdown of the headline above the histograms, out of its clamping <div> (app.viewer.HEADLINE_STYLE)."""
+    return line.content.split("\n\n")[1]
+
+
+def _verdict_viewer():
+    line, table = types.SimpleNamespace(content=""), types.SimpleNamespace(content="")
+    return types.SimpleNamespace(ui=types.SimpleNamespace(plots=types.SimpleNamespace(verdict=table,
+                                                                                       verdict_line=line)))
+
+
 def test_the_verdict_line_above_the_histograms_names_the_failed_criteria():
     """The headline says why, not only "unstable": the first two failed criteria by name, the rest counted."""
     from app.viewer import Viewer
 
-    line, table = types.SimpleNamespace(content=""), types.SimpleNamespace(content="")
-    viewer = types.SimpleNamespace(ui=types.SimpleNamespace(plots=types.SimpleNamespace(verdict=table,
-                                                                                         verdict_line=line)))
+    viewer = _verdict_viewer()
+    line, table = viewer.ui.plots.verdict_line, viewer.ui.plots.verdict
     names = ["D_theta peaks", "delta_kappa peaks", "points inside the original", "skeleton loops"]
     for failing, said in (([], ""), (names[1:2], " · failed: delta_kappa peaks"),
                           (names[1:], " · failed: delta_kappa peaks, points inside the original and 1 more")):
         criteria = [_criterion(name, name not in failing) for name in names]
         label = "unstable" if failing else "stable"
         Viewer.show_verdict(viewer, {"label": label, "iteration": 4, "criteria": criteria})
-        assert line.content == f"**Iteration 4: {label}**{said} _(criteria: Verdict tab)_"
+        assert _headline(line) == f"**Iteration 4: {label}**{said} _(see Verdict tab)_"
         assert all(f"| {name} |" in table.content for name in names)  # the tab keeps every criterion
+
+
+def test_a_long_verdict_headline_keeps_to_two_lines_and_the_verdict_tab_keeps_it_all():
+    """At 1280x720 a third line of the headline gave the plots panel a scrollbar: with long criteria failed and a
+    hint, 150 characters. The headline names fewer criteria, then counts them, to stay within two lines; the
+    panel clamps it there whatever the font; its hover and the Verdict tab say everything."""
+    from app.status import HEADLINE_CHARS
+    from app.viewer import HEADLINE_STYLE, Viewer
+
+    viewer = _verdict_viewer()
+    line, table = viewer.ui.plots.verdict_line, viewer.ui.plots.verdict
+    names = ["curve-like share of the cloud", "spread against the original", "points inside the original",
+             "contraction steps taken", "skeleton loops"]
+    hint = "1 of the mesh's 2 loops kept: try More > Hold inside"
+    for label, iteration, given, said in (
+            ("not yet converged", 123, "", "failed: curve-like share of the cloud and 4 more"),
+            ("unstable", 12, hint, "5 criteria failed")):
+        verdict = {"label": label, "iteration": iteration, "criteria": [_criterion(name, False) for name in names]}
+        Viewer.show_verdict(viewer, verdict, given)
+        headline = _headline(line)
+        assert said in headline and len(headline.replace("**", "").replace("_(", "(").replace(")_", ")")) \
+            <= HEADLINE_CHARS
+        assert line.content.startswith(HEADLINE_STYLE) and "-webkit-line-clamp: 2" in HEADLINE_STYLE
+        assert all(name in line.content.split('title="')[1].split('"')[0] for name in names)  # on hover: all
+        assert all(f"| {name} |" in table.content for name in names) and given in table.content
 
 
 def test_the_headline_says_to_hold_inside_when_the_skeleton_keeps_fewer_loops_than_the_solid():
@@ -348,12 +383,11 @@ def test_the_headline_says_to_hold_inside_when_the_skeleton_keeps_fewer_loops_th
     agreed = {**lost, "criteria": [{**_criterion("skeleton loops", True), "value": "0"}]}
     assert hold_inside_hint(agreed, plain, lambda: 2, mesh=False) \
         == "0 of the solid's 2 loops kept: try More > Hold inside"
-    line, table = types.SimpleNamespace(content=""), types.SimpleNamespace(content="")
-    viewer = types.SimpleNamespace(ui=types.SimpleNamespace(plots=types.SimpleNamespace(verdict=table,
-                                                                                         verdict_line=line)))
+    viewer = _verdict_viewer()
+    line, table = viewer.ui.plots.verdict_line, viewer.ui.plots.verdict
     Viewer.show_verdict(viewer, lost, hint)
-    assert line.content == ("**Iteration 5: unstable** · failed: skeleton loops · **0 of the mesh's 1 loop kept: try "
-                            "More > Hold inside** _(criteria: Verdict tab)_")
+    assert _headline(line) == ("**Iteration 5: unstable** · failed: skeleton loops · **0 of the mesh's 1 loop kept: "
+                               "try More > Hold inside** _(see Verdict tab)_")
     assert "**Iteration 5: unstable**\n\n**0 of the mesh's 1 loop kept: try More > Hold inside**\n" in table.content
 
 
