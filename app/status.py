@@ -141,6 +141,10 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
                    f"{reduction.n_input:,} points, in parts many times denser than the surface around them, were left "
                    f"out of it, each carried along with its nearest contracted point (so in the histograms they can "
                    f"stand together as a narrow spike; skel-inspect --full-resolution turns it off).")
+    elif reduction.scan_lines:
+        reduced = (f"Contracted on {len(reduction.points):,} voxel centroids one line spacing apart: the points lie on "
+                   f"scan lines {reduction.scan_lines:.1f} times farther apart than the points along them, where "
+                   f"one-rings are strips; every point carried along (skel-inspect --full-resolution turns it off).")
     else:
         reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "
                    f"carried along (skel-inspect --full-resolution turns it off).")

@@ -88,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
                               "default shapes")
     quality.add_argument("--variants", nargs="+", choices=NAMED_VARIANTS, default=list(BENCH_VARIANTS),
                          metavar="VARIANT", help=f"of: {' '.join(NAMED_VARIANTS)} ('mesh': the shape's mesh file "
-                                                 f"itself, sampled by the loader; 'two_scans' and 'layered' only "
+                                                 f"itself, sampled by the loader; 'two_scans', 'layered' and "
+                                                 f"'scan_lines', the mesh cut into a profile scanner's lines, only "
                                                  f"when named) (default: {' '.join(BENCH_VARIANTS)})")
     quality.add_argument("--points", type=_point_count, default=DEFAULT_POINTS, help="points per shape (default: %(default)s)")
     quality.add_argument("--seeds", type=random_seed, nargs="+", default=[0], metavar="SEED",

@@ -29,6 +29,10 @@ around it (a patch a scanner dwelt on, a detail scanned again from close by): th
 about twice the density around it (skelcore.density.evened) and its left-out points are carried along in the
 same way, each with its nearest kept point (`thin_dense`). A separate object sampled more finely than a larger
 one beside it, more than a sample radius from it, is its own piece and is not thinned.
+
+A cloud whose points lie on scan lines far apart (skelcore.scan_lines) is contracted as the centroids of voxels one
+line spacing across, at any size (above the budget where the budget's voxels are the smaller), every input point
+carried in the same way (`even_scan_lines`).
 """
 from __future__ import annotations
 
@@ -71,6 +75,7 @@ class Reduction:
     input_points: np.ndarray = dataclasses.field(repr=False)  # (n,3)
     denoise_neighbours: int = 0  # the centroids were projected onto the planes of this many nearest (0: not)
     thinned: bool = False  # thin_dense's: `points` are input points, voxel_size the cells' edge
+    scan_lines: float = 0.0  # even_scan_lines': how many times farther apart the lines lie than the points on them
 
     @property
     def n_input(self) -> int:
@@ -88,6 +93,11 @@ class Reduction:
             return (f"dense parts: {self.n_input - len(self.points):,} of {self.n_input:,} points, in parts many "
                     f"times denser than the surface around them, were left out of the contraction, each carried "
                     f"along with its nearest contracted point (turn off with --full-resolution)")
+        if self.scan_lines:
+            return (f"scan lines: the points lie on lines {self.scan_lines:.1f} times farther apart than the points "
+                    f"along them; contracted {len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}, the "
+                    f"lines' spacing{self._denoised_note()}), every input point carried along (turn off with "
+                    f"--full-resolution)")
         return (f"multi-resolution: {self.n_input:,} points above the budget of the contraction; contracted "
                 f"{len(self.points):,} voxel centroids (voxel {self.voxel_size:.4g}{self._denoised_note()}), every "
                 f"input point carried along (turn off with --full-resolution)")
@@ -108,7 +118,8 @@ class Reduction:
     def describe(self) -> dict:
         """metrics.json's `multiresolution`: input and contracted points, voxel size, the centroids' denoising."""
         return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size,
-                "denoise_neighbours": self.denoise_neighbours, "dense_parts_thinned": self.thinned}
+                "denoise_neighbours": self.denoise_neighbours, "dense_parts_thinned": self.thinned,
+                "scan_lines": self.scan_lines}
 
     def mean(self, values: np.ndarray) -> np.ndarray:
         """(m,) the mean of per-input-point values over each voxel (e.g. contraction weights)."""
@@ -168,11 +179,18 @@ class Reduction:
 
 
 def contracted_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
-    """What a run contracts in place of every point: the voxel reduction above `budget` points, else the cloud with
-    its over-dense parts thinned (thin_dense); None for every point as it is, and always with budget off (None or
-    0)."""
+    """What a run contracts in place of every point: the voxel reduction above `budget` points, a coarser one where
+    the points lie on scan lines farther apart than its voxels (even_scan_lines), else the cloud with its over-dense
+    parts thinned (thin_dense); None for every point as it is, and always with budget off (None or 0)."""
     reduction = reduce_cloud(points, budget)
-    return thin_dense(points) if reduction is None and budget else reduction
+    if not budget:
+        return reduction
+    # read on the budget's centroids where there are some: they lie on the same lines, fewer (a million points'
+    # tree alone took 0.5 s), and where its voxels are wider than the lines' spacing they no longer lie on lines
+    lines = even_scan_lines(points, None if reduction is None else reduction.points)
+    if lines is not None and (reduction is None or reduction.voxel_size < lines.voxel_size):
+        return lines
+    return thin_dense(points) if reduction is None else reduction
 
 
 def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
@@ -203,11 +221,31 @@ def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduc
         size *= 2.0
         best = (size, *_voxels(points, low, size))
     size, voxel_of, count = best
+    return Reduction(points=_centroids(points, voxel_of, count), voxel_of=voxel_of, voxel_size=float(size),
+                     input_points=points)
+
+
+def even_scan_lines(points: np.ndarray, read_on: np.ndarray | None = None) -> Reduction | None:
+    """The voxel reduction of a cloud sampled on scan lines (skelcore.scan_lines), its voxels one line spacing
+    across, so that the centroids lie about as far apart along the lines as across them; None for a cloud sampled
+    evenly. read_on: points on the same lines the spacing is read on (default: `points`)."""
+    from .scan_lines import line_spacing
+
+    lines = line_spacing(points if read_on is None else read_on)
+    if lines is None:
+        return None
+    spacing, ratio = lines
+    voxel_of, count = _voxels(points, points.min(axis=0), spacing)
+    return Reduction(points=_centroids(points, voxel_of, count), voxel_of=voxel_of, voxel_size=spacing,
+                     input_points=points, scan_lines=ratio)
+
+
+def _centroids(points: np.ndarray, voxel_of: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3) the centroid of each voxel's points."""
     centroids = np.zeros((count, 3))
     for axis in range(3):
         centroids[:, axis] = np.bincount(voxel_of, weights=points[:, axis], minlength=count)
-    centroids /= np.bincount(voxel_of, minlength=count)[:, None]
-    return Reduction(points=centroids, voxel_of=voxel_of, voxel_size=float(size), input_points=points)
+    return centroids / np.bincount(voxel_of, minlength=count)[:, None]
 
 
 def thin_dense(points: np.ndarray) -> Reduction | None:

@@ -4,7 +4,8 @@ Every variant keeps the truth of the shape it perturbs (cycles and components of
 noise and outliers are small or sparse, the thinned half still covers its surface, the partial scan is
 taken from a view that leaves every piece of the shape in one piece (see `partial_scan`), and the two scans'
 sheets and the layers lie a fraction of the skeleton's sample radius apart (0.4% and 0.5% of the diagonal
-against 2%).
+against 2%). The scan lines (`scan_lines`, a function of the shape's mesh) lie 1.5% of the diagonal apart, under
+the skeleton's sample radius too.
 """
 from __future__ import annotations
 
@@ -33,6 +34,10 @@ LINEAR = 0.8
 # the centre and moved this share of the diagonal across it, as two scans' alignment commonly leaves them
 MISREGISTRATION = (0.01, 0.004)
 LAYER_STEP = 0.005  # coordinates rounded to multiples of this share of the diagonal (a depth camera's layers)
+# A profile scanner's lines: the mesh cut by parallel planes this share of the diagonal apart, a point every this
+# share along each cut (lines five times farther apart than the points on them)
+SCAN_LINES = "scan_lines"
+SCAN_LINE_GAP, SCAN_LINE_STEP = 0.015, 0.003
 
 
 def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray | None = None,
@@ -67,6 +72,33 @@ def perturb(points: np.ndarray, variant: str, seed: int = 0, normals: np.ndarray
         step = LAYER_STEP * _diagonal(points)
         return np.round(points / step) * step
     return points[partial_scan(points, normals, 0.0 if loops else ISLAND_SHARE)[0]]  # "partial"
+
+
+def scan_lines(vertices: np.ndarray, faces: np.ndarray, seed: int = 0) -> np.ndarray:
+    """The surface of a mesh as a profile scanner samples it: cut by parallel planes SCAN_LINE_GAP of its diagonal
+    apart, across a direction drawn from `seed`, a point every SCAN_LINE_STEP along each cut."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    diagonal = float(np.linalg.norm(mesh.extents))
+    direction = scan_direction(seed)
+    height = mesh.vertices @ direction
+    gap = SCAN_LINE_GAP * diagonal
+    heights = np.arange(gap / 2, np.ptp(height), gap)
+    lines = []
+    for section in mesh.section_multiplane(direction * height.min(), direction, heights):
+        for polyline in [] if section is None else section.to_3D().discrete:
+            along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(polyline, axis=0), axis=1))])
+            at = np.arange(0.0, along[-1], SCAN_LINE_STEP * diagonal)
+            lines.append(np.column_stack([np.interp(at, along, polyline[:, axis]) for axis in range(3)]))
+    return np.unique(np.vstack(lines), axis=0)
+
+
+def scan_direction(seed: int = 0) -> np.ndarray:
+    """The unit normal of the planes `scan_lines` cuts along, drawn from `seed` (a stream of its own)."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(len(VARIANTS) + len(MORE_VARIANTS),)))
+    direction = rng.normal(size=3)
+    return direction / np.linalg.norm(direction)
 
 
 def thin_half(points: np.ndarray, kept: float, rng: np.random.Generator) -> np.ndarray:

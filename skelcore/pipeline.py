@@ -280,7 +280,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
     reduction = multires.contracted_cloud(cloud.points, options.point_budget)
     # The inside test samples a large surface at POINT_BUDGET: the run's voxel reduction serves when it is that
     # one (its centroids as they are: the original surface, as the inspector's metrics sample it).
-    voxels = reduction is not None and not reduction.thinned
+    voxels = reduction is not None and not reduction.thinned and not reduction.scan_lines
     samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
     reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
     with _Helpers() as helpers:

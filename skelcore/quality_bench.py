@@ -3,7 +3,8 @@
 Every shape of `skelcore.solids` (each sampled to the same number of points) in every variant of
 `skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method;
 the variant MESH gives the pipeline a shape's mesh file itself, which the loader samples to as many points and
-whose genus it reads (io.Cloud.solid_loops). A run that closed a loop through the solid (the mesh's genus, or
+whose genus it reads (io.Cloud.solid_loops), and SCAN_LINES cuts that mesh into a profile scanner's lines
+(skelcore.perturb.scan_lines; like MESH, run on the shapes that have a mesh). A run that closed a loop through the solid (the mesh's genus, or
 the loops a closed cloud's inside test reads: skelcore.cloud_topology) is tried again holding its points inside
 (skelcore.medial).
 A run is exact when its skeleton's cycle rank and component count equal the shape's. A perturbed run has
@@ -26,14 +27,14 @@ import numpy as np
 
 from .errors import ParameterError
 from .params import METHODS
-from .perturb import MORE_VARIANTS, VARIANTS, perturb
+from .perturb import MORE_VARIANTS, SCAN_LINES, VARIANTS, perturb, scan_lines
 from .solids import DEFAULT_POINTS, benchmark_shapes
 
 COLLAPSE_SHARE = 0.5  # a perturbed run keeps at least this share of its clean run's skeleton nodes
 CLEAN = "clean"
 MESH = "mesh"  # the shape's mesh file, not a cloud: no variant of perturb's (shapes without a mesh skip it)
 BENCH_VARIANTS = (*VARIANTS, MESH)  # the default grid
-NAMED_VARIANTS = (*BENCH_VARIANTS, *MORE_VARIANTS)  # ... and those run when named
+NAMED_VARIANTS = (*BENCH_VARIANTS, *MORE_VARIANTS, SCAN_LINES)  # ... and those run when named
 
 
 @dataclass
@@ -113,10 +114,13 @@ def run_quality_bench(*, methods=METHODS, shapes: list[str] | None = None, varia
         for shape in benchmark_shapes(reference_dir, points=points, seed=seed, names=shapes):
             expected = {"cycles": shape.cycles, "components": shape.components, "ends": shape.ends}
             for variant in variants:
+                if variant in (MESH, SCAN_LINES) and shape.mesh is None:  # a scan: no mesh to give or to cut
+                    continue
                 if variant == MESH:
-                    if shape.mesh is None:  # a scan: no mesh file to give
-                        continue
                     cloud, count = (*shape.mesh, len(shape.points)), len(shape.points)
+                elif variant == SCAN_LINES:
+                    cloud = scan_lines(*shape.mesh, seed=seed)
+                    count = len(cloud)
                 else:
                     cloud = perturb(shape.points, variant, seed=seed, normals=shape.normals, loops=shape.cycles > 0)
                     count = len(cloud)

@@ -934,3 +934,23 @@ def test_a_start_names_the_holds_only_where_they_differ_from_their_defaults():
     assert "Hold" not in session.log[-1]
     session.restart(ContractionParams(hold_inside=True, hold_curves=False))
     assert session.log[-1].endswith("Hold curves off, Hold inside on")
+
+
+def test_a_cloud_on_scan_lines_is_contracted_one_line_spacing_apart_and_about_says_so():
+    """As `skelcore run`: a pretzel cut into a profile scanner's lines is contracted as voxel centroids one line
+    spacing apart, every point carried along and shown; --full-resolution contracts every point."""
+    from app.status import run_notes
+    from skelcore.perturb import scan_lines
+    from skelcore.solids import benchmark_shapes
+
+    pretzel = benchmark_shapes(seed=0, names=["pretzel"])[0]
+    cloud = validate(scan_lines(*pretzel.mesh, seed=0), name="pretzel.xyz")
+    session = Session(cloud)
+    reduction = session.run.reduction
+    assert reduction is not None and reduction.scan_lines > 2.5 and len(reduction.points) < len(cloud.points) / 3
+    assert any(line.startswith("scan lines: ") for line in session.log)
+    session.step()
+    assert session.history[-1].points.shape == (len(session.run.cloud.points), 3) == (reduction.n_input, 3)
+    assert "one line spacing apart: the points lie on scan lines" in run_notes(session.run, session.history[-1],
+                                                                                  notice="")
+    assert Session(cloud, point_budget=None).run.reduction is None

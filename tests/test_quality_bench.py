@@ -193,6 +193,22 @@ def test_layered_coordinates_are_multiples_of_the_step(rings):
     assert np.abs(layered - rings.points).max() <= step / 2 * (1 + 1e-9) * np.sqrt(3)
 
 
+def test_scan_lines_lie_in_parallel_planes_the_gap_apart_a_step_apart_along_them():
+    """The mesh cut by parallel planes SCAN_LINE_GAP of its diagonal apart, across the seed's direction, the first
+    half a gap in: every point's height along that direction a whole number of gaps from there; along its line the
+    nearest point SCAN_LINE_STEP away (or the line's end)."""
+    torus = solids.benchmark_shapes(seed=0, names=["thick_torus"])[0]
+    lines = perturbations.scan_lines(*torus.mesh, seed=0)
+    np.testing.assert_array_equal(lines, perturbations.scan_lines(*torus.mesh, seed=0))
+    assert not np.allclose(perturbations.scan_direction(0), perturbations.scan_direction(1))
+    diagonal = np.linalg.norm(np.ptp(torus.mesh[0], axis=0))
+    direction = perturbations.scan_direction(0)
+    planes = (lines @ direction - (torus.mesh[0] @ direction).min()) / (perturbations.SCAN_LINE_GAP * diagonal) - 0.5
+    np.testing.assert_allclose(planes, np.round(planes), atol=1e-6)
+    nearest = cKDTree(lines).query(lines, k=2)[0][:, 1]
+    assert np.median(nearest) == pytest.approx(perturbations.SCAN_LINE_STEP * diagonal, rel=0.05)
+
+
 def test_density_keeps_thirty_percent_on_one_half(rings):
     thinned = perturbations.perturb(rings.points, "density_30", seed=0)
     axis = perturbations._principal_axes(rings.points)[:, 0]
