@@ -290,18 +290,8 @@ def test_play_on_an_ended_run_replays_its_iterations_in_the_browser_that_asked(c
     with the Play button back (before, a click did nothing that could be seen)."""
     import types
 
-    import viser
-
-    from app.inspector import Inspector
-
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    inspector = Inspector(server, Session(cloud, ContractionParams(wl0=1.0, sl=3.0), look_ahead=False))
-    inspector.ui.run.interval.value = 0.0
-    browser = _Broadcast(server)
     shown: list[int] = []
-    try:
-        inspector._connect(browser)
-        assert inspector.wait_idle(120)
+    with _playing(Session(cloud, ContractionParams(wl0=1.0, sl=3.0), look_ahead=False)) as (inspector, browser):
         inspector.playback.start(lambda: inspector._tick(False), None, full=False)  # Run to end
         assert inspector.wait_idle(120) and inspector.session.finished
         newest = len(inspector.session.history) - 1
@@ -321,6 +311,23 @@ def test_play_on_an_ended_run_replays_its_iterations_in_the_browser_that_asked(c
         inspector._on_play(click)
         assert inspector.wait_idle(120)
         assert shown == list(range(1, newest + 1))  # the scrub, then on from the iteration after it
+
+
+@contextlib.contextmanager
+def _playing(session: Session):
+    """An inspector of `session` on a local server, one browser connected and Play's interval 0; closed after."""
+    import viser
+
+    from app.inspector import Inspector
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, session)
+    inspector.ui.run.interval.value = 0.0
+    browser = _Broadcast(server)
+    try:
+        inspector._connect(browser)
+        assert inspector.wait_idle(120)
+        yield inspector, browser
     finally:
         inspector.close()
         server.stop()
@@ -333,23 +340,13 @@ def test_play_clicked_while_the_step_that_ends_the_run_waits_replays_the_run(clo
     import threading
     import types
 
-    import viser
-
-    from app.inspector import Inspector
-
     params = ContractionParams(wl0=1.0, sl=3.0)
     counting, steps = Session(cloud, params, look_ahead=False), 0
     while not counting.finished:
         counting.step()
         steps += 1
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    inspector = Inspector(server, Session(cloud, params, look_ahead=False))
-    inspector.ui.run.interval.value = 0.0
-    browser = _Broadcast(server)
     shown: list[int] = []
-    try:
-        inspector._connect(browser)
-        assert inspector.wait_idle(120)
+    with _playing(Session(cloud, params, look_ahead=False)) as (inspector, browser):
         click = types.SimpleNamespace(client=browser)
         for _ in range(steps - 1):  # up to the Step that ends the run
             inspector._on_step(click)
@@ -366,9 +363,6 @@ def test_play_clicked_while_the_step_that_ends_the_run_waits_replays_the_run(clo
         newest = len(inspector.session.history) - 1
         assert shown == [newest, *range(newest + 1)]  # the Step's end, then the run from its first iteration
         assert inspector.ui.run.play.label == "Replay"
-    finally:
-        inspector.close()
-        server.stop()
 
 
 def test_a_dense_closed_cloud_opens_with_original_points_small_enough_to_see_through():
