@@ -116,7 +116,8 @@ class Reduction:
         return dataclasses.replace(self, points=points, denoise_neighbours=neighbours)
 
     def describe(self) -> dict:
-        """metrics.json's `multiresolution`: input and contracted points, voxel size, the centroids' denoising."""
+        """metrics.json's `multiresolution`: input and contracted points, voxel size, the centroids' denoising, and
+        how the reduction came (dense parts thinned; scan lines, their spacing's ratio, 0 for none)."""
         return {"input_points": self.n_input, "contracted_points": len(self.points), "voxel_size": self.voxel_size,
                 "denoise_neighbours": self.denoise_neighbours, "dense_parts_thinned": self.thinned,
                 "scan_lines": self.scan_lines}

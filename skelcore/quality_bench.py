@@ -4,9 +4,9 @@ Every shape of `skelcore.solids` (each sampled to the same number of points) in 
 `skelcore.perturb` goes through the whole pipeline (`run_pipeline`, as `skelcore run` does) for each method;
 the variant MESH gives the pipeline a shape's mesh file itself, which the loader samples to as many points and
 whose genus it reads (io.Cloud.solid_loops), and SCAN_LINES cuts that mesh into a profile scanner's lines
-(skelcore.perturb.scan_lines; like MESH, run on the shapes that have a mesh). A run that closed a loop through the solid (the mesh's genus, or
-the loops a closed cloud's inside test reads: skelcore.cloud_topology) is tried again holding its points inside
-(skelcore.medial).
+(skelcore.perturb.scan_lines; like MESH, run on the shapes that have a mesh). A run that closed a loop through the
+solid (the mesh's genus, or the loops a closed cloud's inside test reads: skelcore.cloud_topology) is tried again
+holding its points inside (skelcore.medial).
 A run is exact when its skeleton's cycle rank and component count equal the shape's. A perturbed run has
 collapsed when its skeleton keeps fewer than half the nodes of the same shape's clean run. A run that fails
 is recorded with its error and the benchmark goes on. Each seed draws the shapes' samples and the variants
