@@ -61,7 +61,7 @@ def hold_inside_hint(verdict: dict, state, solid_loops: Callable[[], int | None]
 
 
 # The verdict's headline above the histograms, in characters shown: two lines of the 470 px plots panel (118, a
-# third of them bold, took two lines in Chromium; 124 took three). A third line gave the panel a scrollbar at 1280x720.
+# third of them bold, took two lines in Chromium; 124 took three). A third gave the panel a scrollbar at 1280x720.
 HEADLINE_CHARS = 115
 HEADLINE_CRITERIA = 2  # failed criteria named in it, at most
 VERDICT_TAB = "(see Verdict tab)"
@@ -142,8 +142,8 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
                    f"out of it, each carried along with its nearest contracted point (so in the histograms they can "
                    f"stand together as a narrow spike; skel-inspect --full-resolution turns it off).")
     elif reduction.scan_lines:
-        reduced = (f"Contracted on {len(reduction.points):,} voxel centroids one line spacing apart: the points lie on "
-                   f"scan lines {reduction.scan_lines:.1f} times farther apart than the points along them, where "
+        reduced = (f"Contracted on {len(reduction.points):,} voxel centroids one line spacing apart: the points lie "
+                   f"on scan lines {reduction.scan_lines:.1f} times farther apart than the points along them, where "
                    f"one-rings are strips; every point carried along (skel-inspect --full-resolution turns it off).")
     else:
         reduced = (f"Contracted at reduced resolution: {len(reduction.points):,} voxel centroids, every point "

@@ -8,12 +8,12 @@ of them tears: the benchmark's 23 meshed shapes cut by parallel planes every 1.5
 kept their topology in 10 (LBC) and 11 (GLSkeleton) of 23 runs, and in 21 of 23 with each method once contracted
 as voxel centroids one line spacing apart (skelcore.multires.even_scan_lines, every input point carried along).
 
-`line_spacing` reads it from a fixed sample of the points: for each, the nearest neighbour in a direction over
-60 degrees from that of its nearest one (its line's), against that nearest one's distance. An evenly sampled
-surface has the two about equal (the median ratio of every benchmark cloud, lattices included, is under 1.6; of
-CGAL's 24 point sets, scans among them, under 2.3); cut every 0.6% (a ratio of 2), six of those shapes kept
-their topology point by point, every 0.9% (3) the chair gained four loops. A cloud whose points have no such neighbour within reach is made of curves, not
-lines over a surface, and is read as it is.
+`line_spacing` reads it from a fixed sample of the points: for each, the nearest neighbour in a direction over 60
+degrees from that of its nearest one (its line's), against that nearest one's distance. An evenly sampled surface
+has the two about equal (the median ratio of every benchmark cloud, lattices included, is under 1.6; of CGAL's 24
+point sets, scans among them, under 2.3); cut every 0.6% (a ratio of 2), six of those shapes kept their topology
+point by point, every 0.9% (3) the chair gained four loops. A cloud whose points have no such neighbour within reach
+is made of curves, not lines over a surface, and is read as it is.
 """
 from __future__ import annotations
 
