@@ -62,7 +62,7 @@ from .errors import InputError, ParameterError
 from .histogram_stats import distribution_stats
 from .inside import InsideTest, mesh_surface
 from .io import as_points
-from .multires import POINT_BUDGET, Reduction, reduce_cloud
+from .multires import POINT_BUDGET, Reduction, voxel_reduction
 from .normalise import object_diagonal
 from .normals import COLLAPSED, away_from_centroid, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
@@ -138,8 +138,8 @@ class MetricsReference:
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
                     reduction: Reduction | None = None, tree: cKDTree | None = None) -> "MetricsReference":
         """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction
-        of points0 at POINT_BUDGET when the caller has made it already (skelcore.multires.reduce_cloud); a
-        large cloud's inside test samples its surface by these voxel centroids. tree: a cKDTree (default
+        of points0 at POINT_BUDGET when the caller has made it already (skelcore.multires.voxel_reduction); a
+        large cloud's inside test samples its surface by these voxel centroids, as does one on scan lines. tree: a cKDTree (default
         build) the caller has made already, used when it covers exactly those surface samples (points0, or
         the centroids of a large cloud)."""
         points0 = as_points(points0, "points0")
@@ -176,9 +176,10 @@ class MetricsReference:
             inside = InsideTest.from_samples(*mesh_surface(points0, faces, band, seed), band)
         else:
             # A large cloud's surface is sampled by voxel centroids (multi-resolution's point budget, spacing
-            # far below band).
+            # far below band), as is one on scan lines (one line spacing apart: the lines' own neighbourhoods
+            # read most contracted points outside, the pretzel's half of them)
             if reduction is None or reduction.n_input != len(points0):
-                reduction = reduce_cloud(points0, POINT_BUDGET)
+                reduction = voxel_reduction(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
             if tree is None or tree.data.shape != samples.shape or not np.array_equal(tree.data, samples):
                 tree = None

@@ -180,18 +180,22 @@ class Reduction:
 
 
 def contracted_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
-    """What a run contracts in place of every point: the voxel reduction above `budget` points, a coarser one where
-    the points lie on scan lines farther apart than its voxels (even_scan_lines), else the cloud with its over-dense
-    parts thinned (thin_dense); None for every point as it is, and always with budget off (None or 0)."""
+    """What a run contracts in place of every point: its voxel reduction (voxel_reduction), else the cloud with its
+    over-dense parts thinned (thin_dense); None for every point as it is, and always with budget off (None or 0)."""
+    reduction = voxel_reduction(points, budget)
+    return thin_dense(points) if reduction is None and budget else reduction
+
+
+def voxel_reduction(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
+    """The voxel reduction above `budget` points, or a coarser one where the points lie on scan lines farther apart
+    than its voxels (even_scan_lines); None for a cloud within the budget sampled evenly, and with budget off."""
     reduction = reduce_cloud(points, budget)
     if not budget:
         return reduction
     # read on the budget's centroids where there are some: they lie on the same lines, fewer (a million points'
     # tree alone took 0.5 s), and where its voxels are wider than the lines' spacing they no longer lie on lines
     lines = even_scan_lines(points, None if reduction is None else reduction.points)
-    if lines is not None and (reduction is None or reduction.voxel_size < lines.voxel_size):
-        return lines
-    return thin_dense(points) if reduction is None else reduction
+    return lines if lines is not None and (reduction is None or reduction.voxel_size < lines.voxel_size) else reduction
 
 
 def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:

@@ -278,9 +278,10 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
     """Contract a loaded, cleaned cloud to the end (reduced first when it is over options.point_budget), the
     paper's metrics of every state, the skeleton of the last and its evidence for the verdict."""
     reduction = multires.contracted_cloud(cloud.points, options.point_budget)
-    # The inside test samples a large surface at POINT_BUDGET: the run's voxel reduction serves when it is that
-    # one (its centroids as they are: the original surface, as the inspector's metrics sample it).
-    voxels = reduction is not None and not reduction.thinned and not reduction.scan_lines
+    # The inside test samples a large surface, or one on scan lines, by the voxel reduction at POINT_BUDGET: the
+    # run's serves when it is that one (its centroids as they are: the original surface, as the inspector's metrics
+    # sample it).
+    voxels = reduction is not None and not reduction.thinned
     samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
     reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
     with _Helpers() as helpers:

@@ -75,3 +75,14 @@ def test_a_pretzel_scanned_in_lines_keeps_its_three_loops(method):
     assert len(lines) < multires.POINT_BUDGET
     topology = run_case(lines, method, name="pretzel")["topology"]
     assert (topology["cycles"], topology["components"], topology["ends"]) == (3, 1, 0)
+
+
+def test_the_verdict_reads_a_cloud_on_scan_lines_inside_by_its_voxel_centroids(pretzel_lines):
+    """The inside test read from the lines' own neighbourhoods put half the pretzel's contracted points outside the
+    original (49%: "unstable" on its right skeleton); it samples the surface by the centroids one line spacing apart,
+    as the contraction does."""
+    import skelcore
+
+    verdict = skelcore.skeletonize(pretzel_lines).verdict
+    inside = next(c for c in verdict["criteria"] if c["name"] == "points inside the original")
+    assert inside["passed"] and verdict["label"] == "stable"
