@@ -209,11 +209,11 @@ def delaunay_fans(planar: np.ndarray, valid: np.ndarray | None = None):
     valid = np.ones((count, width), dtype=bool) if valid is None else valid
     rows = np.arange(count)
     radius2 = np.maximum((planar**2).sum(axis=-1), 1e-300)
-    valid = valid & ~behind_nearer(np.arctan2(planar[..., 1], planar[..., 0]), radius2, valid)
+    angle = np.arctan2(planar[..., 1], planar[..., 0])
+    valid = valid & ~behind_nearer(angle, radius2, valid)
     nearest = np.argmin(np.where(valid, radius2, np.inf), axis=1)
     slot = np.where(valid, np.arange(width), nearest[:, None])
-    planar, radius2 = planar[rows[:, None], slot], radius2[rows[:, None], slot]
-    angle = np.arctan2(planar[..., 1], planar[..., 0])
+    planar, radius2, angle = (values[rows[:, None], slot] for values in (planar, radius2, angle))
     order = np.argsort(angle, axis=1, kind="stable")
     angle, slot = np.take_along_axis(angle, order, axis=1), np.take_along_axis(slot, order, axis=1)
     inverted = np.take_along_axis(planar / radius2[..., None], order[..., None], axis=1)
