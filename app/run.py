@@ -10,6 +10,7 @@ import numpy as np
 from skelcore import multires, pipeline
 from skelcore.contraction import IterationState
 from skelcore.io import Cloud
+from skelcore.metrics import UNREAD, Unread
 from skelcore.params import ContractionParams
 from skelcore.skeleton import Skeleton, SkeletonParams
 
@@ -32,6 +33,9 @@ class Run:
     reduction: multires.Reduction | None = None
     reduced: list[IterationState] = field(default_factory=list)
     carrier: object = None  # (n, m) sparse weights carrying the reduced cloud's points to the input's
+    # The cloud's voxel reduction at multires.POINT_BUDGET as read at the start (None: it has none), which the
+    # metrics' inside test samples; UNREAD for a run opened from a file
+    voxels: multires.Reduction | None | Unread = UNREAD
     # (rings, point ids, skelcore.surface.OriginalSurface) of the last skeleton: the states on the same rings share it
     surface: tuple | None = None
     # The next state, computed before Step asks for it (Session.look_ahead), and its reduced-resolution original:

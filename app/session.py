@@ -144,10 +144,10 @@ class Session:
             if history[-1].termination is None:
                 raise ParameterError("a run to open must have ended (its last state carries a termination)")
             generator, states = None, list(history)
-            reduction = None
+            read = reduction = None
         else:
-            reduction = multires.contracted_cloud(cloud.points, self.point_budget)
-            reduction = None if reduction is None else reduction.denoised(RunOptions().cleaning.denoise_neighbours)
+            read = multires.contracted_cloud(cloud.points, self.point_budget)
+            reduction = None if read is None else read.denoised(RunOptions().cleaning.denoise_neighbours)
             points = cloud.points if reduction is None else reduction.points
             reduced_weights = weights if reduction is None or weights is None else reduction.mean(weights)
             generator = contraction.contract(points, params, reduced_weights, stages=True)
@@ -160,6 +160,9 @@ class Session:
             self.run = Run(cloud, params, states, weights=weights,
                            label_weights=dict(self.label_weights) if weights is not None and self._point_weights is None
                            else {})
+            if generator is not None and self.point_budget == multires.POINT_BUDGET:
+                # the metrics' inside test samples the surface by this read (a thinned cloud read no voxels)
+                self.run.voxels = None if read is None or read.thinned else read
             if reduction is not None:
                 self.run.reduction, self.run.reduced = reduction, states
                 self.run.carrier = reduction.carrier(states[0].rings)
@@ -343,7 +346,7 @@ class Session:
         states = run.history if index < len(run.history) else [*run.history, run.state(index)]
         with self._lock:
             if run.metrics is None:
-                run.metrics = pipeline.IterationMetricsCache(run.cloud)
+                run.metrics = pipeline.IterationMetricsCache(run.cloud, reduction=run.voxels)
             return [run.metrics.get(states, i) for i in range(index + 1)]
 
     def metrics(self, index: int, run: Run | None = None) -> IterationMetrics:

@@ -72,6 +72,13 @@ NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
 JUDGED_POINTS = 5_000  # a larger cloud is judged on a fixed random sample of this many of its points (Scale)
 
 
+class Unread:
+    """MetricsReference.from_points' default reduction: the caller has not read the cloud's voxel reduction."""
+
+
+UNREAD = Unread()
+
+
 # --- per-point features -------------------------------------------------------------------------
 
 
@@ -136,12 +143,13 @@ class MetricsReference:
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = JUDGED_POINTS,
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
-                    reduction: Reduction | None = None, tree: cKDTree | None = None) -> "MetricsReference":
+                    reduction: Reduction | None | Unread = UNREAD, tree: cKDTree | None = None) -> "MetricsReference":
         """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction
-        of points0 at POINT_BUDGET when the caller has made it already (skelcore.multires.voxel_reduction); a
-        large cloud's inside test samples its surface by these voxel centroids, as does one on scan lines. tree: a cKDTree (default
-        build) the caller has made already, used when it covers exactly those surface samples (points0, or
-        the centroids of a large cloud)."""
+        of points0 at POINT_BUDGET (skelcore.multires.voxel_reduction) when the caller has read it already, None
+        when that read found none (a cloud within the budget, not on scan lines); by default it is read here. A
+        large cloud's inside test samples its surface by these voxel centroids, as does one on scan lines. tree: a
+        cKDTree (default build) the caller has made already, used when it covers exactly those surface samples
+        (points0, or the centroids of a large cloud)."""
         points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
@@ -178,7 +186,7 @@ class MetricsReference:
             # A large cloud's surface is sampled by voxel centroids (multi-resolution's point budget, spacing
             # far below band), as is one on scan lines (one line spacing apart: the lines' own neighbourhoods
             # read most contracted points outside, the pretzel's half of them)
-            if reduction is None or reduction.n_input != len(points0):
+            if reduction is UNREAD or (reduction is not None and reduction.n_input != len(points0)):
                 reduction = voxel_reduction(points0, POINT_BUDGET)
             samples = points0 if reduction is None else reduction.points
             if tree is None or tree.data.shape != samples.shape or not np.array_equal(tree.data, samples):

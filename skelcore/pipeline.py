@@ -22,7 +22,7 @@ from .errors import ParameterError, SkelError, SolverError
 from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
 from .loops import cloud_inside
-from .metrics import NORMAL_CONVENTION, IterationMetrics, MetricsReference
+from .metrics import NORMAL_CONVENTION, UNREAD, IterationMetrics, MetricsReference, Unread
 from .options import METRICS_K, RunOptions
 from .params import ContractionParams
 from .results import write_results
@@ -77,10 +77,10 @@ class IterationMetricsCache:
     (each iteration's normals are oriented from the one before). A restarted run needs a new cache."""
 
     def __init__(self, cloud: io.Cloud, k: int = METRICS_K, seed: int = 0, convention: str = NORMAL_CONVENTION,
-                 reduction: multires.Reduction | None = None, tree=None) -> None:
-        """reduction: the cloud's voxel reduction at multires.POINT_BUDGET, when the run made it (the inside
-        test samples a large cloud's surface by it). tree: a cKDTree over the cloud's points (or that
-        reduction's), when the run has one (MetricsReference.from_points)."""
+                 reduction: multires.Reduction | None | Unread = UNREAD, tree=None) -> None:
+        """reduction: the cloud's voxel reduction at multires.POINT_BUDGET, None when the run read none (the
+        inside test samples a large cloud's surface by it; by default it is read here). tree: a cKDTree over the
+        cloud's points (or that reduction's), when the run has one (MetricsReference.from_points)."""
         self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention,
                                                       reduction=reduction, tree=tree)
         self._metrics: list[IterationMetrics] = []
@@ -279,10 +279,11 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
     paper's metrics of every state, the skeleton of the last and its evidence for the verdict."""
     reduction = multires.contracted_cloud(cloud.points, options.point_budget)
     # The inside test samples a large surface, or one on scan lines, by the voxel reduction at POINT_BUDGET: the
-    # run's serves when it is that one (its centroids as they are: the original surface, as the inspector's metrics
-    # sample it).
-    voxels = reduction is not None and not reduction.thinned
-    samples = reduction if voxels and options.point_budget == multires.POINT_BUDGET else None
+    # run's read serves when it was made at that budget (its centroids as they are: the original surface, as the
+    # inspector's metrics sample it), and so does its finding none (a thinned cloud found none: it is thinned
+    # only then), so the lines are not read twice.
+    samples = ((None if reduction is None or reduction.thinned else reduction)
+               if options.point_budget == multires.POINT_BUDGET else UNREAD)
     reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
     with _Helpers() as helpers:
         cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,

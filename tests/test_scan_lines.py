@@ -86,3 +86,21 @@ def test_the_verdict_reads_a_cloud_on_scan_lines_inside_by_its_voxel_centroids(p
     verdict = skelcore.skeletonize(pretzel_lines).verdict
     inside = next(c for c in verdict["criteria"] if c["name"] == "points inside the original")
     assert inside["passed"] and verdict["label"] == "stable"
+
+
+@pytest.mark.parametrize("cloud_of", ["torus", "pretzel lines"])
+def test_a_run_reads_scan_lines_once_for_its_contraction_and_its_inside_test(monkeypatch, pretzel_lines, cloud_of):
+    """The reading the contraction's reduction makes serves the metrics' inside test, as a reduction or as none."""
+    import skelcore
+    from app.session import Session
+    from skelcore import scan_lines
+    from skelcore.io import validate
+
+    points = make_shape("torus", 2000, seed=0).points if cloud_of == "torus" else pretzel_lines
+    reads = []
+    monkeypatch.setattr(scan_lines, "line_spacing", lambda cloud: reads.append(len(cloud)) or line_spacing(cloud))
+    assert skelcore.skeletonize(points).skeleton.topology()["cycles"] == (1 if cloud_of == "torus" else 3)
+    assert len(reads) == 1  # a run contracted once (a lost loop's second run reads its own)
+    session = Session(validate(points, name="cloud.xyz"))
+    session.metrics(0)
+    assert len(reads) == 2
