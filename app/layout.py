@@ -18,12 +18,12 @@ The run, its parameters and the view settings are shared by every browser (`buil
 What shows one iteration is each browser's own (`build_viewer`, on that client's GUI): the iteration
 slider, Follow newest, the status, the plots panel and the legend, so each browser can look at its own
 iteration of the shared run. Each builder returns a plain dataclass of handles; app.inspector and
-app.viewer wire them. Number widgets take their ranges from skelcore.params.LIMITS, the checks the
-parameters themselves go through.
+app.viewer wire them. The contraction's parameters are text boxes read as typed (app.words.typed_number): viser's
+number box drops the "e" of 1e3 and leaves letters blank without a word, where a text box's value can be refused
+in our words.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import viser
@@ -31,9 +31,9 @@ import viser
 from skelcore import report
 from skelcore.display import UP_AXES
 from skelcore.io import FORMATS as INPUT_FORMATS
-from skelcore.params import LIMITS, ContractionParams
+from skelcore.params import ContractionParams
 
-from .words import AUTOMATIC, METHOD_LABELS, box_label, label, number_text
+from .words import METHOD_LABELS, box_label, label, number_text
 
 # px, fixed: viser sizes a docked panel in px only and tells the server no window size (its camera reports the
 # canvas in device pixels). 470 is about the widest at which both histograms, under iteration 0's two-line
@@ -89,12 +89,12 @@ class ViewerControls:
 @dataclass
 class ParameterWidgets:
     method: viser.GuiDropdownHandle
-    wl0: viser.GuiTextHandle  # the real values in text boxes (_real)
+    wl0: viser.GuiTextHandle  # every number in a text box (_typed)
     wh0: viser.GuiTextHandle
     sl: viser.GuiTextHandle
     wl_max: viser.GuiTextHandle
-    k: viser.GuiNumberHandle
-    max_iterations: viser.GuiNumberHandle
+    k: viser.GuiTextHandle
+    max_iterations: viser.GuiTextHandle
     termination: viser.GuiTextHandle
     hold_curves: viser.GuiCheckboxHandle
     hold_inside: viser.GuiCheckboxHandle
@@ -218,15 +218,9 @@ def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerC
     return ViewerControls(timeline, follow, status, notes_folder, notes, plots, legend, plots_panel, legend_panel)
 
 
-def _integer(gui: viser.GuiApi, name: str, value: int, hint: str | None = None):
-    low, high, _ = LIMITS[name]
-    return gui.add_number(box_label(name), initial_value=value, min=0 if name in AUTOMATIC else low,
-                          max=None if math.isinf(high) else high, step=1, hint=hint)
-
-
-def _real(gui: viser.GuiApi, name: str, value: float, hint: str | None = None):
-    """A text box: a number box would turn a typed 1e-3 into -13 (viser's drops the "e"); words.typed_number
-    reads it."""
+def _typed(gui: viser.GuiApi, name: str, value: float, hint: str | None = None):
+    """A text box: a number box would turn a typed 1e-3 into -13 (viser's drops the "e") and leave letters blank
+    without a word; words.typed_number reads it, and a refusal is said."""
     return gui.add_text(box_label(name), initial_value=number_text(value), hint=hint)
 
 
@@ -237,15 +231,15 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
     with tabs.add_tab("Parameters"):
         method = gui.add_dropdown(label("method"), tuple(METHOD_LABELS.values()),
                                   initial_value=METHOD_LABELS[params.method], hint="applies on Restart")
-        wl0 = _real(gui, "wl0", params.wl0 or 0.0)
-        wh0 = _real(gui, "wh0", params.wh0)
-        sl = _real(gui, "sl", params.sl)
+        wl0 = _typed(gui, "wl0", params.wl0 or 0.0)
+        wh0 = _typed(gui, "wh0", params.wh0)
+        sl = _typed(gui, "sl", params.sl)
         restart = gui.add_button("Restart with these parameters")
     with tabs.add_tab("More"):
-        wl_max = _real(gui, "wl_max", params.wl_max)
-        k = _integer(gui, "k", params.k or 0, hint="applies on Restart")
-        max_iterations = _integer(gui, "max_iterations", params.max_iterations)
-        termination = _real(gui, "termination", params.termination, hint="stop when the ring-size ratio falls by less")
+        wl_max = _typed(gui, "wl_max", params.wl_max)
+        k = _typed(gui, "k", params.k or 0, hint="applies on Restart")
+        max_iterations = _typed(gui, "max_iterations", params.max_iterations)
+        termination = _typed(gui, "termination", params.termination, hint="stop when the ring-size ratio falls by less")
         hold_curves = gui.add_checkbox(label("hold_curves"), params.hold_curves,
                                        hint="points the first step brought to a thin part's axis keep that W_L, and "
                                             "handles thinner than a skeleton ball stay in place: small handles and "

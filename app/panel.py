@@ -18,7 +18,7 @@ from skelcore.options import RunOptions
 from skelcore.params import ContractionParams
 
 from .layout import ParameterWidgets
-from .words import METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, typed_number
+from .words import METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, typed_number, typed_whole_number
 
 TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
 PARTS = ("parameters", "radius")
@@ -71,17 +71,18 @@ class ParameterPanel:
         p.wl0.value = number_text(params.wl0 or 0.0)
         p.wh0.value, p.sl.value = number_text(params.wh0), number_text(params.sl)
         p.wl_max.value, p.termination.value = number_text(params.wl_max), number_text(params.termination)
-        p.k.value, p.max_iterations.value = params.k or 0, params.max_iterations
+        p.k.value, p.max_iterations.value = number_text(params.k or 0), number_text(params.max_iterations)
         p.hold_curves.value, p.hold_inside.value = params.hold_curves, params.hold_inside
 
     def _parameters_shown(self) -> ContractionParams:
         """The panel's values on top of the run's parameters (fields the panel lacks stay); refused: ParameterError."""
         p = self.widgets
         self.accepted = self.session.params.replace(
-            method=METHODS_BY_LABEL[p.method.value], k=int(p.k.value) or None,
+            method=METHODS_BY_LABEL[p.method.value], k=typed_whole_number("k", p.k.value) or None,
             wl0=typed_number("wl0", p.wl0.value) or None, wh0=typed_number("wh0", p.wh0.value),
             sl=typed_number("sl", p.sl.value), wl_max=typed_number("wl_max", p.wl_max.value),
-            max_iterations=int(p.max_iterations.value), termination=typed_number("termination", p.termination.value),
+            max_iterations=typed_whole_number("max_iterations", p.max_iterations.value),
+            termination=typed_number("termination", p.termination.value),
             hold_curves=bool(p.hold_curves.value), hold_inside=bool(p.hold_inside.value))
         return self.accepted
 

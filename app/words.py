@@ -50,15 +50,31 @@ def typed_number(name: str, text) -> float:
     """The number a person typed into a parameter's text box ("1e-3", " 0.5 "); ParameterError (the engine's
     naming, which `refused` turns into the panel's) for anything else. Text boxes, not number boxes: viser's
     number box drops the "e" of 1e3 as it is typed and sends 13."""
-    typed = str(text).strip()
-    try:
-        value = float(typed)
-    except ValueError:
-        value = None
-    if value is None or not math.isfinite(value):  # 1e400 too: named as typed, not as the inf it reads as
-        shown = f"{typed!r:.30}" if typed else "(empty)"
-        raise ParameterError(f"parameter {name}={shown}: must be a finite number (like 0.5 or 1e-3)")
+    value = _typed(text)
+    if not math.isfinite(value):  # 1e400 too: named as typed, not as the inf it reads as
+        raise ParameterError(f"parameter {name}={_as_typed(text)}: must be a finite number (like 0.5 or 1e-3)")
     return value
+
+
+def typed_whole_number(name: str, text) -> int:
+    """A whole number typed into a parameter's text box ("12", "1e3"); ParameterError otherwise, as typed_number."""
+    value = _typed(text)
+    if not (math.isfinite(value) and value.is_integer()):
+        raise ParameterError(f"parameter {name}={_as_typed(text)}: must be a whole number (like 12 or 1e3)")
+    return int(value)
+
+
+def _typed(text) -> float:
+    """A text box's number; NaN when it holds none."""
+    try:
+        return float(str(text).strip())
+    except ValueError:
+        return math.nan
+
+
+def _as_typed(text) -> str:
+    typed = str(text).strip()
+    return f"{typed!r:.30}" if typed else "(empty)"
 
 
 def box_label(name: str) -> str:

@@ -563,12 +563,12 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
         number_input(page, "Max iterations").click()
         page.keyboard.press("Control+A")
         page.keyboard.type("3")
-        wait_until(lambda: box.value == 3, "the 3 typed")
+        wait_until(lambda: box.value == "3", "the 3 typed")
         going = len(session.history)
         wait_until(lambda: len(session.history) >= going + 2 or session.finished, "two steps of Play after the 3")
         assert not session.finished and session.params.max_iterations == RUN["max_iterations"]
         page.keyboard.type("0")
-        wait_until(lambda: box.value == 30, "the 30 typed")
+        wait_until(lambda: box.value == "30", "the 30 typed")
         assert session.params.max_iterations == RUN["max_iterations"]
         click(page, "Step")  # pauses Play and steps, with the value typed last
         wait_until(lambda: not inspector.worker.playing and session.latest.params.max_iterations == 30, "a step with 30")
@@ -577,13 +577,13 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
         number_input(page, "Max iterations").click()
         page.keyboard.press("Control+A")
         page.keyboard.type("25")
-        wait_until(lambda: box.value == 25, "the 25 typed")
+        wait_until(lambda: box.value == "25", "the 25 typed")
         assert session.params.max_iterations == 30
         pauses[-1]()  # the person stopped typing
         wait_until(lambda: session.params.max_iterations == 25, "the 25 taken")
     finally:
         set_value(page, "Max iterations", RUN["max_iterations"])
-        wait_until(lambda: box.value == RUN["max_iterations"], "the module's max iterations typed")
+        wait_until(lambda: box.value == str(RUN["max_iterations"]), "the module's max iterations typed")
         inspector.panel.flush()
         wait_until(lambda: session.params.max_iterations == RUN["max_iterations"], "the module's max iterations")
         set_value(page, "Play interval (s)", PLAY_INTERVAL)
@@ -934,6 +934,23 @@ def test_a_refused_value_is_said_in_the_panels_words_and_put_back(fresh, page):
     page.get_by_text("s_L 1.5 from iteration").first.wait_for()
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
+
+
+def test_letters_typed_for_a_whole_number_are_refused_in_our_words_and_put_back(fresh, page):
+    """k's box was a number box: letters left it blank and the browser sent nothing, so nothing was said."""
+    inspector = fresh
+    open_tab(page, "More")
+    try:
+        set_value(page, "k (0 = auto)", "twelve")
+        page.get_by_text("k = 'twelve': must be 0 (auto) or a whole number").first.wait_for()
+        wait_until(lambda: number_input(page, "k (0 = auto)").input_value() == str(inspector.session.params.k or 0),
+                   "k put back")
+        set_value(page, "Max iterations", "1e3")
+        wait_until(lambda: inspector.session.params.max_iterations == 1000, "1e3 read as 1000")
+    finally:
+        set_value(page, "Max iterations", RUN["max_iterations"])
+        wait_until(lambda: inspector.session.params.max_iterations == RUN["max_iterations"], "max iterations restored")
+        open_tab(page, "Parameters")
 
 
 def test_every_valid_parameter_is_accepted(fresh, page):

@@ -175,8 +175,8 @@ def _panel(monkeypatch):
 
     monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     box = types.SimpleNamespace
-    boxes = box(method=box(value="LBC"), k=box(value=0), wl0=box(value="0"), wh0=box(value="1"), sl=box(value="3"),
-                wl_max=box(value="2048"), max_iterations=box(value=20), termination=box(value="0.01"),
+    boxes = box(method=box(value="LBC"), k=box(value="0"), wl0=box(value="0"), wh0=box(value="1"), sl=box(value="3"),
+                wl_max=box(value="2048"), max_iterations=box(value="20"), termination=box(value="0.01"),
                 hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value=0.02))
     notices, taken = [], []
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
@@ -191,7 +191,7 @@ def test_a_value_being_typed_is_taken_once_the_person_stops_or_clicks(monkeypatc
     meanwhile (Play's) would end the run at 3 iterations; a value is taken once the person stops typing, and a
     click on Step or Play takes at once the value typed last."""
     panel, boxes, pauses, notices, taken = _panel(monkeypatch)
-    for typed in (3, 30):
+    for typed in ("3", "30"):
         boxes.max_iterations.value = typed
         panel.changed("parameters", None, typing=True)
     assert taken == [] and panel.typing == {"parameters": None}
@@ -249,6 +249,25 @@ def test_the_real_parameters_are_read_as_typed_with_an_exponent_and_words_are_re
         assert panel.parameters(None) is None and notices[-1].startswith(f"s_L = {shown}: must be a finite number")
     assert (boxes.wh0.value, boxes.termination.value, boxes.wl_max.value) == ("1", "0.001", "2000")
     assert words.number_text(0.1 + 0.2) == "0.30000000000000004" and words.number_text(2048.0) == "2048"
+
+
+def test_the_whole_number_parameters_are_read_as_typed_and_fractions_and_words_are_refused(monkeypatch):
+    """k and Max iterations are text boxes too: viser's number box sent 13 for 1e3 and nothing at all for letters,
+    which left the box blank and a Restart on the old value without a word."""
+    panel, boxes, pauses, notices, taken = _panel(monkeypatch)
+    boxes.k.value, boxes.max_iterations.value = " 12 ", "1e3"
+    params = panel.parameters(None)
+    assert (params.k, params.max_iterations) == (12, 1000) and notices == []
+    boxes.k.value = "0"
+    assert panel.parameters(None).k is None  # 0 = auto
+    for typed in ("twelve", "12.5", "nan"):
+        boxes.k.value = typed
+        assert panel.parameters(None) is None and boxes.k.value == "0"
+        assert notices[-1] == (f"k = '{typed}': must be 0 (auto) or a whole number (like 12 or 1e3); put back to "
+                               "the last value taken")
+    boxes.max_iterations.value = "-3"
+    assert panel.parameters(None) is None and notices[-1].startswith("Max iterations = -3")
+    assert boxes.max_iterations.value == "1000"
 
 
 def test_a_double_click_on_pause_pauses(monkeypatch):
