@@ -121,7 +121,8 @@ class Session:
         report = clean(cloud.points, options)
         if self._point_weights is not None:
             self._point_weights = self._point_weights[report.kept]
-        return cleaned(cloud, options, report=report)
+        return cleaned(cloud, options, report=report,
+                       walls=not self.point_budget or len(report.kept) <= self.point_budget)
 
     def set_label_weights(self, label_weights) -> None:
         """Contraction weights per label, used from the next restart."""
@@ -323,7 +324,9 @@ class Session:
             if kept is None or kept[0] is not state.rings or not np.array_equal(kept[1], state.point_ids):
                 original = run.cloud.points if run.reduction is None else run.reduction.points
                 inside = None if run.metrics is None else run.metrics.reference.inside  # none yet: the probe's own
-                kept = run.surface = (state.rings, state.point_ids, pipeline.original_surface(state, original, inside))
+                samples = run.cloud.surface if run.reduction is None else None
+                kept = run.surface = (state.rings, state.point_ids,
+                                      pipeline.original_surface(state, original, inside, samples))
             run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
 

@@ -11,7 +11,9 @@ Both rules compare each point with the cloud's own typical spacing, so they foll
   (centred on their mean), once. Sampling noise inflates the initial one-ring sizes s^0, so after the
   first step smooths it, W_H = W_H0 s^0 / s^t pins the points before they contract, and noisy fans give
   degenerate cotangents; the projection removes the normal part of the noise. On a clean surface it
-  moves a point by about the sagitta of its neighbourhood, a fraction of a point spacing;
+  moves a point by about the sagitta of its neighbourhood, a fraction of a point spacing. Where the
+  neighbourhood holds two parallel sheets (a wall thinner than its reach) the plane pulls them together;
+  the cloud's `surface`, which its inside tests sample, keeps them apart (`_own_sheets`);
 - stray pieces: the cloud is split into pieces where no chain of near neighbours (each step at most
   `piece_gap` times the typical spacing) joins them; pieces holding less than `min_piece_share` of the
   points are removed (a scan's stray clusters, far or near). A piece of the object holding that share is
@@ -34,7 +36,14 @@ from .errors import InputError
 from .io import Cloud
 from .neighbours import CHUNK, joined_pieces, knn, leaf_knn, local_frames, stray_pieces
 from .normalise import far_pieces
+from .normals import COLLAPSED
 from .params import CleaningParams
+
+
+SHEET_GAP = 4.0  # a neighbourhood holds two sheets where its heights part by this many times their spread...
+SHEET_POINTS = 3  # ... into groups of at least this many (a plane needs three)
+SHEET_NEAREST = 5  # the heights are taken along the plane of this many nearest (itself included)
+SHEET_ANGLE = 25.0  # degrees: two groups of points on planes this near parallel are two sheets, not an edge
 
 
 @dataclass
@@ -129,10 +138,13 @@ def _sparse_surfaces(tree: cKDTree, distance: np.ndarray, index: np.ndarray, spa
     return surface
 
 
-def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: CleaningReport | None = None) -> Cloud:
+def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: CleaningReport | None = None,
+            walls: bool = False) -> Cloud:
     """`cloud` without its outliers and stray pieces (those of `report` when given) and, with `denoise`,
     projected onto its local planes; the counts in `cleaning` and a note; its labels follow the points kept;
-    mesh faces that lose a corner are dropped and the rest renumbered."""
+    mesh faces that lose a corner are dropped and the rest renumbered. walls: also its `surface`, the points
+    projected with thin walls' faces kept apart, where that differs (a cloud whose inside test samples its
+    points, not the voxel centroids of a reduction)."""
     report = report or clean(cloud.points, params)
     kept = report.kept
     if len(kept) < len(cloud.points) and on_one_line(cloud.points[kept]):
@@ -146,33 +158,42 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    points = _denoised_kept(cloud.points, report, params.neighbours) if params.denoise else cloud.points[kept]
+    points, *apart = (_denoised_kept(cloud.points, report, params.neighbours, walls) if params.denoise
+                      else (cloud.points[kept],))
+    surface = apart[0] if apart and not np.array_equal(apart[0], points) else None
     far = far_pieces(points)
     if far is not None:
         notes.append(f"{int(far.sum()):,} points lie further from the largest piece than its own size: they are "
                      f"skeletonised as pieces of their own and do not set the skeleton's scale")
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale,
-                 solid_loops=cloud.solid_loops)
+                 solid_loops=cloud.solid_loops, surface=surface)
 
 
 def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None,
-             weights: np.ndarray | None = None) -> np.ndarray:
+             weights: np.ndarray | None = None, walls: bool = False):
     """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included).
     `index`: those neighbours when known, (n, neighbours) rows into `points`. `weights`: (n,) how many points
-    each stands for (a voxel centroid's count), which weigh the plane's fit (None: one each)."""
+    each stands for (a voxel centroid's count), which weigh the plane's fit (None: one each). walls: also the
+    points projected with a thin wall's faces kept apart (`_own_sheets`), which the inside tests sample:
+    (projected, kept apart)."""
     if len(points) <= neighbours:
-        return points
+        return (points, points) if walls else points
     if index is None:
         _, index = knn(points, neighbours)
     projected = np.empty_like(points)
+    apart = projected.copy() if walls else None
 
     def project(start: int) -> None:  # a block of CHUNK rows: bounded (CHUNK, neighbours, 3) temporaries
         rows = slice(start, start + CHUNK)
-        _, frames, mean = local_frames(points[index[rows]], None if weights is None else weights[index[rows]])
-        normal = frames[:, :, 0]
-        offset = np.einsum("ij,ij->i", points[rows] - mean[:, 0], normal)
-        projected[rows] = points[rows] - offset[:, None] * normal
+        local = points[index[rows]]
+        counts = None if weights is None else weights[index[rows]]
+        _, frames, mean = local_frames(local, counts)
+        projected[rows] = _onto_plane(points[rows], frames, mean)
+        if walls:
+            apart[rows] = projected[rows]
+            sheets, frames, mean = _own_sheets(local, points[rows], counts, frames, mean)
+            apart[start + sheets] = _onto_plane(points[start + sheets], frames, mean)
 
     starts = range(0, len(points), CHUNK)
     if len(starts) == 1:
@@ -180,24 +201,88 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     else:  # numpy's gathers and LAPACK release the GIL: blocks on every core (1M points: 1.8 -> 1.0 s on two)
         with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
             list(pool.map(project, starts))
-    return projected
+    return (projected, apart) if walls else projected
 
 
-def _denoised_kept(points: np.ndarray, report: CleaningReport, k: int) -> np.ndarray:
-    """denoised() of the points `report` keeps of the input `points`, in input order; with cleaning's kNN at hand,
-    computed in the tree's leaf order (clean) on the neighbours read from it."""
+def _onto_plane(points: np.ndarray, frames: np.ndarray, mean: np.ndarray) -> np.ndarray:
+    """`points` (n, 3) projected onto the planes through `mean` (n, 1, 3) normal to the frames' first axis."""
+    normal = frames[:, :, 0]
+    return points - np.einsum("ij,ij->i", points - mean[:, 0], normal)[:, None] * normal
+
+
+def _own_sheets(local: np.ndarray, centres: np.ndarray, counts: np.ndarray | None, frames: np.ndarray,
+                mean: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows whose neighbourhood `local` (n, k, 3) of the point `centres` holds two parallel sheets (a wall or a
+    gap thinner than its reach), with the PCA frames and means of the point's own sheet there, from the whole
+    neighbourhood's `frames` and `mean` (n, 3, 3), (n, 1, 3): the plane midway between both faces pulls them
+    together into one, which no inside test reads (a door pull's back plate closed its opening; a basket's and a
+    coffee table's loops were cut as false). Faces meeting at an edge are no such pair."""
+    _, near, near_mean = local_frames(local[:, :SHEET_NEAREST])
+    other = np.zeros(local.shape[:2], bool)
+    # heights along the whole neighbourhood's plane, else along that of the nearest few, which lie on the
+    # point's own sheet where both faces tilt the whole one's
+    for normal, centre in ((frames[:, :, 0], mean), (near[:, :, 0], near_mean)):
+        undecided = ~other.any(axis=1)
+        other[undecided] = _other_sheet(
+            np.einsum("ikj,ij->ik", local[undecided] - centre[undecided], normal[undecided]),
+            np.einsum("ij,ij->i", centres[undecided] - centre[undecided, 0], normal[undecided]))
+    walls = np.flatnonzero(other.sum(axis=1) >= SHEET_POINTS)  # one or two points apart make no sheet
+    if not len(walls):
+        return walls, frames[:0], mean[:0]
+    weight = 1.0 if counts is None else counts[walls]
+    _, own, own_mean = local_frames(local[walls], np.where(other[walls], 0.0, weight))
+    _, across, _ = local_frames(local[walls], np.where(other[walls], weight, 0.0))
+    parallel = np.abs(np.einsum("ij,ij->i", own[:, :, 0], across[:, :, 0])) > np.cos(np.radians(SHEET_ANGLE))
+    return walls[parallel], own[parallel], own_mean[parallel]
+
+
+def _other_sheet(heights: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """(n, k) which neighbours lie on another sheet than the point, by their `heights` (n, k) and the point's `own`
+    (n,) along a plane: two groups of heights apart by more than SHEET_GAP times the spread within either and by
+    COLLAPSED of the neighbourhood's size (the rounding of a flat sheet's heights is no gap), the point's own of
+    at least SHEET_POINTS; noise spreads one group with no such gap, so a noisy sheet keeps its neighbourhood."""
+    order = np.sort(heights, axis=1)
+    gaps = np.diff(order, axis=1)
+    cut = gaps.argmax(axis=1)  # the widest gap: below it one group, above it the other
+    low = np.arange(heights.shape[1])[None, :] <= cut[:, None]
+    spread = np.maximum(_group_spread(order, low), _group_spread(order, ~low))
+    gap = gaps[np.arange(len(cut)), cut]
+    size = np.ptp(order, axis=1)
+    split = (order[np.arange(len(cut)), cut] + order[np.arange(len(cut)), cut + 1]) / 2
+    mine = (own > split)[:, None] == (heights > split[:, None])
+    two = (gap > SHEET_GAP * spread) & (gap > COLLAPSED * size) & (mine.sum(axis=1) >= SHEET_POINTS)
+    return two[:, None] & ~mine
+
+
+def _group_spread(order: np.ndarray, member: np.ndarray) -> np.ndarray:
+    """The RMS deviation of each row's heights in `member` from their mean (0 for an empty group)."""
+    count = np.maximum(member.sum(axis=1), 1)
+    mean = np.where(member, order, 0.0).sum(axis=1) / count
+    return np.sqrt(np.where(member, (order - mean[:, None]) ** 2, 0.0).sum(axis=1) / count)
+
+
+def _denoised_kept(points: np.ndarray, report: CleaningReport, k: int, walls: bool) -> tuple[np.ndarray, ...]:
+    """denoised() of the points `report` keeps of the input `points`, in input order (with `walls`, also the
+    points with thin walls' faces kept apart); with cleaning's kNN at hand, computed in the tree's leaf order
+    (clean) on the neighbours read from it."""
     kept = report.kept
     if report.neighbours is None:
-        return denoised(points[kept], k)
+        return _as_tuple(denoised(points[kept], k, walls=walls))
     is_kept = np.zeros(report.input_points, dtype=bool)
     is_kept[kept] = True
     leaf_kept = np.flatnonzero(is_kept[report.order])
-    projected = denoised(points[report.order[leaf_kept]], k, _kept_neighbours(report, k, points, leaf_kept))
+    projections = _as_tuple(denoised(points[report.order[leaf_kept]], k, _kept_neighbours(report, k, points, leaf_kept),
+                                     walls=walls))
     position = np.empty(report.input_points, dtype=np.int64)
     position[kept] = np.arange(len(kept))
-    in_input_order = np.empty_like(projected)
-    in_input_order[position[report.order[leaf_kept]]] = projected
+    in_input_order = tuple(np.empty_like(each) for each in projections)
+    for ordered, each in zip(in_input_order, projections):
+        ordered[position[report.order[leaf_kept]]] = each
     return in_input_order
+
+
+def _as_tuple(projections) -> tuple[np.ndarray, ...]:
+    return projections if isinstance(projections, tuple) else (projections,)
 
 
 def _kept_neighbours(report: CleaningReport, k: int, points: np.ndarray, leaf_kept: np.ndarray) -> np.ndarray:

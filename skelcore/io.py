@@ -50,6 +50,9 @@ class Cloud:
     # the loops through the solid a closed mesh file bounds (its genus, skelcore.mesh_topology), read from its own
     # faces before any resampling; None for a point cloud or a mesh that bounds no solid
     solid_loops: int | None = None
+    # the points as cleaning's denoising projects them with a thin wall's two faces kept apart (skelcore.clean),
+    # which the inside tests sample where that differs from `points`; None: the points themselves
+    surface: np.ndarray | None = None
 
     @functools.cached_property
     def diagonal(self) -> float:

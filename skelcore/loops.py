@@ -96,9 +96,12 @@ def cloud_inside(points: np.ndarray, band: float, tree: cKDTree | None = None) -
 class SurfaceProbe:
     """The original surface, for asking whether it crosses a disk."""
 
-    def __init__(self, original: np.ndarray, spacing: float, shared: InsideTest | None = None) -> None:
+    def __init__(self, original: np.ndarray, spacing: float, shared: InsideTest | None = None,
+                 samples: np.ndarray | None = None) -> None:
         """shared: an inside test made ahead (the run's metrics', or cloud_inside of `original`), whose oriented
-        normals `inside` takes when it samples these very points."""
+        normals `inside` takes when it samples these very points. samples: what `inside` samples in place of
+        `original`: the same points with a thin wall's two faces kept apart, where cleaning's denoising pulled
+        them into one sheet (io.Cloud.surface)."""
         self.points = original
         self.tree = cKDTree(original)
         self.spacing = spacing
@@ -107,6 +110,7 @@ class SurfaceProbe:
         self._inside: InsideTest | None = None
         self._exterior: np.ndarray | None = None
         self._shared = shared
+        self._samples = original if samples is None else samples
 
     def normals(self, ids: np.ndarray) -> np.ndarray:
         """(len(ids), 3) PCA normals of those original points (unsigned), each computed once."""
@@ -154,10 +158,11 @@ class SurfaceProbe:
         when a loop is first judged. From the shared test of the same points only the grid is made again, to this
         probe's band: their oriented normals are the ones this would compute."""
         if self._inside is None:
-            if self._shared is not None and np.array_equal(self._shared.samples, self.points):
+            if self._shared is not None and np.array_equal(self._shared.samples, self._samples):
                 self._inside = self._shared.with_band(self.spacing)
             else:
-                self._inside = cloud_inside(self.points, self.spacing, self.tree)
+                self._inside = cloud_inside(self._samples, self.spacing,
+                                            self.tree if self._samples is self.points else None)
         return self._inside
 
     def open_share(self, corners: np.ndarray) -> float:

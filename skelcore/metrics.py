@@ -143,13 +143,15 @@ class MetricsReference:
     def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = JUDGED_POINTS,
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
-                    reduction: Reduction | None | Unread = UNREAD, tree: cKDTree | None = None) -> "MetricsReference":
+                    reduction: Reduction | None | Unread = UNREAD, tree: cKDTree | None = None,
+                    surface: np.ndarray | None = None) -> "MetricsReference":
         """The reference of the input `points0` (and its mesh `faces`, if any). reduction: the voxel reduction
         of points0 at POINT_BUDGET (skelcore.multires.voxel_reduction) when the caller has read it already, None
         when that read found none (a cloud within the budget, not on scan lines); by default it is read here. A
         large cloud's inside test samples its surface by these voxel centroids, as does one on scan lines. tree: a
         cKDTree (default build) the caller has made already, used when it covers exactly those surface samples
-        (points0, or the centroids of a large cloud)."""
+        (points0, or the centroids of a large cloud). surface: what the inside test samples in place of points0
+        (io.Cloud.surface: thin walls' faces kept apart)."""
         points0 = as_points(points0, "points0")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 3:
             raise ParameterError(f"k={k}: need an integer >= 3 neighbours for a PCA normal")
@@ -188,7 +190,7 @@ class MetricsReference:
             # read most contracted points outside, the pretzel's half of them)
             if reduction is UNREAD or (reduction is not None and reduction.n_input != len(points0)):
                 reduction = voxel_reduction(points0, POINT_BUDGET)
-            samples = points0 if reduction is None else reduction.points
+            samples = (points0 if surface is None else surface) if reduction is None else reduction.points
             if tree is None or tree.data.shape != samples.shape or not np.array_equal(tree.data, samples):
                 tree = None
             inside = InsideTest.of_cloud(samples, band, COLLAPSED * diagonal, tree)

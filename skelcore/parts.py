@@ -7,7 +7,9 @@ bodies with limbs (octopus, star) and plain primitives (capsule, pin, box). Elev
 skeleton on objects no threshold was set on: containers with handles (kettle, trophy, cups), linked and fused rings,
 a wire hanger, scissors, a bulky body with arches and a branching tree. Seven machined ones, added with the hold
 inside the solid (skelcore.medial), hold bores longer than wide, which plain contraction closes: drilled cubes
-and bars, thick and tall tubes, and a flat frame beside them. `skelcore bench-quality --parts` runs them all;
+and bars, thick and tall tubes, and a flat frame beside them. Four thin-walled ones (a basket, a coffee table, a
+door pull, a cookie cutter) hold walls 1-4 point spacings thick at 10,000 points, which cleaning's denoising
+pulled into one sheet. `skelcore bench-quality --parts` runs them all;
 they stay out of the default grid and of `skelcore study`, whose calibration halves they would move.
 """
 from __future__ import annotations
@@ -274,6 +276,43 @@ def branching_tree():
     return _union([*parts, _m3d().Manifold.sphere(1.0, SEGMENTS).scale((0.325, 0.325, 0.125))])
 
 
+# Thin walls: built when a probe of new objects (2026-12-06) found cleaning's denoising pulling a wall's two faces
+# into one sheet, on which the false-loop rule cut their loops (skelcore.clean._own_sheets). Proportions of the
+# real objects, in centimetres.
+def basket():
+    """A hemispherical bowl of radius 12 with a 0.6 wall, open at the top, under an arched handle of tube 0.9."""
+    m3d = _m3d()
+    bowl = (m3d.Manifold.sphere(12.0, SEGMENTS) - m3d.Manifold.sphere(11.4, SEGMENTS)).trim_by_plane((0.0, 0.0, -1.0),
+                                                                                                   0.0)
+    return bowl + _tube(_arc((0.0, 0.0, 0.0), 11.7, -5.0, 185.0, count=50) * [1.0, 1.0, 16.0 / 11.7], 0.9)
+
+
+def coffee_table():
+    """A top 110 x 60 x 3 on four square legs 4 x 4, and a shelf 100 x 52 x 2 between them 12 above the floor."""
+    legs = [_box((4.0, 4.0, 42.5), (x, y, 21.25)) for x in (-50.0, 50.0) for y in (-25.0, 25.0)]
+    return _union([_box((110.0, 60.0, 3.0), (0.0, 0.0, 43.5)), _box((100.0, 52.0, 2.0), (0.0, 0.0, 13.0)), *legs])
+
+
+def door_pull():
+    """A bar of radius 0.8 and 32 long on two posts 24 apart, 5 off a back plate 34 x 3 x 0.3."""
+    posts = [_cylinder(5.0, 0.6, (x, 0.0, 2.6)) for x in (-12.0, 12.0)]
+    return _union([_cylinder(32.0, 0.8, (0.0, 0.0, 5.0), (0.0, 90.0, 0.0)), *posts,
+                   _box((34.0, 3.0, 0.3), (0.0, 0.0, 0.15))])
+
+
+def cookie_cutter():
+    """A five-pointed star's outline (tips 4 from the middle, notches 1.9) as a wall 0.1 thick and 2.2 high, a
+    rolled rim 0.3 wide on top."""
+    m3d = _m3d()
+    angle = np.pi / 2 + np.arange(10) * np.pi / 5
+    reach = np.where(np.arange(10) % 2 == 0, 4.0, 1.9)
+    star = m3d.CrossSection([np.c_[reach * np.cos(angle), reach * np.sin(angle)].tolist()])
+
+    def band(width):
+        return star.offset(width / 2, m3d.JoinType.Round) - star.offset(-width / 2, m3d.JoinType.Round)
+    return m3d.Manifold.extrude(band(0.1), 2.2) + m3d.Manifold.extrude(band(0.3), 0.3).translate((0.0, 0.0, 2.0))
+
+
 # name -> (builder, ends of a correct skeleton or None when the shape does not fix them, description)
 PARTS: dict[str, tuple[Callable, int | None, str]] = {
     "wrench": (wrench, 2, "flat spanner: a ring end and an open jaw (genus 1)"),
@@ -315,4 +354,8 @@ PARTS: dict[str, tuple[Callable, int | None, str]] = {
     "thick_pipe": (lambda: tube(2.0, 1.0, 0.5), 0, "round tube 2 high, radius 1, wall 0.5 (genus 1)"),
     "tall_annulus": (lambda: tube(3.0, 1.0, 0.6), 0, "round tube 3 high, radius 1, wall 0.4 (genus 1)"),
     "square_frame": (square_frame, 0, "flat square frame around a square opening (genus 1)"),
+    "basket": (basket, None, "bowl with a 0.6 wall, 5% of its radius, under an arched handle (genus 1)"),
+    "coffee_table": (coffee_table, None, "top and shelf 3 and 2 thick on four legs (genus 3)"),
+    "door_pull": (door_pull, None, "bar on two posts off a back plate 1% of its length thick (genus 1)"),
+    "cookie_cutter": (cookie_cutter, None, "star-shaped wall 0.1 thick with a rim (genus 1)"),
 }

@@ -63,13 +63,14 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
                             original_surface(state, original) if surface is None else surface, params)
 
 
-def original_surface(state: IterationState, original: np.ndarray, inside: InsideTest | None = None
-                     ) -> OriginalSurface:
+def original_surface(state: IterationState, original: np.ndarray, inside: InsideTest | None = None,
+                     samples: np.ndarray | None = None) -> OriginalSurface:
     """What a state's skeleton reads of the original points and surface (skelcore.surface): the same for every
     state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run).
     inside: an inside test made ahead (the run's metrics', MetricsReference.inside, or loops.cloud_inside),
-    whose oriented normals the false-loop probe takes when it samples the same points."""
-    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside)
+    whose oriented normals the false-loop probe takes when it samples the same points; samples: what the probe's
+    inside test samples in place of `original` (io.Cloud.surface)."""
+    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside, samples)
 
 
 class IterationMetricsCache:
@@ -82,7 +83,7 @@ class IterationMetricsCache:
         inside test samples a large cloud's surface by it; by default it is read here). tree: a cKDTree over the
         cloud's points (or that reduction's), when the run has one (MetricsReference.from_points)."""
         self.reference = MetricsReference.from_points(cloud.points, cloud.faces, k=k, seed=seed, convention=convention,
-                                                      reduction=reduction, tree=tree)
+                                                      reduction=reduction, tree=tree, surface=cloud.surface)
         self._metrics: list[IterationMetrics] = []
 
     def get(self, states: list[IterationState], index: int) -> IterationMetrics:
@@ -212,7 +213,9 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     try:
         if cloud.cleaning is None:  # not cleaned yet; labels and explicit weights follow the points kept
             report = clean(cloud.points, options.cleaning)
-            cloud = cleaned(cloud, options.cleaning, report=report)
+            # the inside tests sample the points where no reduction's voxel centroids stand for them
+            cloud = cleaned(cloud, options.cleaning, report=report,
+                            walls=not options.point_budget or len(report.kept) <= options.point_budget)
             weights = None if weights is None else weights[report.kept]
         clock.mark("clean")
         for note in cloud.notes:
@@ -293,7 +296,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             states = run_states(cloud, options.params, progress, weights,
                                 lambda state: helpers.measuring(lambda: cache.result().append(state)))
             clock.mark("contract")
-            surface = original_surface(states[-1], cloud.points, cache.result().reference.inside)
+            surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface)
             radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
             skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)

@@ -41,16 +41,19 @@ class OriginalSurface:
     diagonal: float  # object diagonal of the original points (skelcore.normalise.object_diagonal)
     pieces: tuple[int, np.ndarray]  # connected pieces of the graph of `edges`: (count, piece of every point)
     shared_inside: InsideTest | None = field(default=None, repr=False)  # for the probe (SurfaceProbe's `shared`)
+    inside_samples: np.ndarray | None = field(default=None, repr=False)  # ... and what its inside test samples
     _probe: SurfaceProbe | None = field(default=None, repr=False)
     _hulls: dict = field(default_factory=dict, repr=False)  # "inner", "whole": face planes (None: flat)
     _adjacency: sp.csr_matrix | None = field(default=None, repr=False)
     _piece_probes: dict = field(default_factory=dict, repr=False)  # piece -> the probe its loops are judged by
 
     @classmethod
-    def of(cls, original, surface, shared_inside: InsideTest | None = None) -> "OriginalSurface":
+    def of(cls, original, surface, shared_inside: InsideTest | None = None,
+           inside_samples: np.ndarray | None = None) -> "OriginalSurface":
         """From `original` (n,3) and `surface`: (t,3) ring triangles (OneRings.triangles, preferred: the fans
         cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles.
-        shared_inside: the run's metrics' inside test, which the probe takes the oriented normals of."""
+        shared_inside: the run's metrics' inside test, which the probe takes the oriented normals of;
+        inside_samples: the points the probe's inside test samples in place of `original` (io.Cloud.surface)."""
         original = as_points(original, "original points")
         cells = np.asarray(surface)
         if cells.size == 0:
@@ -69,7 +72,7 @@ class OriginalSurface:
         graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) else \
             sp.coo_matrix((n, n))
         return cls(original, edges, triangles, object_diagonal(original), connected_components(graph, directed=False),
-                   shared_inside)
+                   shared_inside, inside_samples)
 
     def checked(self, contracted) -> np.ndarray:
         """The contracted positions of the original points, validated against them."""
@@ -120,7 +123,7 @@ class OriginalSurface:
     def probe(self) -> SurfaceProbe:
         """The surface probe of false loops at the median edge length (its normals kept between skeletons)."""
         if self._probe is None:
-            self._probe = SurfaceProbe(self.points, self.spacing, self.shared_inside)
+            self._probe = SurfaceProbe(self.points, self.spacing, self.shared_inside, self.inside_samples)
         return self._probe
 
     def probe_of_piece(self, piece: int) -> SurfaceProbe:
