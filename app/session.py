@@ -122,7 +122,7 @@ class Session:
         if self._point_weights is not None:
             self._point_weights = self._point_weights[report.kept]
         return cleaned(cloud, options, report=report,
-                       walls=not self.point_budget or len(report.kept) <= self.point_budget)
+                       walls=multires.within_budget(len(report.kept), self.point_budget))
 
     def set_label_weights(self, label_weights) -> None:
         """Contraction weights per label, used from the next restart."""

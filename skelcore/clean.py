@@ -158,9 +158,8 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
         faces = faces[(faces >= 0).all(axis=1)]
         faces = faces if len(faces) else None
     notes = list(cloud.notes) + ([report.note()] if len(kept) < len(cloud.points) else [])
-    points, *apart = (_denoised_kept(cloud.points, report, params.neighbours, walls) if params.denoise
-                      else (cloud.points[kept],))
-    surface = apart[0] if apart and not np.array_equal(apart[0], points) else None
+    points, surface = (_denoised_kept(cloud.points, report, params.neighbours, walls) if params.denoise
+                       else (cloud.points[kept], None))
     far = far_pieces(points)
     if far is not None:
         notes.append(f"{int(far.sum()):,} points lie further from the largest piece than its own size: they are "
@@ -176,32 +175,38 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     `index`: those neighbours when known, (n, neighbours) rows into `points`. `weights`: (n,) how many points
     each stands for (a voxel centroid's count), which weigh the plane's fit (None: one each). walls: also the
     points projected with a thin wall's faces kept apart (`_own_sheets`), which the inside tests sample:
-    (projected, kept apart)."""
+    (projected, kept apart), the latter `projected` itself where no neighbourhood holds two sheets."""
     if len(points) <= neighbours:
         return (points, points) if walls else points
     if index is None:
         _, index = knn(points, neighbours)
     projected = np.empty_like(points)
-    apart = projected.copy() if walls else None
 
-    def project(start: int) -> None:  # a block of CHUNK rows: bounded (CHUNK, neighbours, 3) temporaries
+    def project(start: int) -> tuple[np.ndarray, np.ndarray]:  # a block of CHUNK rows: bounded temporaries
         rows = slice(start, start + CHUNK)
         local = points[index[rows]]
         counts = None if weights is None else weights[index[rows]]
         _, frames, mean = local_frames(local, counts)
         projected[rows] = _onto_plane(points[rows], frames, mean)
-        if walls:
-            apart[rows] = projected[rows]
-            sheets, frames, mean = _own_sheets(local, points[rows], counts, frames, mean)
-            apart[start + sheets] = _onto_plane(points[start + sheets], frames, mean)
+        if not walls:
+            return np.zeros(0, np.int64), np.zeros((0, 3))
+        sheets, frames, mean = _own_sheets(local, points[rows], counts, frames, mean)
+        return start + sheets, _onto_plane(points[start + sheets], frames, mean)
 
     starts = range(0, len(points), CHUNK)
     if len(starts) == 1:
-        project(0)
+        blocks = [project(0)]
     else:  # numpy's gathers and LAPACK release the GIL: blocks on every core (1M points: 1.8 -> 1.0 s on two)
         with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
-            list(pool.map(project, starts))
-    return (projected, apart) if walls else projected
+            blocks = list(pool.map(project, starts))
+    if not walls:
+        return projected
+    walled = np.concatenate([ids for ids, _ in blocks])
+    if not len(walled):
+        return projected, projected
+    apart = projected.copy()
+    apart[walled] = np.concatenate([onto for _, onto in blocks])
+    return projected, apart
 
 
 def _onto_plane(points: np.ndarray, frames: np.ndarray, mean: np.ndarray) -> np.ndarray:
@@ -261,28 +266,31 @@ def _group_spread(order: np.ndarray, member: np.ndarray) -> np.ndarray:
     return np.sqrt(np.where(member, (order - mean[:, None]) ** 2, 0.0).sum(axis=1) / count)
 
 
-def _denoised_kept(points: np.ndarray, report: CleaningReport, k: int, walls: bool) -> tuple[np.ndarray, ...]:
-    """denoised() of the points `report` keeps of the input `points`, in input order (with `walls`, also the
-    points with thin walls' faces kept apart); with cleaning's kNN at hand, computed in the tree's leaf order
-    (clean) on the neighbours read from it."""
+def _denoised_kept(points: np.ndarray, report: CleaningReport, k: int, walls: bool
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
+    """denoised() of the points `report` keeps of the input `points`, in input order, and with `walls` the points
+    with thin walls' faces kept apart where any are (else None); with cleaning's kNN at hand, computed in the
+    tree's leaf order (clean) on the neighbours read from it."""
     kept = report.kept
     if report.neighbours is None:
-        return _as_tuple(denoised(points[kept], k, walls=walls))
+        projected, apart = denoised(points[kept], k, walls=True) if walls else (denoised(points[kept], k), None)
+        return projected, None if apart is projected else apart
     is_kept = np.zeros(report.input_points, dtype=bool)
     is_kept[kept] = True
     leaf_kept = np.flatnonzero(is_kept[report.order])
-    projections = _as_tuple(denoised(points[report.order[leaf_kept]], k, _kept_neighbours(report, k, points, leaf_kept),
-                                     walls=walls))
+    index = _kept_neighbours(report, k, points, leaf_kept)
+    in_leaf_order = points[report.order[leaf_kept]]
+    projected, apart = (denoised(in_leaf_order, k, index, walls=True) if walls
+                        else (denoised(in_leaf_order, k, index), None))
     position = np.empty(report.input_points, dtype=np.int64)
     position[kept] = np.arange(len(kept))
-    in_input_order = tuple(np.empty_like(each) for each in projections)
-    for ordered, each in zip(in_input_order, projections):
-        ordered[position[report.order[leaf_kept]]] = each
-    return in_input_order
+    target = position[report.order[leaf_kept]]  # each leaf row's place in input order
 
-
-def _as_tuple(projections) -> tuple[np.ndarray, ...]:
-    return projections if isinstance(projections, tuple) else (projections,)
+    def in_input_order(values: np.ndarray) -> np.ndarray:
+        ordered = np.empty_like(values)
+        ordered[target] = values
+        return ordered
+    return in_input_order(projected), None if apart is None or apart is projected else in_input_order(apart)
 
 
 def _kept_neighbours(report: CleaningReport, k: int, points: np.ndarray, leaf_kept: np.ndarray) -> np.ndarray:

@@ -198,13 +198,18 @@ def voxel_reduction(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Re
     return lines if lines is not None and (reduction is None or reduction.voxel_size < lines.voxel_size) else reduction
 
 
+def within_budget(n: int, budget: int | None = POINT_BUDGET) -> bool:
+    """Whether a cloud of `n` points is contracted without the budget's voxel reduction (budget off: None or 0)."""
+    return not budget or n <= budget
+
+
 def reduce_cloud(points: np.ndarray, budget: int | None = POINT_BUDGET) -> Reduction | None:
     """The voxel reduction of a cloud above `budget` points (None when it is within it, or budget is off: None
     or 0)."""
     if budget is not None and budget != 0 and not budget >= MIN_POINTS:
         raise ParameterError(f"point_budget={budget}: must be 0 (off) or at least {MIN_POINTS} points")
     n = len(points)
-    if not budget or n <= budget:
+    if within_budget(n, budget):
         return None
     lower, upper = (int(share * budget) for share in BUDGET_BAND)
     low = points.min(axis=0)

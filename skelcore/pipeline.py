@@ -215,7 +215,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             report = clean(cloud.points, options.cleaning)
             # the inside tests sample the points where no reduction's voxel centroids stand for them
             cloud = cleaned(cloud, options.cleaning, report=report,
-                            walls=not options.point_budget or len(report.kept) <= options.point_budget)
+                            walls=multires.within_budget(len(report.kept), options.point_budget))
             weights = None if weights is None else weights[report.kept]
         clock.mark("clean")
         for note in cloud.notes:
