@@ -313,8 +313,8 @@ def cookie_cutter():
     return m3d.Manifold.extrude(band(0.1), 2.2) + m3d.Manifold.extrude(band(0.3), 0.3).translate((0.0, 0.0, 2.0))
 
 
-# Thin plates and shells with holes, from a second probe the same day, whose loops are still lost (skelcore.loops:
-# a hole's wall 1-1.5 point spacings high has no normal of its own, so no crossing; the README's Known limits).
+# Thin plates and shells with holes, from a second probe the same day: the crate's openings are crossed at the
+# sheet's edge (skelcore.loops); the colander's and the bucket's loops are still lost (README, "Thin-walled parts").
 def crate_side():
     """A crate's side 40 x 30 and 0.4 thick, a flange 1.5 deep round its edge, a 3 x 2 grid of 10 x 10 openings."""
     flange = _box((40.0, 30.0, 1.5), (0.0, 0.0, 0.55)) - _box((39.2, 29.2, 2.0), (0.0, 0.0, 0.55))

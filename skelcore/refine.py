@@ -18,7 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
-from .loops import segment_distance
+from .distances import segment_distance
 
 Adjacency = dict[int, set[int]]
 

@@ -509,3 +509,14 @@ def test_thin_plates_keep_the_loops_through_their_openings(name, method):
     shape = solids.benchmark_shapes(seed=0, names=[name])[0]
     topology = run_case(shape.points, method, name=name, seed=0)["topology"]
     assert (topology["cycles"], topology["components"]) == (shape.cycles, 1)
+
+
+def test_a_crates_side_keeps_the_loops_of_its_six_openings():
+    """A plate 0.4 thick (1.2 point spacings at 10,000 points) with six openings: the contraction keeps their six
+    loops, and the false-loop rule cut them all (0 of 6, with 7 spurs), as the openings' walls, that low, have
+    no PCA normal of their own to cross the loops' disks; the sheet's edges there cross them now."""
+    from skelcore.quality_bench import run_case
+
+    shape = solids.benchmark_shapes(seed=0, names=["crate_side"])[0]
+    topology = run_case(shape.points, "lbc", name="crate_side", seed=0)["topology"]
+    assert (topology["cycles"], topology["components"], topology["ends"]) == (6, 1, 0)

@@ -268,6 +268,35 @@ def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monke
     assert cuts() == 0
 
 
+def test_a_hole_through_a_plate_thinner_than_the_normals_reach_is_crossed_at_the_plates_edge(monkeypatch):
+    """A plate 0.4 thick (about a point spacing) with a square hole: the hole's wall, that low, has no PCA
+    normal of its own (its points take the faces'), so its disk is crossed where the sheet ends, at points whose
+    neighbours leave half their tangent plane empty. A disk as large over the plate beside the hole is crossed
+    nowhere. (A crate's side lost all 6 of its openings' loops to the crossing test.)"""
+    import manifold3d
+
+    from skelcore.solids import sample_mesh
+
+    plate = (manifold3d.Manifold.cube((24.0, 24.0, 0.4), True)
+             - manifold3d.Manifold.cube((6.0, 6.0, 1.0), True).translate((-5.0, 0.0, 0.0))).to_mesh()
+    points, _ = sample_mesh(np.asarray(plate.vert_properties[:, :3], float), np.asarray(plate.tri_verts, np.int64),
+                            6000, seed=0)
+    spacing = float(np.median(cKDTree(points).query(points, 7)[0][:, 1:]))  # about the one-rings' edges
+    assert 0.4 / spacing < 1.0
+    side = np.linspace(-4.5, 4.5, 9, endpoint=False)
+    square = np.concatenate([np.c_[side, np.full(9, -4.5)], np.c_[np.full(9, 4.5), side],
+                             np.c_[-side, np.full(9, 4.5)], np.c_[np.full(9, -4.5), -side]])
+
+    def crossings(centre_x):
+        return loops.SurfaceProbe(points, spacing).crossings(np.c_[square[:, 0] + centre_x, square[:, 1],
+                                                                    np.zeros(len(square))])
+
+    assert crossings(-5.0) >= 2 * loops.CROSSING_POINTS
+    assert crossings(5.0) < loops.CROSSING_POINTS
+    monkeypatch.setattr(loops, "EDGE_GAP", 360.0)  # no point on an edge: the normals alone
+    assert crossings(-5.0) < loops.CROSSING_POINTS
+
+
 def test_a_disk_with_a_flat_fan_triangle_is_judged_quietly():
     """A cycle through the same place twice (a repeated corner) has a fan triangle of no area, and so no normal
     to look along for open space: it weighs nothing, and judging the disk warns of nothing (it divided by zero)."""
