@@ -83,8 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
                               "../shared/reference exists or --reference is given; the everyday parts and held-out "
                               "shapes by name)")
     quality.add_argument("--parts", action="store_true",
-                         help="run the everyday parts (wrench, key, nut, pipe, ...) and the held-out shapes (kettle, "
-                              "trophy, ring chain, ...: skelcore.parts), not in the default set, instead of the "
+                         help="run the everyday parts (wrench, key, nut, pipe, ...), the held-out shapes (kettle, "
+                              "trophy, ring chain, ...: skelcore.parts) and the household objects (trivet, pot, "
+                              "towel ring, ...: skelcore.household), not in the default set, instead of the "
                               "default shapes")
     quality.add_argument("--variants", nargs="+", choices=NAMED_VARIANTS, default=list(BENCH_VARIANTS),
                          metavar="VARIANT", help=f"of: {' '.join(NAMED_VARIANTS)} ('mesh': the shape's mesh file "
@@ -210,9 +211,9 @@ def _bench_quality(args: argparse.Namespace) -> int:
     if args.parts:
         if args.shapes is not None:
             raise ParameterError("--parts and --shapes: choose one (name parts in --shapes to run some of them)")
-        from .parts import PARTS
+        from .solids import EVERYDAY
 
-        args.shapes = list(PARTS)
+        args.shapes = list(EVERYDAY)
     started = time.perf_counter()
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     results = run_quality_bench(methods=args.methods, shapes=args.shapes, variants=args.variants,

@@ -16,6 +16,7 @@ import numpy as np
 
 from .errors import InputError
 from .mesh_topology import mesh_topology as surface_topology
+from .household import HOUSEHOLD
 from .parts import PARTS, SEGMENTS
 from .surface_sampling import SURFACE_POINTS, sample_surface
 
@@ -232,18 +233,19 @@ SOLIDS: dict[str, tuple[Callable, int | None, str]] = {
     "chair": (chair, None, "chair: seat on four legs, a back of two uprights and two rails (genus 2)"),
     "stool": (stool, None, "round stool: three legs joined by a ring below the seat (genus 3)"),
 }
+EVERYDAY = {**PARTS, **HOUSEHOLD}  # the shapes not in the default grid: `--parts`, or by name
 
 
 def _solid(name: str) -> tuple[Callable, int | None, str]:
-    """The entry of solid `name`: one of SOLIDS, or of the everyday parts (skelcore.parts.PARTS)."""
-    entry = SOLIDS.get(name) or PARTS.get(name)
+    """The entry of solid `name`: one of SOLIDS, or of the everyday parts and household objects (EVERYDAY)."""
+    entry = SOLIDS.get(name) or EVERYDAY.get(name)
     if entry is None:
-        raise InputError(f"solid {name!r}: unknown (choose from {', '.join([*SOLIDS, *PARTS])})")
+        raise InputError(f"solid {name!r}: unknown (choose from {', '.join([*SOLIDS, *EVERYDAY])})")
     return entry
 
 
 def solid_mesh(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS or PARTS)."""
+    """Vertices (v,3) and triangles (f,3) of the closed mesh of solid `name` (one of SOLIDS or EVERYDAY)."""
     return solid_arrays(_solid(name)[0]())
 
 
@@ -276,7 +278,7 @@ def sample_mesh(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) 
 
 
 def solid_shape(name: str, points: int = DEFAULT_POINTS, seed: int = 0) -> BenchmarkShape:
-    """Solid `name` (one of SOLIDS or PARTS) sampled evenly, its truth read from its closed mesh's Euler
+    """Solid `name` (one of SOLIDS or EVERYDAY) sampled evenly, its truth read from its closed mesh's Euler
     characteristic."""
     vertices, faces = solid_mesh(name)
     topology = mesh_topology(vertices, faces)
@@ -369,13 +371,13 @@ def benchmark_shapes(reference_dir=None, points: int = DEFAULT_POINTS, seed: int
                      names: list[str] | None = None) -> list[BenchmarkShape]:
     """The benchmark's shapes, each sampled to `points` points: every solid, then every reference shape
     when `reference_dir` (default ../shared/reference beside the project) exists. `names` picks some, among
-    them the everyday parts (skelcore.parts.PARTS), which are not in the default set."""
+    them the everyday parts and household objects (EVERYDAY), which are not in the default set."""
     folder = Path(reference_dir) if reference_dir is not None else default_reference_dir()
     available = shape_names(folder)
     names = available if names is None else list(names)
-    unknown = [name for name in names if name not in available and name not in PARTS]
+    unknown = [name for name in names if name not in available and name not in EVERYDAY]
     if unknown:
         raise InputError(f"shape {unknown[0]!r}: unknown or its reference folder is missing "
-                         f"(choose from {', '.join([*available, *PARTS])})")
+                         f"(choose from {', '.join([*available, *EVERYDAY])})")
     return [reference_shape(name, folder, points, seed) if name in REFERENCES else solid_shape(name, points, seed)
             for name in names]

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from skelcore import perturb as perturbations
 from skelcore import solids
 from skelcore.errors import InputError, ParameterError
-from skelcore.parts import PARTS
+from skelcore.solids import EVERYDAY
 
 N = 3000
 
@@ -27,11 +27,11 @@ def test_every_solid_has_the_genus_and_pieces_its_construction_promises(name):
     assert (topology["genus"], topology["components"]) == expected
 
 
-@pytest.mark.parametrize("name", list(PARTS))
+@pytest.mark.parametrize("name", list(EVERYDAY))
 def test_every_everyday_part_is_closed_with_the_genus_its_description_gives(name):
     vertices, faces = solids.solid_mesh(name)
     topology = solids.mesh_topology(vertices, faces)
-    stated = re.search(r"\(genus (\d)(?:, (\d) pieces)?\)", PARTS[name][2])
+    stated = re.search(r"\(genus (\d)(?:, (\d) pieces)?\)", EVERYDAY[name][2])
     assert topology["closed"] and topology["components"] == (int(stated.group(2) or 1) if stated else 1)
     assert topology["genus"] == (int(stated.group(1)) if stated else 0)
     assert name not in solids.shape_names()  # not in the default grid, nor in `skelcore study`
@@ -45,7 +45,7 @@ def test_bench_quality_runs_the_everyday_parts_by_flag_or_by_name(capsys, monkey
     monkeypatch.setattr(quality_bench, "format_table", lambda *args: "")
     assert cli.main(["bench-quality", "--parts", "--quiet"]) == 0
     assert cli.main(["bench-quality", "--shapes", "wrench", "block_1_hole", "--quiet"]) == 0
-    assert asked == [list(PARTS), ["wrench", "block_1_hole"]]
+    assert asked == [list(EVERYDAY), ["wrench", "block_1_hole"]]
     assert cli.main(["bench-quality", "--parts", "--shapes", "key", "--quiet"]) == 2
     assert "--parts and --shapes: choose one" in capsys.readouterr().err
     shape = solids.benchmark_shapes(names=["key"], points=500)[0]  # sampled like a solid, its truth from its mesh
