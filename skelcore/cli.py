@@ -80,8 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     quality.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS), help="(default: both)")
     quality.add_argument("--shapes", nargs="+", default=None, metavar="NAME",
                          help="shapes to run (default: every solid, and the reference shapes when "
-                              "../shared/reference exists or --reference is given; the everyday parts and held-out "
-                              "shapes by name)")
+                              "../shared/reference exists or --reference is given; the everyday parts, held-out "
+                              "shapes and household objects by name)")
     quality.add_argument("--parts", action="store_true",
                          help="run the everyday parts (wrench, key, nut, pipe, ...), the held-out shapes (kettle, "
                               "trophy, ring chain, ...: skelcore.parts) and the household objects (trivet, pot, "
