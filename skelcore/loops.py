@@ -115,7 +115,9 @@ class SurfaceProbe:
         self.tree = cKDTree(original)
         self.spacing = spacing
         self._scale = float(np.abs(original).max(initial=0.0)) + spacing  # of the rounding in crossings
-        self._across: dict[int, np.ndarray] = {}  # point -> its PCA normal and its edge's direction (NaN: none)
+        # (n, 2, 3) each point's PCA normal and its edge's direction (NaN: none), and whether it is computed yet
+        self._across: np.ndarray | None = None
+        self._known: np.ndarray | None = None
         self._inside: InsideTest | None = None
         self._exterior: np.ndarray | None = None
         self._shared = shared
@@ -124,7 +126,9 @@ class SurfaceProbe:
     def across_directions(self, ids: np.ndarray) -> np.ndarray:
         """(len(ids), 2, 3) for those original points, each computed once: the PCA normal (unsigned), and the
         direction off the sheet's edge where the point lies on one (the module's rule), else NaN."""
-        missing = np.array([i for i in ids.tolist() if i not in self._across], dtype=np.int64)
+        if self._across is None:
+            self._across, self._known = np.full((len(self.points), 2, 3), np.nan), np.zeros(len(self.points), bool)
+        missing = np.unique(ids[~self._known[ids]])
         if len(missing):
             k = min(NORMAL_K, len(self.points))
             _, neighbours = self.tree.query(self.points[missing], k=k)
@@ -140,9 +144,9 @@ class SurfaceProbe:
             middle = angles[rows, widest] + gaps[rows, widest] / 2
             edge = np.cos(middle)[:, None] * first + np.sin(middle)[:, None] * second
             edge[gaps[rows, widest] < math.radians(EDGE_GAP)] = np.nan
-            for i, pair in zip(missing.tolist(), np.stack([normal, edge], axis=1)):
-                self._across[i] = pair
-        return np.array([self._across[i] for i in ids.tolist()]).reshape(-1, 2, 3)
+            self._across[missing, 0], self._across[missing, 1] = normal, edge
+            self._known[missing] = True
+        return self._across[ids]
 
     def crossings(self, corners: np.ndarray) -> int:
         """Original points within one spacing of the fan disk over the closed polygon `corners`, whose
