@@ -28,7 +28,7 @@ from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
 from .messages import Messages, without_paths
-from .panel import ParameterPanel
+from .panel import ParameterPanel, Part
 from .playback import Playback
 from .presenter import Presenter
 from .progress import Activity
@@ -67,9 +67,11 @@ class Inspector:
             "parameters": lambda params, client: self.worker.submit(lambda: self._tune(params), client),
             "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)})
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
+        self.panel.add_part("interval", Part(self.playback.interval_shown, self.playback.set_interval,
+                                             self.playback.show_interval))
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server, self.playback)
-        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.worker.submit,
+        self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.panel, self.worker.submit,
                                                          self.presenter.labels_changed, order=self.ui.labels_order)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
                                  self.presenter.draw_frame, self.presenter.picture_note)
@@ -156,8 +158,9 @@ class Inspector:
             typing = isinstance(handle, (viser.GuiNumberHandle, viser.GuiTextHandle))
             on(handle, lambda e, typing=typing: self.panel.changed("parameters", e.client, typing), person_only=True,
                method="on_update")
-        on(ui.params.radius, lambda e: self.panel.changed("radius", e.client, typing=True), person_only=True,
-           method="on_update")
+        for part, handle in (("radius", ui.params.radius), ("interval", ui.run.interval)):
+            on(handle, lambda e, part=part: self.panel.changed(part, e.client, typing=True), person_only=True,
+               method="on_update")
         for handle in (*ui.view.show.values(), *ui.view.size.values(), *ui.view.opacity.values(), ui.view.provisional):
             on(handle, lambda e: submit(self.presenter.apply_view, e.client), person_only=True, method="on_update")
         for handle in (ui.view.colouring, ui.view.colour_original):

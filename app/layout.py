@@ -68,7 +68,7 @@ class RunControls:
     play: viser.GuiButtonHandle
     end: viser.GuiButtonHandle
     reset: viser.GuiButtonHandle
-    interval: viser.GuiSliderHandle
+    interval: viser.GuiTextHandle
     viewer_order: float  # where each browser's own iteration slider and status go: below Reset
 
 
@@ -98,7 +98,7 @@ class ParameterWidgets:
     termination: viser.GuiTextHandle
     hold_curves: viser.GuiCheckboxHandle
     hold_inside: viser.GuiCheckboxHandle
-    radius: viser.GuiSliderHandle
+    radius: viser.GuiTextHandle
     restart: viser.GuiButtonHandle
 
     def contraction_handles(self) -> tuple:
@@ -189,8 +189,8 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     step = gui.add_button("Step", hint="one iteration (key N)")
     play = gui.add_button(PLAY, hint="iterate until the run ends or Pause; once it has ended, replay it (key P)")
     # right under the Play it paces, not under Reset and the per-browser widgets that follow it
-    interval = gui.add_slider("Play interval (s)", min=0.0, max=2.0, step=0.05, initial_value=play_interval,
-                              hint="least time between two iterations during Play, to watch them")
+    interval = _typed(gui, "play_interval", play_interval,
+                      hint="least time between two iterations during Play, to watch them")
     end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
     reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
     return RunControls(title, step, play, end, reset, interval, viewer_order=reset.order)
@@ -219,8 +219,8 @@ def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerC
 
 
 def _typed(gui: viser.GuiApi, name: str, value: float, hint: str | None = None):
-    """A text box: a number box would turn a typed 1e-3 into -13 (viser's drops the "e") and leave letters blank
-    without a word; words.typed_number reads it, and a refusal is said."""
+    """A text box: a number box, a slider's too, would turn a typed 1e-3 into -13 (viser's drops the "e") and
+    leave letters blank without a word; words.typed_number reads it, and a refusal is said."""
     return gui.add_text(box_label(name), initial_value=number_text(value), hint=hint)
 
 
@@ -248,8 +248,8 @@ def build_parameters(gui: viser.GuiApi, tabs: viser.GuiTabGroupHandle, params: C
                                        hint="points a step would take out of the original solid go to its medial "
                                             "surface instead: keeps a bore's loop that contraction closes (a tube "
                                             "taller than wide), with spurs")
-        radius = gui.add_slider(label("sample_radius"), min=0.005, max=0.1, step=0.005, initial_value=sample_radius,
-                                hint="skeleton ball radius, fraction of the bounding-box diagonal")
+        radius = _typed(gui, "sample_radius", sample_radius,
+                        hint="skeleton ball radius, fraction of the bounding-box diagonal")
     return ParameterWidgets(method, wl0, wh0, sl, wl_max, k, max_iterations, termination, hold_curves, hold_inside,
                             radius, restart)
 

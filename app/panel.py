@@ -1,16 +1,18 @@
 """The Parameters and More tabs against the run: the values their boxes show, taken when the engine accepts them,
 and a refused value said and put back to the one in force (so the panel never shows what no run uses).
 
-viser sends a number box's value at every key a person types: typing 30 sends 3 first, typing 0.02 sends 0. So a
-value being typed is taken only once the person has stopped typing into its part (TYPING_PAUSE; the parts: the
-contraction's parameters, and the skeleton's sample radius): a step meanwhile, Play's too, runs with the values in
-force, and a refused value is said and put back only then. A click on Step, Play, Run to end or Reset takes what
-is being typed first (`flush`), so a step uses the value typed last and nothing typed is taken after a Reset;
-Restart reads the panel as it stands (`parameters`).
+viser sends a box's value at every key a person types: typing 30 sends 3 first, typing 0.02 sends 0. So a value
+being typed is taken only once the person has stopped typing into its part (TYPING_PAUSE; the parts: the
+contraction's parameters and the skeleton's sample radius, and those others add with `add_part`: Play's interval,
+a labelled cloud's weights): a step meanwhile, Play's too, runs with the values in force, and a refused value is
+said and put back only then. A click on Step, Play, Run to end or Reset takes what is being typed first (`flush`),
+so a step uses the value typed last and nothing typed is taken after a Reset; Restart reads the panel as it
+stands (`parameters`).
 """
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 from typing import Callable
 
 from skelcore.errors import ParameterError
@@ -21,7 +23,15 @@ from .layout import ParameterWidgets
 from .words import METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, typed_number, typed_whole_number
 
 TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
-PARTS = ("parameters", "radius")
+
+
+@dataclass(frozen=True)
+class Part:
+    """What the panel does with one part: `shown()` its value as the boxes show it (ParameterError: refused),
+    `take(value, client)` use a value the engine accepted, `put_back()` show the value last taken again."""
+    shown: Callable[[], object]
+    take: Callable[[object, object], None]
+    put_back: Callable[[], None]
 
 
 class ParameterPanel:
@@ -29,12 +39,21 @@ class ParameterPanel:
                  take: dict[str, Callable[[object, object], None]]):
         """notify(client, title, body): a notice to one browser; take[part](value, client): use a value of `part`
         the engine accepted."""
-        self.widgets, self.session, self._notify, self._take = widgets, session, notify, take
+        self.widgets, self.session, self._notify = widgets, session, notify
         self.accepted = session.params  # the contraction parameters last accepted
         self.typing: dict[str, object] = {}  # part -> the client typing into it, until its value is taken
-        self._changes = dict.fromkeys(PARTS, 0)  # a wait for the person stands while its part has not changed since
+        self._changes: dict[str, int] = {}  # a wait for the person stands while its part has not changed since
         self._lock = threading.Lock()
-        self._shown = {"parameters": self._parameters_shown, "radius": self._radius_shown}
+        self._parts: dict[str, Part] = {}
+        self.add_part("parameters", Part(self._parameters_shown, take["parameters"], lambda: self.show(self.accepted)))
+        self.add_part("radius", Part(self._radius_shown, take["radius"], self._radius_put_back))
+
+    def add_part(self, name: str, part: Part) -> None:
+        """Boxes of another part (a new part, or one replacing the part of that name), taken as the others are."""
+        with self._lock:
+            self._parts[name] = part
+            self._changes.setdefault(name, 0)
+            self.typing.pop(name, None)
 
     def changed(self, part: str, client, typing: bool) -> None:
         """A box of `part` changed: its value is taken once the person has stopped typing, or at once when it was
@@ -87,9 +106,12 @@ class ParameterPanel:
         return self.accepted
 
     def _radius_shown(self) -> float:
-        radius = float(self.widgets.radius.value)
+        radius = typed_number("sample_radius", self.widgets.radius.value)
         RunOptions(sample_radius=radius).skeleton_params()  # refuses a bad radius
         return radius
+
+    def _radius_put_back(self) -> None:
+        self.widgets.radius.value = number_text(self.session.sample_radius)
 
     def _stopped(self, part: str, changes: int) -> None:
         """The pause after a key: the person stopped typing, unless the part changed since (or was taken)."""
@@ -102,17 +124,14 @@ class ParameterPanel:
         client = self.typing.pop(part)
         value = self._value(part, client)
         if value is not None:
-            self._take[part](value, client)
+            self._parts[part].take(value, client)
 
     def _value(self, part: str, client):
         """The part's value as shown; None when the engine refuses it, said and put back to the last value taken."""
         try:
-            return self._shown[part]()
+            return self._parts[part].shown()
         except ParameterError as error:
             message = refused(str(error))
         self._notify(client, "Parameter refused", f"{message}; put back to the last value taken")
-        if part == "parameters":
-            self.show(self.accepted)
-        else:
-            self.widgets.radius.value = self.session.sample_radius
+        self._parts[part].put_back()
         return None

@@ -1,18 +1,23 @@
 """Play, Run to end and Pause of the shared run. Whether the run plays is the worker's alone: every start and stop
 calls `changed`, which redraws the Play button and every status from it at once (Presenter.update_statuses), so
-the button and the status never disagree."""
+the button and the status never disagree. The Play interval is a text box taken as the parameters are
+(app.panel: `interval_shown`, `set_interval`, `show_interval`)."""
 from __future__ import annotations
 
 import time
 from typing import Callable
 
+from skelcore.errors import ParameterError
+
 from .layout import RunControls
+from .words import number_text, typed_number
 from .worker import Worker
 
 # A Play from one browser within this many seconds of its Pause is a double click on Pause: the button's new label
 # reaches the browser a round trip after the first click, so the second still aimed at Pause. (A Pause is never
 # dropped: stopping is what a person can always ask for.)
 DOUBLE_CLICK = 0.4
+INTERVAL_MAX = 10.0  # seconds between two iterations during Play: longer than anyone watches one
 
 
 class Playback:
@@ -20,6 +25,7 @@ class Playback:
         self.worker = worker
         self.controls = controls
         self.changed = changed
+        self.interval = typed_number("play_interval", controls.interval.value)  # the interval last taken
         self._paused_by: dict[object, float] = {}  # browser -> when it last paused with the button
         # a person paused the playing run: the status says "paused" until a Step, Play or Run to end ("ready"
         # after a Step: walk-throughs read "paused" there as a Pause they had not made)
@@ -39,12 +45,26 @@ class Playback:
             self.start(_chosen_on_first_tick(choose), client, full=True)
 
     def start(self, tick: Callable[[], bool], client, full: bool) -> None:
-        """full: Play, paced by the interval slider; otherwise Run to end, as fast as it goes."""
+        """full: Play, paced by the interval taken; otherwise Run to end, as fast as it goes."""
         if self.worker.playing:
             return
         self.paused = False
-        self.worker.play(tick, client, float(self.controls.interval.value) if full else 0.0)
+        self.worker.play(tick, client, self.interval if full else 0.0)
         self.changed()
+
+    def interval_shown(self) -> float:
+        """The Play interval its box shows; ParameterError unless 0 to INTERVAL_MAX seconds."""
+        seconds = typed_number("play_interval", self.controls.interval.value)
+        if not 0 <= seconds <= INTERVAL_MAX:
+            raise ParameterError(f"parameter play_interval={seconds!r}: must be from 0 to {INTERVAL_MAX:g} seconds")
+        return seconds
+
+    def set_interval(self, seconds: float, client=None) -> None:
+        """Pace Play by `seconds` from its next start (a Play going on keeps its pace)."""
+        self.interval = seconds
+
+    def show_interval(self) -> None:
+        self.controls.interval.value = number_text(self.interval)
 
     def pause(self) -> None:
         """Every stop of Play goes through here, the run's own end too."""

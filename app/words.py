@@ -7,11 +7,13 @@ import math
 import re
 
 from skelcore.errors import ParameterError
+from skelcore.params import WEIGHT_MAX
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves",
                     "hold_inside": "Hold inside"}
 SKELETON_LABELS = {"sample_radius": "Sample radius"}  # the skeleton's parameter in the More tab
+PLAYBACK_LABELS = {"play_interval": "Play interval (s)"}
 AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic value (None)
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
@@ -21,7 +23,7 @@ _RANGE = re.compile(r"^parameter (\w+)=.*?: must be ")  # ... and says what it m
 
 def label(name: str) -> str:
     """The panel's label of a ContractionParams or SkeletonParams field (its own name when the panel lacks it)."""
-    return PARAMETER_LABELS.get(name) or SKELETON_LABELS.get(name, name)
+    return PARAMETER_LABELS.get(name) or SKELETON_LABELS.get(name) or PLAYBACK_LABELS.get(name, name)
 
 
 def value_text(name: str, value) -> str:
@@ -62,6 +64,16 @@ def typed_whole_number(name: str, text) -> int:
     if not (math.isfinite(value) and value.is_integer()):
         raise ParameterError(f"parameter {name}={_as_typed(text)}: must be a whole number (like 12 or 1e3)")
     return int(value)
+
+
+def typed_weight(label_value: int, text) -> float:
+    """A label's contraction weight typed into its box ("2", "1e-2"); ParameterError in the panel's words
+    otherwise (`refused` leaves it as it is)."""
+    value = _typed(text)
+    if not 0 < value <= WEIGHT_MAX:  # NaN and infinity fail too
+        raise ParameterError(f"the weight of label {label_value} = {_as_typed(text)}: must be a positive number up "
+                             f"to {WEIGHT_MAX:g} (like 2 or 1e-2)")
+    return value
 
 
 def _typed(text) -> float:

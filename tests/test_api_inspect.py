@@ -10,7 +10,8 @@ import pytest
 import skelcore
 from skelcore.shapes import make_shape
 
-from browser_support import browser_missing, button, launch, open_tab, open_viewer, save_page, wait_until
+from browser_support import (browser_missing, button, launch, number_input, open_tab, open_viewer, save_page,
+                             set_value, wait_until)
 
 browser_needed = pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))
 
@@ -50,10 +51,15 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             browser = launch(playwright)
             page = open_viewer(browser, handle.inspector, handle.url)
             page.get_by_text("Labels", exact=True).first.wait_for()
-            weight = page.get_by_label("Label 1 (", exact=False)
-            assert float(weight.input_value()) == 2.0
-            weight.fill("6")
-            weight.press("Enter")
+            weight = number_input(page, "Label 1 (")
+            assert weight.input_value() == "2"
+            set_value(page, "Label 1 (", "1e-2")  # a number box sent 1-2 of it
+            wait_until(lambda: handle.session.label_weights == {1: 0.01}, "an exponent read as a number")
+            set_value(page, "Label 1 (", "0")
+            page.get_by_text("the weight of label 1 = '0': must be a positive number").first.wait_for()
+            wait_until(lambda: weight.input_value() == "0.01", "the refused weight put back")
+            assert handle.session.label_weights == {1: 0.01}
+            set_value(page, "Label 1 (", "6")
             wait_until(lambda: handle.session.label_weights == {1: 6.0}, "the label weight taken")
             button(page, "Restart with these parameters").click()
             wait_until(lambda: handle.session.run.weights is not None and handle.session.run.weights.max() == 6.0,

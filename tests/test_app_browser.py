@@ -152,7 +152,7 @@ def upload(page, path) -> None:
 def test_play_then_step_leaves_a_play_button(fresh_sized, inspector):
     page = fresh_sized
     set_value(page, "Play interval (s)", 0.5)
-    wait_until(lambda: inspector.ui.run.interval.value == 0.5, "the play interval")
+    wait_until(lambda: inspector.playback.interval == 0.5, "the play interval")
     click(page, "Play")
     button(page, "Pause").wait_for()
     wait_until(lambda: len(inspector.session.history) >= 2, "Play to advance")
@@ -555,7 +555,7 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
     monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     session, box = inspector.session, inspector.ui.params.max_iterations
     set_value(page, "Play interval (s)", 0.5)
-    wait_until(lambda: inspector.ui.run.interval.value == 0.5, "the play interval")
+    wait_until(lambda: inspector.playback.interval == 0.5, "the play interval")
     try:
         click(page, "Play")
         button(page, "Pause").wait_for()

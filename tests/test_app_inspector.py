@@ -322,7 +322,7 @@ def _playing(session: Session):
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     inspector = Inspector(server, session)
-    inspector.ui.run.interval.value = 0.0
+    inspector.playback.set_interval(0.0)
     browser = _Broadcast(server)
     try:
         inspector._connect(browser)

@@ -177,7 +177,7 @@ def _panel(monkeypatch):
     box = types.SimpleNamespace
     boxes = box(method=box(value="LBC"), k=box(value="0"), wl0=box(value="0"), wh0=box(value="1"), sl=box(value="3"),
                 wl_max=box(value="2048"), max_iterations=box(value="20"), termination=box(value="0.01"),
-                hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value=0.02))
+                hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value="0.02"))
     notices, taken = [], []
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
                            lambda client, title, body: notices.append(body),
@@ -200,13 +200,39 @@ def test_a_value_being_typed_is_taken_once_the_person_stops_or_clicks(monkeypatc
     pauses[0]()
     pauses[1]()  # the pauses after the keys end: the value was taken already
     assert len(taken) == 1
-    boxes.radius.value = 0.03
+    boxes.radius.value = "0.03"
     panel.changed("radius", None, typing=True)
     pauses[2]()  # the person stopped typing
     assert taken[1:] == [("radius", 0.03)] and notices == []
     boxes.method.value = "GLSkeleton"
     panel.changed("parameters", None, typing=False)  # chosen from a list: at once
     assert taken[-1][1].method == "glskeleton" and len(pauses) == 3
+
+
+def test_the_play_interval_is_typed_as_the_parameters_are(monkeypatch):
+    """It was a slider, whose box sends a typed 2e-1 as -21 (viser drops the "e"), which the slider then set to 0
+    without a word: a text box now, taken once the person stops typing, a refusal said and put back."""
+    from app import playback
+    from app.panel import Part
+
+    panel, _, pauses, notices, _ = _panel(monkeypatch)
+    controls = types.SimpleNamespace(interval=types.SimpleNamespace(value="0.25"))
+    play = playback.Playback(types.SimpleNamespace(playing=False), controls, changed=lambda: None)
+    panel.add_part("interval", Part(play.interval_shown, play.set_interval, play.show_interval))
+    assert play.interval == 0.25
+    controls.interval.value = "2e-1"
+    panel.changed("interval", None, typing=True)
+    pauses[-1]()
+    assert play.interval == 0.2 and notices == []
+    for typed in ("30", "-1", "soon"):
+        controls.interval.value = typed
+        panel.changed("interval", None, typing=True)
+        pauses[-1]()
+        assert play.interval == 0.2 and controls.interval.value == "0.2"
+    assert notices == ["Play interval (s) = 30.0: must be from 0 to 10 seconds; put back to the last value taken",
+                       "Play interval (s) = -1.0: must be from 0 to 10 seconds; put back to the last value taken",
+                       "Play interval (s) = 'soon': must be a finite number (like 0.5 or 1e-3); put back to the last "
+                       "value taken"]
 
 
 def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_on_drops_it(monkeypatch):
@@ -216,7 +242,7 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     panel, boxes, pauses, notices, taken = _panel(monkeypatch)
     boxes.termination.value = "0"
     panel.changed("parameters", None, typing=True)
-    boxes.radius.value = 0.0
+    boxes.radius.value = "0"
     panel.changed("radius", None, typing=True)
     boxes.termination.value = "0.02"
     panel.changed("parameters", None, typing=True)
@@ -227,7 +253,7 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     assert [(part, value.termination) for part, value in taken] == [("parameters", 0.02)]
     pauses[1]()  # the radius was left at 0
     assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the last value taken"]
-    assert boxes.radius.value == 0.02 and not panel.typing and len(taken) == 1
+    assert boxes.radius.value == "0.02" and not panel.typing and len(taken) == 1
     boxes.wh0.value = "0"
     assert panel.parameters(None) is None  # Restart: said at once
     assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == "1" and len(pauses) == 3
