@@ -9,50 +9,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from .parts import SEGMENTS, _arc, _box, _cylinder, _m3d, _tube, _union
+from .solid_blocks import (SEGMENTS, arc_points, box, cylinder, manifold3d, rod, rounded_rectangle, slab, sphere,
+                           stadium, torus, tube_along, union)
 
 
-def _sphere(radius: float, centre=(0.0, 0.0, 0.0)):
-    return _m3d().Manifold.sphere(radius, SEGMENTS).translate(tuple(centre))
 
 
-def _torus(major: float, minor: float):
-    """A torus around z in the xy plane."""
-    m3d = _m3d()
-    return m3d.Manifold.revolve(m3d.CrossSection.circle(minor, SEGMENTS).translate((major, 0.0)), SEGMENTS)
 
 
-def _rod(start, end, radius: float, end_radius: float | None = None):
-    """A cylinder (a cone frustum to `end_radius`) from `start` to `end`."""
-    start, end = np.asarray(start, float), np.asarray(end, float)
-    length = float(np.linalg.norm(end - start))
-    axis = (end - start) / length
-    rod = _m3d().Manifold.cylinder(length, radius, radius if end_radius is None else end_radius, SEGMENTS, False)
-    tilt, turn = np.degrees(np.arccos(np.clip(axis[2], -1.0, 1.0))), np.degrees(np.arctan2(axis[1], axis[0]))
-    return rod.rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, turn)).translate(tuple(start))
-
-
-def _stadium(x0: float, x1: float, r0: float, r1: float | None = None):
-    """The 2-D hull of a circle of radius r0 at (x0, 0) and one of r1 (default r0) at (x1, 0)."""
-    section = _m3d().CrossSection
-    return section.batch_hull([section.circle(r0, SEGMENTS).translate((x0, 0.0)),
-                               section.circle(r0 if r1 is None else r1, SEGMENTS).translate((x1, 0.0))])
-
-
-def _rounded_rectangle(width: float, height: float, corner: float):
-    section = _m3d().CrossSection
-    corners = [(sx * (width / 2 - corner), sy * (height / 2 - corner)) for sx in (-1, 1) for sy in (-1, 1)]
-    return section.batch_hull([section.circle(corner, 32).translate(centre) for centre in corners])
-
-
-def _slab(section, thickness: float, bottom: float = 0.0):
-    return _m3d().Manifold.extrude(section, thickness).translate((0.0, 0.0, bottom))
 
 
 def kettlebell():
     """A ball of radius 10 flattened to stand, a bar of radius 1.8 bent on an arc of radius 7.5 over it."""
-    ball = _sphere(10.0).trim_by_plane((0.0, 0.0, 1.0), -8.5)
-    return _union([ball, _tube(_arc((0.0, 0.0, 9.0), 7.5, -20.0, 200.0, "xz", 45), 1.8)])
+    ball = sphere(10.0).trim_by_plane((0.0, 0.0, 1.0), -8.5)
+    return union([ball, tube_along(arc_points((0.0, 0.0, 9.0), 7.5, -20.0, 200.0, "xz", 45), 1.8)])
 
 
 def watering_can():
@@ -60,99 +30,99 @@ def watering_can():
     tapering from radius 0.9 to 0.5 with a rose."""
     spout_end = np.array([17.5, 0.0, 19.0])
     along = np.array([12.5, 0.0, 16.0]) / np.hypot(12.5, 16.0)
-    return _union([_cylinder(18.0, 8.0, (0.0, 0.0, 9.0)),
-                   _tube(_arc((-6.0, 0.0, 14.0), 6.0, 20.0, 260.0, "xz", 45), 0.8),
-                   _rod((5.0, 0.0, 3.0), spout_end, 0.9, 0.5),
-                   _rod(spout_end - 0.2 * along, spout_end + 1.5 * along, 0.5, 1.6)])
+    return union([cylinder(18.0, 8.0, (0.0, 0.0, 9.0)),
+                   tube_along(arc_points((-6.0, 0.0, 14.0), 6.0, 20.0, 260.0, "xz", 45), 0.8),
+                   rod((5.0, 0.0, 3.0), spout_end, 0.9, 0.5),
+                   rod(spout_end - 0.2 * along, spout_end + 1.5 * along, 0.5, 1.6)])
 
 
 def cooking_pot():
     """A pot of radius 10, 12 high, wall 0.25 with a rolled rim, two loop handles of wire 0.35 reaching 3 out."""
-    m3d = _m3d()
+    m3d = manifold3d()
     body = m3d.Manifold.revolve(m3d.CrossSection([[(0.0, 0.0), (10.0, 0.0), (10.0, 12.0), (9.75, 12.0),
                                                    (9.75, 0.35), (0.0, 0.35)]]), 2 * SEGMENTS)
-    handles = [_tube(np.r_[[[9.45, -3.0, 9.0]], _arc((10.0, 0.0, 9.0), 3.0, -90.0, 90.0, "xy", 25),
+    handles = [tube_along(np.r_[[[9.45, -3.0, 9.0]], arc_points((10.0, 0.0, 9.0), 3.0, -90.0, 90.0, "xy", 25),
                            [[9.45, 3.0, 9.0]]] * [side, 1.0, 1.0], 0.35) for side in (-1.0, 1.0)]
-    return _union([body, _torus(9.875, 0.3).translate((0.0, 0.0, 12.0)), *handles])
+    return union([body, torus(9.875, 0.3).translate((0.0, 0.0, 12.0)), *handles])
 
 
 def bottle_opener():
     """A tapered plate 11 long and 0.2 thick with a slot 2 x 1 near its wide end."""
-    return _slab(_stadium(0.0, 9.5, 1.6, 1.1) - _stadium(-0.5, 0.5, 0.5), 0.2)
+    return slab(stadium(0.0, 9.5, 1.6, 1.1) - stadium(-0.5, 0.5, 0.5), 0.2)
 
 
 def belt_buckle():
     """A rounded frame 6 x 5 of bars 0.6 wide and 0.35 thick with a centre bar, and a prong (rod 0.12) over one
     opening."""
-    frame = (_rounded_rectangle(6.0, 5.0, 0.6) - _rounded_rectangle(4.8, 3.8, 0.2)
-             + _m3d().CrossSection.square((0.6, 4.4), True))
-    return _union([_slab(frame, 0.35), _rod((-0.1, 0.0, 0.2), (2.0, 0.0, 0.42), 0.12), _sphere(0.12, (2.0, 0.0, 0.42))])
+    frame = (rounded_rectangle(6.0, 5.0, 0.6) - rounded_rectangle(4.8, 3.8, 0.2)
+             + manifold3d().CrossSection.square((0.6, 4.4), True))
+    return union([slab(frame, 0.35), rod((-0.1, 0.0, 0.2), (2.0, 0.0, 0.42), 0.12), sphere(0.12, (2.0, 0.0, 0.42))])
 
 
 def picture_frame():
     """A moulding 3 wide and 1.8 thick round a 24 x 19 opening, a rebate 0.5 wide and 0.8 deep at its back."""
-    square = _m3d().CrossSection.square
-    return _slab(square((30.0, 25.0), True) - square((24.0, 19.0), True), 1.8) - _slab(square((25.0, 20.0), True),
+    square = manifold3d().CrossSection.square
+    return slab(square((30.0, 25.0), True) - square((24.0, 19.0), True), 1.8) - slab(square((25.0, 20.0), True),
                                                                                        0.8, -0.01)
 
 
 def trivet():
     """A plate 18 x 18 x 0.6 with a 3 x 3 grid of 4.6 x 4.6 holes, on four feet."""
-    square = _m3d().CrossSection.square
+    square = manifold3d().CrossSection.square
     plate = square((18.0, 18.0), True)
     for i in (-1, 0, 1):
         for j in (-1, 0, 1):
             plate = plate - square((4.6, 4.6), True).translate((5.6 * i, 5.6 * j))
-    feet = [_cylinder(1.05, 0.8, (sx * 8.0, sy * 8.0, -0.5)) for sx in (-1, 1) for sy in (-1, 1)]
-    return _union([_slab(plate, 0.6), *feet])
+    feet = [cylinder(1.05, 0.8, (sx * 8.0, sy * 8.0, -0.5)) for sx in (-1, 1) for sy in (-1, 1)]
+    return union([slab(plate, 0.6), *feet])
 
 
 def sheet_bracket():
     """Two legs 8 x 5 of sheet 0.2 thick bent at a right angle (inner radius 0.3), a slot 3 x 0.7 in each."""
-    m3d = _m3d()
+    m3d = manifold3d()
     thickness, bend = 0.2, 0.3
-    leg = m3d.CrossSection.square((8.0, 5.0)).translate((0.0, -2.5)) - _stadium(2.5, 5.5, 0.35)
-    base = _slab(leg, thickness).translate((bend + thickness, 0.0, 0.0))
-    wall = _slab(leg, thickness).rotate((0.0, -90.0, 0.0)).translate((thickness, 0.0, bend + thickness))
+    leg = m3d.CrossSection.square((8.0, 5.0)).translate((0.0, -2.5)) - stadium(2.5, 5.5, 0.35)
+    base = slab(leg, thickness).translate((bend + thickness, 0.0, 0.0))
+    wall = slab(leg, thickness).rotate((0.0, -90.0, 0.0)).translate((thickness, 0.0, bend + thickness))
     corner = m3d.Manifold.revolve(m3d.CrossSection.square((thickness, 5.0)).translate((bend, -2.5)), SEGMENTS, 90.0)
     corner = corner.rotate((90.0, 0.0, 0.0)).rotate((0.0, 180.0, 0.0)).translate((bend + thickness, 0.0,
                                                                                    bend + thickness))
-    return _union([base, wall, corner])
+    return union([base, wall, corner])
 
 
 def frying_pan():
     """A pan flaring from radius 9 to 12, wall 0.3, and a flat handle 18 x 2.6 x 0.8 with a hanging hole of radius
     0.7."""
-    m3d = _m3d()
+    m3d = manifold3d()
     pan = m3d.Manifold.revolve(m3d.CrossSection([[(0.0, 0.0), (9.0, 0.0), (12.0, 4.5), (11.7, 4.5), (8.85, 0.4),
                                                   (0.0, 0.4)]]), 2 * SEGMENTS)
-    handle = _stadium(11.1, 28.0, 1.3) - m3d.CrossSection.circle(0.7, SEGMENTS).translate((26.6, 0.0))
-    return _union([pan, _slab(handle, 0.8, 3.1)])
+    handle = stadium(11.1, 28.0, 1.3) - m3d.CrossSection.circle(0.7, SEGMENTS).translate((26.6, 0.0))
+    return union([pan, slab(handle, 0.8, 3.1)])
 
 
 def ring_binder():
     """A plate 25 x 3.2 x 0.2 with three rings (radius 1.5, wire 0.12) standing on it."""
-    rings = [_torus(1.5, 0.12).rotate((0.0, 90.0, 0.0)).translate((x, 0.0, 1.58)) for x in (-10.8, 0.0, 10.8)]
-    return _union([_box((25.0, 3.2, 0.2), (0.0, 0.0, 0.1)), *rings])
+    rings = [torus(1.5, 0.12).rotate((0.0, 90.0, 0.0)).translate((x, 0.0, 1.58)) for x in (-10.8, 0.0, 10.8)]
+    return union([box((25.0, 3.2, 0.2), (0.0, 0.0, 0.1)), *rings])
 
 
 def towel_ring():
     """A wall rosette (a disc of radius 3, 1 thick), a post 4.5 long with a knuckle, and a ring of radius 8 (tube
     0.45) hanging from it."""
-    return _union([_cylinder(1.0, 3.0, (0.0, 0.0, 0.0), (90.0, 0.0, 0.0)), _rod((0.0, 0.0, 0.0), (0.0, 4.5, 0.0), 0.6),
-                   _sphere(0.9, (0.0, 4.5, 0.0)),
-                   _torus(8.0, 0.45).rotate((90.0, 0.0, 0.0)).translate((0.0, 4.5, -8.0))])
+    return union([cylinder(1.0, 3.0, (0.0, 0.0, 0.0), (90.0, 0.0, 0.0)), rod((0.0, 0.0, 0.0), (0.0, 4.5, 0.0), 0.6),
+                   sphere(0.9, (0.0, 4.5, 0.0)),
+                   torus(8.0, 0.45).rotate((90.0, 0.0, 0.0)).translate((0.0, 4.5, -8.0))])
 
 
 def pliers():
     """Pliers 20 long: two bars crossing at a rivet, open jaws and handles with grip sleeves."""
-    parts = [_cylinder(1.3, 1.0)]
+    parts = [cylinder(1.3, 1.0)]
     for side in (-1.0, 1.0):
         z = 0.2 * side
-        parts += [_tube([(-6.0, 0.6 * side, z), (-3.0, 0.35 * side, z), (0.0, 0.0, z)], [0.35, 0.45, 0.5]),
-                  _tube([(0.0, 0.0, z), (4.0, -0.9 * side, z), (6.0, -1.3 * side, z)], 0.4),
-                  _tube([(6.0, -1.3 * side, z), (14.0, -2.5 * side, z)], 0.7)]
-    return _union(parts)
+        parts += [tube_along([(-6.0, 0.6 * side, z), (-3.0, 0.35 * side, z), (0.0, 0.0, z)], [0.35, 0.45, 0.5]),
+                  tube_along([(0.0, 0.0, z), (4.0, -0.9 * side, z), (6.0, -1.3 * side, z)], 0.4),
+                  tube_along([(6.0, -1.3 * side, z), (14.0, -2.5 * side, z)], 0.7)]
+    return union(parts)
 
 
 # name -> (builder, ends where the shape fixes them, description with its genus), as skelcore.parts.PARTS
