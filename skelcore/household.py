@@ -3,7 +3,9 @@ manifold3d solids from a third probe of objects the benchmark did not hold (2026
 its description. Bulky bodies with a handle (a kettlebell, a watering can), thin-walled vessels with loop handles
 (a cooking pot, a frying pan with a hanging hole), flat plates with holes or slots (a bottle opener, a belt
 buckle, a picture frame, a trivet, a bent sheet-metal bracket), thin rings on a plate or a post (a ring binder, a
-towel ring) and a pair of pliers. Units: centimetres.
+towel ring) and a pair of pliers. Eight more from a fourth probe (2026-12-07): hardware loops (a padlock, a
+carabiner), a coil spring, a frame of bars (a cube's twelve edges), a stool with a footrest ring, headphones, and
+parallel prongs a few point spacings apart (a table fork, a comb), which noise bridges. Units: centimetres.
 """
 from __future__ import annotations
 
@@ -125,6 +127,91 @@ def pliers():
     return union(parts)
 
 
+def padlock():
+    """A body 5 x 2 x 4.2 (rounded in plan) and a shackle of rod 0.4, an inverted U 2.6 wide inside, its top 3 above
+    the body and both legs sunk 1.2 into it."""
+    leg, top = 1.7, 7.2
+    shackle = np.r_[[[-leg, 0.0, 3.0]], arc_points((0.0, 0.0, top - leg), leg, 180.0, 0.0, "xz", 25), [[leg, 0.0, 3.0]]]
+    return union([slab(rounded_rectangle(5.0, 2.0, 0.4), 4.2), tube_along(shackle, 0.4)])
+
+
+def carabiner():
+    """A loop of rod 0.5, 10 x 6, in the xy plane: a straight spine, round ends, and a gate of rod 0.4 between a
+    hinge knob (0.55) and a nose knob (0.6)."""
+    return union([tube_along(arc_points((2.0, 0.0, 0.0), 3.0, -90.0, 90.0, "xy", 25), 0.5),
+                  tube_along(arc_points((-2.0, 0.0, 0.0), 3.0, 90.0, 270.0, "xy", 25), 0.5),
+                  tube_along([(-2.0, -3.0, 0.0), (2.0, -3.0, 0.0)], 0.5),
+                  tube_along([(-2.0, 3.0, 0.0), (-1.6, 3.0, 0.0)], 0.5),
+                  tube_along([(-1.6, 3.05, 0.0), (1.6, 3.05, 0.0)], 0.4),
+                  sphere(0.55, (-1.6, 3.0, 0.0)), sphere(0.6, (1.7, 3.0, 0.0))])
+
+
+def coil_spring():
+    """Six turns of wire 0.15 on a coil of radius 1.2, pitch 1.2 (0.9 between turns), open ends."""
+    turn = np.linspace(0.0, 12 * np.pi, 6 * 36 + 1)
+    return tube_along(np.c_[1.2 * np.cos(turn), 1.2 * np.sin(turn), 1.2 * turn / (2 * np.pi)], 0.15)
+
+
+
+def table_fork():
+    """A fork 19 long, 0.25 thick: a handle tapering 1.6 -> 0.6 wide, a head 2.5 wide bent up 10 degrees, four
+    tines 0.36 wide and 3.8 long, 0.35 apart."""
+    section = manifold3d().CrossSection
+    handle = section.batch_hull([section.circle(0.8, 48).translate((-10.2, 0.0)),
+                                 section.circle(0.3, 48).translate((0.0, 0.0))])
+    head = section([[(-0.2, -0.3), (0.8, -1.25), (3.0, -1.25), (3.0, 1.25), (0.8, 1.25), (-0.2, 0.3)]])
+    tines = [section.square((3.8, 0.36)).translate((3.0, -1.25 + k * 0.713)) for k in range(4)]
+    front = slab(section.batch_boolean([head, *tines], manifold3d().OpType.Add), 0.25).rotate((0.0, -10.0, 0.0))
+    return union([slab(handle, 0.25), front])
+
+
+def comb():
+    """A pocket comb: a spine 15 x 1, 0.3 thick, and 24 teeth 0.25 wide, 2.2 long and 0.25 thick, 0.39 apart."""
+    section = manifold3d().CrossSection
+    teeth = [section.square((0.25, 2.3)).translate((-7.47 + k * 14.69 / 23, -2.2)) for k in range(24)]
+    return union([slab(section.square((15.0, 1.0)).translate((-7.5, 0.0)), 0.3),
+                  slab(section.batch_boolean(teeth, manifold3d().OpType.Add), 0.25, 0.025)])
+
+
+def cube_frame():
+    """The twelve edges of a cube 10 across as square bars 0.8 thick."""
+    bars = []
+    for axis in range(3):
+        across = [other for other in range(3) if other != axis]
+        for first in (-5.0, 5.0):
+            for second in (-5.0, 5.0):
+                size, centre = [0.8, 0.8, 0.8], [0.0, 0.0, 0.0]
+                size[axis], centre[across[0]], centre[across[1]] = 10.8, first, second
+                bars.append(box(tuple(size), tuple(centre)))
+    return union(bars)
+
+
+def footrest_stool():
+    """A bar stool 48 high: a seat of radius 16, 3 thick, on four legs (rod 1.2) splayed from radius 11 under it to
+    15 at the floor, and a footrest ring (tube 0.9) through the legs 16 up."""
+    corners = np.pi / 4 + np.pi / 2 * np.arange(4)
+    directions = np.c_[np.cos(corners), np.sin(corners), np.zeros(4)]
+    legs = [rod(15.0 * d, 11.0 * d + (0.0, 0.0, 45.5), 1.2) for d in directions]
+    return union([cylinder(3.0, 16.0, (0.0, 0.0, 46.5)), *legs,
+                  torus(15.0 - 4.0 * 16.0 / 45.0, 0.9).translate((0.0, 0.0, 16.0))])
+
+
+def headphones():
+    """A headband 3 wide, 0.6 thick, on an arc of radius 9 over the top with a pad under it, and on a single post
+    (rod 0.5) at each end an ear cup (a disc of radius 4.5, 3 thick, a cushion ring on its inner face)."""
+    m3d = manifold3d()
+    band = m3d.Manifold.revolve(m3d.CrossSection.square((0.6, 3.0)).translate((9.0, -1.5)), 96, 200.0)
+    pad = m3d.Manifold.revolve(m3d.CrossSection.square((0.9, 2.4)).translate((8.2, -1.2)), 64, 80.0)
+    parts = [band.rotate((0.0, 0.0, -10.0)).rotate((90.0, 0.0, 0.0)),
+             pad.rotate((0.0, 0.0, 50.0)).rotate((90.0, 0.0, 0.0))]
+    end_x, end_z = 9.3 * np.cos(np.radians(-10.0)), 9.3 * np.sin(np.radians(-10.0))
+    for side in (-1.0, 1.0):
+        parts += [rod((side * end_x, 0.0, end_z + 0.5), (side * end_x, 0.0, -4.0), 0.5),
+                  cylinder(3.0, 4.5, (side * 8.4, 0.0, -8.0), (0.0, 90.0, 0.0)),
+                  torus(3.5, 1.0).rotate((0.0, 90.0, 0.0)).translate((side * 6.2, 0.0, -8.0))]
+    return union(parts)
+
+
 # name -> (builder, ends where the shape fixes them, description with its genus), as skelcore.parts.PARTS
 HOUSEHOLD = {
     "kettlebell": (kettlebell, None, "ball with a thick bar handle (genus 1)"),
@@ -140,4 +227,12 @@ HOUSEHOLD = {
     "ring_binder": (ring_binder, None, "plate with three thin rings standing on it (genus 3)"),
     "towel_ring": (towel_ring, 1, "ring hanging from a post on a wall rosette (genus 1)"),
     "pliers": (pliers, 4, "two crossing bars at a rivet"),
+    "padlock": (padlock, None, "body with a shackle (genus 1)"),
+    "carabiner": (carabiner, None, "loop of rod with a gate between two knobs (genus 1)"),
+    "coil_spring": (coil_spring, 2, "six turns of thin wire"),
+    "table_fork": (table_fork, 5, "flat fork, its four tines 0.35 apart"),
+    "comb": (comb, 24, "spine with 24 teeth 0.39 apart"),
+    "cube_frame": (cube_frame, 0, "the twelve edges of a cube as bars (genus 5)"),
+    "footrest_stool": (footrest_stool, None, "seat on four splayed legs joined by a footrest ring (genus 4)"),
+    "headphones": (headphones, None, "headband with an ear cup on a post at each end"),
 }

@@ -8,7 +8,8 @@ SEGMENTS = 64  # facets around every circle of a solid: sampling sees no facets
 
 
 def manifold3d():
-    import manifold3d as module  # on first use: a run that builds no solid never loads it
+    """The manifold3d module, imported when a solid is first built."""
+    import manifold3d as module
 
     return module
 
@@ -20,10 +21,12 @@ def cylinder(height: float, radius: float, centre=(0.0, 0.0, 0.0), turn=(0.0, 0.
 
 
 def box(size, centre=(0.0, 0.0, 0.0)):
+    """A box of edge lengths `size`, centred at `centre`."""
     return manifold3d().Manifold.cube(size, True).translate(centre)
 
 
 def sphere(radius: float, centre=(0.0, 0.0, 0.0)):
+    """A ball of `radius` about `centre`."""
     return manifold3d().Manifold.sphere(radius, SEGMENTS).translate(tuple(centre))
 
 
@@ -60,6 +63,7 @@ def rod(start, end, radius: float, end_radius: float | None = None):
 
 
 def union(solids):
+    """The union of `solids`, in one boolean operation."""
     manifold = manifold3d()
     return manifold.Manifold.batch_boolean(list(solids), manifold.OpType.Add)
 
@@ -89,6 +93,7 @@ def stadium(x0: float, x1: float, r0: float, r1: float | None = None):
 
 
 def rounded_rectangle(width: float, height: float, corner: float):
+    """A 2-D rectangle `width` x `height`, centred, its corners rounded to radius `corner`."""
     section = manifold3d().CrossSection
     corners = [(sx * (width / 2 - corner), sy * (height / 2 - corner)) for sx in (-1, 1) for sy in (-1, 1)]
     return section.batch_hull([section.circle(corner, 32).translate(centre) for centre in corners])
