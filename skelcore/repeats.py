@@ -1,8 +1,17 @@
 """Repeated points: a cloud keeps each point once, and a mesh its vertices once (an STL file repeats each vertex
-for every face it has), found by sorting a hash of each point's bytes."""
+for every face it has), found by sorting a hash of each point's bytes. A mesh whose faces close no solid that way
+is welded: some exporters write one vertex a rounding apart in each face that has it."""
 from __future__ import annotations
 
 import numpy as np
+
+from .mesh_topology import solid_loops
+
+# Vertices closer than this share of the mesh's median edge are one vertex written twice: float32 text keeps six
+# or seven digits, a rounding of 5e-7 of a coordinate, which is 5e-4 of an edge only on a mesh a thousand edges
+# from the origin; no face of a sound mesh has an edge that short.
+WELD_SHARE = 1e-3
+EDGE_SAMPLE = 30_000  # faces the median edge is read from (of a 1M-vertex mesh's 2M: a second saved)
 
 
 def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.ndarray | None,
@@ -19,9 +28,43 @@ def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.nda
         labels, rows = (None if values is None else values[first] for values in (labels, rows))
         faces = None if faces is None else row[faces]
     if faces is not None:
-        faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+        faces = _with_three_corners(faces)
         faces = faces if len(faces) else None
     return points, faces, labels, rows
+
+
+def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, rows: np.ndarray | None,
+           notes: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """A mesh whose faces close no solid with its vertices closer than WELD_SHARE of its median edge merged (each
+    group into its first vertex; said in `notes`), when that closes one; else the mesh as it came."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    some = faces[::max(1, len(faces) // EDGE_SAMPLE)]
+    edge = float(np.median(np.linalg.norm(points[some] - points[np.roll(some, 1, axis=1)], axis=2)))
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built for one query: the quick build
+    pairs = tree.query_pairs(WELD_SHARE * edge, output_type="ndarray") if edge > 0 else ()
+    if not len(pairs):
+        return points, faces, labels, rows
+    ones = np.ones(len(pairs), dtype=np.int8)
+    _, group = connected_components(coo_matrix((ones, pairs.T), shape=(len(points),) * 2), directed=False)
+    first = np.full(group.max() + 1, len(points))
+    np.minimum.at(first, group, np.arange(len(points)))
+    kept = np.sort(first)
+    rank = np.empty(len(points), dtype=np.int64)
+    rank[kept] = np.arange(len(kept))
+    merged = _with_three_corners(rank[first[group]][faces])
+    if solid_loops(merged, len(kept))[0] is None:
+        return points, faces, labels, rows
+    notes.append(f"merged {len(points) - len(kept)} mesh vertices within {WELD_SHARE * edge:.3g} of another (the "
+                 f"file writes them apart by rounding), so the faces close a solid")
+    return points[kept], merged, *(None if values is None else values[kept] for values in (labels, rows))
+
+
+def _with_three_corners(faces: np.ndarray) -> np.ndarray:
+    """The faces whose three corners are three vertices."""
+    return faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
 
 
 def first_occurrences(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

@@ -132,6 +132,23 @@ def test_ply_pcd_and_meshes(tmp_path):
         io.load(tmp_path / "m.obj", max_points=0)
 
 
+def test_a_mesh_whose_corners_differ_by_rounding_is_welded_when_that_closes_a_solid():
+    """Some exporters write a vertex a rounding apart in each face that has it: no face shares a corner, so the
+    faces closed no solid and no genus was read. Welded, the block reads its two holes; a mesh that welding leaves
+    open is kept as it came."""
+    from skelcore.solids import solid_mesh
+
+    vertices, faces = solid_mesh("block_2_holes")
+    soup = vertices[faces].reshape(-1, 3) + np.random.default_rng(0).normal(scale=1e-7, size=(3 * len(faces), 3))
+    welded = io.validate(soup, np.arange(len(soup)).reshape(-1, 3), name="soup")
+    assert welded.solid_loops == 2
+    assert welded.notes[0].startswith(f"merged {len(soup) - len(vertices)} mesh vertices within")
+    opened = io.validate(soup[:-3], np.arange(len(soup) - 3).reshape(-1, 3), name="soup with a hole")
+    assert opened.solid_loops is None
+    assert not any(note.startswith("merged") for note in opened.notes)
+    assert any(note.startswith("the mesh's faces close no solid (it has") for note in opened.notes)
+
+
 def test_a_mesh_whose_vertices_leave_its_surface_uncovered_is_sampled_over_it(tmp_path):
     """A CAD model's flat faces have no vertices inside them: its surface is drawn from evenly instead, said in a
     note; a remeshed model's vertices, a labelled mesh's and a cloud with a few faces are kept."""
