@@ -31,7 +31,7 @@ fans' triangles left (a gap of the sampling along one strand, or a stray point) 
 that join them (a minimum spanning forest of the pieces). A jump is dropped only where the surface joins its
 ends some other way, where it could only close a false loop.
 
-GLSkeleton's merged rings (skelcore.glskeleton.merge_rings) are not tested again: a merged ring is the union
+GLSkeleton's merged rings (skelcore.ring_merge.merge_rings) are not tested again: a merged ring is the union
 of two rings already without jumps, so its new edges are backed by two ring edges through the absorbed
 point, and its points stand for several input points each, so the input's spacing no longer measures them.
 """

@@ -9,7 +9,7 @@ from skelcore import glskeleton
 from skelcore.contraction import contract, run_contraction
 from skelcore.errors import ParameterError
 from skelcore.evaluate import evaluate, make_graph
-from skelcore.glskeleton import greedy_matching
+from skelcore.ring_merge import greedy_matching
 from skelcore.neighbours import delaunay_fans
 from skelcore.params import ContractionParams
 from skelcore.io import Cloud
