@@ -28,7 +28,7 @@ from .delivery import Delivery
 from .labels import LabelPanel
 from .loading import Loader
 from .messages import Messages, without_paths
-from .panel import ParameterPanel, Part
+from .panel import ParameterPanel
 from .playback import Playback
 from .presenter import Presenter
 from .progress import Activity
@@ -65,14 +65,15 @@ class Inspector:
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
         self.panel = ParameterPanel(self.ui.params, session, self.messages.notify, {
             "parameters": lambda params, client: self.worker.submit(lambda: self._tune(params), client),
-            "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)})
+            "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)},
+            self.messages.withdraw)
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
-        self.panel.add_part("interval", Part(self.playback.interval_shown, self.playback.set_interval,
-                                             self.playback.show_interval))
+        self.panel.add_part("interval", self.playback.interval_part())
         quiet = lambda message, client: self._report_error(message, client, pause=False)  # noqa: E731
         self.presenter = Presenter(session, self.ui, self.activity, self.worker, quiet, server, self.playback)
+        restart = lambda button: self._on(button, lambda e: self._on_restart(e.client), pause=True)  # noqa: E731
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.panel, self.worker.submit,
-                                                         self.presenter.labels_changed, order=self.ui.labels_order)
+                                                         self.presenter.labels_changed, self.ui.tabs, restart)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
                                  self.presenter.draw_frame, self.presenter.picture_note)
         self.loader = Loader(session, self.ui.files, self.worker, self.playback, self.activity, self.messages,

@@ -1,6 +1,8 @@
-"""The Labels panel: a labelled cloud's per-label contraction weights, and its colours by label.
+"""The Labels tab: a labelled cloud's per-label contraction weights, and its colours by label.
 
-Shown only for a cloud with labels (a PLY label property, or labels given to skelcore.inspect). A weight
+A tab beside the others, so that its boxes, like theirs, sit under the run controls in a 1280x720 window (a folder
+below the tabs put them under the window's edge, and typing into one scrolled Step and Play away). Shown only for
+a cloud with labels (a PLY label property, or labels given to skelcore.inspect). A weight
 changed here applies on the next Restart (it changes the system being solved, not one step). The weights are text
 boxes taken as the parameters' are (app.panel): once the person stops typing, a refused one said and put back.
 """
@@ -13,33 +15,37 @@ import viser
 
 from .panel import ParameterPanel, Part
 from .session import Session
-from .words import number_text, typed_weight
+from .words import number_text, typed_weight, weight_name
 
 # Distinct hues for categories, none of the scene's own (red contracted points, blue ends, orange junctions,
 # purple removed points): ColorBrewer's Dark2/Set1 picks; the label's rank picks one, cycling
 PALETTE = np.array([[77, 175, 74], [231, 41, 138], [166, 118, 29], [27, 158, 119], [230, 171, 2], [102, 102, 102],
                     [166, 206, 227], [102, 166, 30], [251, 154, 153], [0, 90, 50]], dtype=np.uint8)
-MAX_WEIGHT_INPUTS = 12  # weight inputs for the labels with the most points; the others keep their weight
+MAX_WEIGHT_INPUTS = 5  # weight inputs for the labels with the most points (as many as fit a 1280x720 window
+# under the longest status); the others keep their weights (the Legend lists every label's)
 
 
 class LabelPanel:
-    """The "Labels" GUI folder (placed at `order`), rebuilt for each cloud by `refresh`; the weights typed, once
-    `panel` takes them, go to session.set_label_weights on the engine worker (`submit`), then `on_change` runs."""
+    """The "Labels" tab of `tabs`, rebuilt for each cloud by `refresh`; the weights typed, once `panel` takes them,
+    go to session.set_label_weights on the engine worker (`submit`), then `on_change` runs."""
 
-    def __init__(self, gui: viser.GuiApi, session: Session, panel: ParameterPanel, submit, on_change, order: float):
-        self.gui, self.session, self.panel, self.order = gui, session, panel, order
-        self.submit, self.on_change = submit, on_change
-        self.folder = None
+    def __init__(self, gui: viser.GuiApi, session: Session, panel: ParameterPanel, submit, on_change,
+                 tabs: viser.GuiTabGroupHandle, wire_restart):
+        """wire_restart(button): make `button` restart the run with the panel's parameters and weights."""
+        self.gui, self.session, self.panel, self.tabs = gui, session, panel, tabs
+        self.submit, self.on_change, self.wire_restart = submit, on_change, wire_restart
+        self.tab = None
         self.inputs: dict[int, viser.GuiTextHandle] = {}
         self.values = np.zeros(0, dtype=np.int64)  # the cloud's distinct labels, ascending
         self.accepted: dict[int, float] = dict(session.label_weights)  # the weights last taken
-        panel.add_part("labels", Part(self._shown, self._take, self._put_back))
+        panel.add_part("labels", Part(self._shown, self._take, self._put_back,
+                                      lambda: {weight_name(label): box for label, box in self.inputs.items()}))
 
     def refresh(self) -> None:
         """Rebuild for the session's cloud (after a load or a restart)."""
-        if self.folder is not None:
-            self.folder.remove()
-            self.folder, self.inputs = None, {}
+        if self.tab is not None:
+            self.tab.remove()
+            self.tab, self.inputs = None, {}
         labels = self.session.cloud.labels
         self.values, counts = (np.unique(labels, return_counts=True) if labels is not None
                                else (np.zeros(0, dtype=np.int64), np.zeros(0)))
@@ -48,15 +54,16 @@ class LabelPanel:
             return
         shown = sorted(self.values[np.argsort(-counts, kind="stable")[:MAX_WEIGHT_INPUTS]].tolist())
         count_of = dict(zip(self.values.tolist(), counts.tolist()))
-        with self.gui.add_folder("Labels", order=self.order) as self.folder:
-            listed = "" if len(shown) == len(self.values) else f" (the {len(shown)} largest listed)"
-            self.gui.add_markdown(f"{len(self.values)} labels{listed}. Contraction weight per label (a multiplier "
-                                  "of W_L on its points' rows); applies on Restart.")
+        with self.tabs.add_tab("Labels") as self.tab:
             for label in shown:  # text boxes: viser's number box sends 13 for a typed 1e3
                 handle = self.gui.add_text(f"Label {label} ({count_of[label]:,} pts)",
                                            initial_value=number_text(self.accepted.get(label, 1.0)))
                 handle.on_update(self._on_typed)
                 self.inputs[label] = handle
+            unlisted = (f"; the {len(self.values) - len(shown)} labels with the fewest points keep their weights"
+                        if len(shown) < len(self.values) else "")
+            self.wire_restart(self.gui.add_button(
+                "Restart with these weights", hint=f"a label's weight multiplies W_L on its points' rows{unlisted}"))
 
     def colours(self, point_ids: np.ndarray) -> np.ndarray | None:
         """(m,3) colours of the labels of the input points `point_ids` (None: the cloud has no labels)."""

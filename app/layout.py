@@ -1,9 +1,9 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
 - the control panel (docked right): the run controls and status on top, then tabs Parameters | More | View | Files |
-  Log (Parameters: the weights and Restart; More: the less-used parameters; View and Files: tabs of their own),
-  below them the parameter changes waiting for a step or a restart, the notes on the run (folded) and the Labels
-  folder of clouds with labels (app.labels). viser's panel is one scroll area: a box below the window's edge is
+  Log, and Labels for a cloud with labels (Parameters: the weights and Restart; More: the less-used parameters;
+  View and Files: tabs of their own; Labels: app.labels), below them the parameter changes waiting for a step or a
+  restart and the notes on the run (folded). viser's panel is one scroll area: a box below the window's edge is
   reached by scrolling the run controls off its top, and a box being typed into is scrolled back into view when the
   text above it grows. So each tab, and each tab within one, fits a 1280x720 window under the run controls and
   the status at its longest (tabs, not folders: an open folder adds its height; the status keeps to a few lines,
@@ -161,7 +161,7 @@ class Layout:
     log: viser.GuiMarkdownHandle
     pending: viser.GuiMarkdownHandle  # the parameter changes waiting for a step or a restart, below the tabs
     notes_order: float  # where each browser's notes on the run go: below the pending changes
-    labels_order: float  # where app.labels puts its "Labels" folder: below the notes
+    tabs: viser.GuiTabGroupHandle  # app.labels adds its "Labels" tab for a cloud with labels
 
 
 def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *, play_interval: float,
@@ -180,8 +180,7 @@ def build(gui: viser.GuiApi, params: ContractionParams, sample_radius: float, *,
     with tabs.add_tab("Log"):
         gui.add_markdown("Shortcuts: " + ", ".join(f"**{key}** {what}" for key, what in SHORTCUTS.items()))
         log = gui.add_markdown("")
-    return Layout(run, parameters, view, files, log, pending, notes_order=tabs.order + 0.4,
-                  labels_order=tabs.order + 0.6)
+    return Layout(run, parameters, view, files, log, pending, notes_order=tabs.order + 0.4, tabs=tabs)
 
 
 def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
@@ -189,8 +188,8 @@ def build_run_controls(gui: viser.GuiApi, play_interval: float) -> RunControls:
     step = gui.add_button("Step", hint="one iteration (key N)")
     play = gui.add_button(PLAY, hint="iterate until the run ends or Pause; once it has ended, replay it (key P)")
     # right under the Play it paces, not under Reset and the per-browser widgets that follow it
-    interval = _typed(gui, "play_interval", play_interval,
-                      hint="least time between two iterations during Play, to watch them")
+    # no hint: a box's tooltip stands over the row above it, here Step and Play, while the box has the focus
+    interval = _typed(gui, "play_interval", play_interval)
     end = gui.add_button("Run to end", hint="iterate to the end, drawing only the last state")
     reset = gui.add_button("Reset", hint="back to iteration 0 with the parameters this run started with")
     return RunControls(title, step, play, end, reset, interval, viewer_order=reset.order)

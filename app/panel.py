@@ -20,33 +20,44 @@ from skelcore.options import RunOptions
 from skelcore.params import ContractionParams
 
 from .layout import ParameterWidgets
-from .words import METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, typed_number, typed_whole_number
+from .words import (METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, refused_field, typed_number,
+                    typed_whole_number)
 
 TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
+
+
+REFUSED = "Parameter refused"  # the title of a refusal's notice
 
 
 @dataclass(frozen=True)
 class Part:
     """What the panel does with one part: `shown()` its value as the boxes show it (ParameterError: refused),
-    `take(value, client)` use a value the engine accepted, `put_back()` show the value last taken again."""
+    `take(value, client)` use a value the engine accepted, `put_back()` show the value last taken again;
+    `boxes()` its text boxes by the field a refusal names (a refusal quotes the box's text and the value put back)."""
     shown: Callable[[], object]
     take: Callable[[object, object], None]
     put_back: Callable[[], None]
+    boxes: Callable[[], dict] = dict
 
 
 class ParameterPanel:
     def __init__(self, widgets: ParameterWidgets, session, notify: Callable[[object, str, str], None],
-                 take: dict[str, Callable[[object, object], None]]):
+                 take: dict[str, Callable[[object, object], None]], withdraw: Callable[[str], None]):
         """notify(client, title, body): a notice to one browser; take[part](value, client): use a value of `part`
-        the engine accepted."""
-        self.widgets, self.session, self._notify = widgets, session, notify
+        the engine accepted; withdraw(title): take down every browser's notice of that title."""
+        self.widgets, self.session, self._notify, self._withdraw = widgets, session, notify, withdraw
         self.accepted = session.params  # the contraction parameters last accepted
         self.typing: dict[str, object] = {}  # part -> the client typing into it, until its value is taken
         self._changes: dict[str, int] = {}  # a wait for the person stands while its part has not changed since
         self._lock = threading.Lock()
         self._parts: dict[str, Part] = {}
-        self.add_part("parameters", Part(self._parameters_shown, take["parameters"], lambda: self.show(self.accepted)))
-        self.add_part("radius", Part(self._radius_shown, take["radius"], self._radius_put_back))
+        p = widgets
+        typed = {"wl0": p.wl0, "wh0": p.wh0, "sl": p.sl, "wl_max": p.wl_max, "k": p.k,
+                 "max_iterations": p.max_iterations, "termination": p.termination}
+        self.add_part("parameters", Part(self._parameters_shown, take["parameters"], lambda: self.show(self.accepted),
+                                         lambda: typed))
+        self.add_part("radius", Part(self._radius_shown, take["radius"], self._radius_put_back,
+                                     lambda: {"sample_radius": p.radius}))
 
     def add_part(self, name: str, part: Part) -> None:
         """Boxes of another part (a new part, or one replacing the part of that name), taken as the others are."""
@@ -127,11 +138,18 @@ class ParameterPanel:
             self._parts[part].take(value, client)
 
     def _value(self, part: str, client):
-        """The part's value as shown; None when the engine refuses it, said and put back to the last value taken."""
+        """The part's value as shown; None when the engine refuses it, said and put back to the last value taken.
+        A value taken takes down the notice of an earlier refusal, which no longer holds."""
+        handler = self._parts[part]
         try:
-            return self._parts[part].shown()
+            value = handler.shown()
         except ParameterError as error:
-            message = refused(str(error))
-        self._notify(client, "Parameter refused", f"{message}; put back to the last value taken")
-        self._parts[part].put_back()
-        return None
+            boxes = handler.boxes()
+            message, field = refused(str(error), {name: box.value for name, box in boxes.items()}), refused_field(
+                str(error))
+            handler.put_back()
+            back = repr(str(boxes[field].value)) if field in boxes else "the last value taken"
+            self._notify(client, REFUSED, f"{message}; put back to {back}")
+            return None
+        self._withdraw(REFUSED)
+        return value

@@ -1,7 +1,7 @@
 """Play, Run to end and Pause of the shared run. Whether the run plays is the worker's alone: every start and stop
 calls `changed`, which redraws the Play button and every status from it at once (Presenter.update_statuses), so
 the button and the status never disagree. The Play interval is a text box taken as the parameters are
-(app.panel: `interval_shown`, `set_interval`, `show_interval`)."""
+(`interval_part`, app.panel)."""
 from __future__ import annotations
 
 import time
@@ -10,6 +10,7 @@ from typing import Callable
 from skelcore.errors import ParameterError
 
 from .layout import RunControls
+from .panel import Part
 from .words import number_text, typed_number
 from .worker import Worker
 
@@ -65,6 +66,11 @@ class Playback:
 
     def show_interval(self) -> None:
         self.controls.interval.value = number_text(self.interval)
+
+    def interval_part(self) -> Part:
+        """The Play interval as a part of app.panel's: taken as the parameters are."""
+        return Part(self.interval_shown, self.set_interval, self.show_interval,
+                    lambda: {"play_interval": self.controls.interval})
 
     def pause(self) -> None:
         """Every stop of Play goes through here, the run's own end too."""

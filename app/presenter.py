@@ -311,7 +311,8 @@ class Presenter:
         viewer.ui.status.content = status.status_markdown(
             session, index, run=status.run_state(history, self.activity.text(), playing,
                                                       run.ahead if session.ready_ahead else None,
-                                                      paused=self.playback is not None and self.playback.paused),
+                                                      paused=self.playback is not None and self.playback.paused,
+                                                      weights=run.weights),
             readiness=readiness,
             skeleton=status.skeleton_note(readiness, viewer.view.visible["skeleton"], self.ui.view.provisional.value),
             following=viewer.following)

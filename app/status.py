@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Callable
 
 from skelcore.metrics import JUDGED_POINTS
-from skelcore.step import TERMINATION_MESSAGES
+from skelcore.step import REJECTION_CAUSES, TERMINATION_MESSAGES
 
 from .analysis import Readiness
 from .colours import COLOUR_RANGES, POINT_LAYERS, legend_html
@@ -25,9 +25,10 @@ def ending_words(state) -> str:
     return TERMINATION_MESSAGES.get(state.termination, state.message)
 
 
-def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = False) -> str:
+def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = False, weights=None) -> str:
     """What the shared run is doing, in a few words (ahead: the next state, when it was computed ahead; paused: a
-    person paused it playing, app.playback.Playback.paused: "paused" then, else "ready" between steps)."""
+    person paused it playing, app.playback.Playback.paused: "paused" then, else "ready" between steps; weights: the
+    run's per-point contraction weights, named where a discarded step ends the run, as they can be its cause)."""
     latest = history[-1]
     if playing:  # the Play button says Pause meanwhile (app.playback)
         if latest.termination:  # Play on an ended run replays its iterations
@@ -36,13 +37,22 @@ def run_state(history, doing: str, playing: bool, ahead=None, paused: bool = Fal
     if doing:
         return f"busy: {doing}…"
     if latest.termination:  # at the iteration the status's "of N computed" names
-        return f"ended: {ending_words(latest)}"
+        return f"ended: {ending_words(latest)}{_weights_in_force(latest, weights)}"
     state = "paused" if paused and len(history) > 1 else "ready"
     if ahead is None:
         return state
     if ahead.iteration <= latest.iteration:  # the next step was rejected: Step ends the run
-        return f"{state}; the next step, computed ahead, ends the run"
+        return f"{state}; the next step, computed ahead, ends the run{_weights_in_force(ahead, weights)}"
     return f"{state}; iteration {ahead.iteration} computed ahead"
+
+
+def _weights_in_force(state, weights) -> str:
+    """" (per-point weights 1 to 1e+09 in force)" after a step discarded by a run whose weights are not all 1: a
+    weight far from 1 can make the system fail, and nothing else on the screen would say it is there."""
+    if weights is None or not len(weights) or state.termination not in REJECTION_CAUSES:
+        return ""
+    low, high = float(weights.min()), float(weights.max())
+    return "" if low == high == 1.0 else f" (per-point weights {low:g} to {high:g} in force)"
 
 
 def hold_inside_hint(verdict: dict, state, solid_loops: Callable[[], int | None], mesh: bool = True) -> str:

@@ -19,11 +19,22 @@ METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
 _ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
 _RANGE = re.compile(r"^parameter (\w+)=.*?: must be ")  # ... and says what it must be
+_VALUE = re.compile(r"^parameter (\w+)=(.*?): ")  # ... and the value it read
+_WEIGHT_NAME = re.compile(r"label_weight_(-?\d+)")
 
 
 def label(name: str) -> str:
-    """The panel's label of a ContractionParams or SkeletonParams field (its own name when the panel lacks it)."""
+    """The panel's label of a ContractionParams or SkeletonParams field, of the Play interval or of a label's
+    weight (`weight_name`); its own name when the panel lacks it."""
+    weight = _WEIGHT_NAME.fullmatch(name)
+    if weight:
+        return f"the weight of label {weight.group(1)}"
     return PARAMETER_LABELS.get(name) or SKELETON_LABELS.get(name) or PLAYBACK_LABELS.get(name, name)
+
+
+def weight_name(label_value: int) -> str:
+    """The name a refusal of label `label_value`'s weight gives its box ("label_weight_3")."""
+    return f"label_weight_{label_value}"
 
 
 def value_text(name: str, value) -> str:
@@ -67,11 +78,11 @@ def typed_whole_number(name: str, text) -> int:
 
 
 def typed_weight(label_value: int, text) -> float:
-    """A label's contraction weight typed into its box ("2", "1e-2"); ParameterError in the panel's words
-    otherwise (`refused` leaves it as it is)."""
+    """A label's contraction weight typed into its box ("2", "1e-2"); ParameterError otherwise, naming the box
+    `weight_name(label_value)`, which `refused` words as the panel does."""
     value = _typed(text)
     if not 0 < value <= WEIGHT_MAX:  # NaN and infinity fail too
-        raise ParameterError(f"the weight of label {label_value} = {_as_typed(text)}: must be a positive number up "
+        raise ParameterError(f"parameter {weight_name(label_value)}={_as_typed(text)}: must be a positive number up "
                              f"to {WEIGHT_MAX:g} (like 2 or 1e-2)")
     return value
 
@@ -94,9 +105,23 @@ def box_label(name: str) -> str:
     return f"{label(name)} (0 = auto)" if name in AUTOMATIC else label(name)
 
 
-def refused(message: str) -> str:
-    """A ParameterError's message with the engine's field names replaced by the panel's labels; for a box that
-    takes 0 for automatic, the range says so too (the engine's own range leaves 0 out)."""
+def refused_field(message: str) -> str | None:
+    """The field a ParameterError's message names (the engine's name), if it names one."""
+    named = _VALUE.match(message)
+    return named.group(1) if named else None
+
+
+def refused(message: str, typed: dict[str, str] | None = None) -> str:
+    """A ParameterError's message with the engine's field names replaced by the panel's labels and the value read
+    by the text of its box as typed (`typed`: field -> box text; "W_H0 = '1e3'", not the 1000.0 it read as); for a
+    box that takes 0 for automatic, the range says so too (the engine's own range leaves 0 out). A comma in the
+    text is taken for a decimal comma, which the boxes do not read: said."""
+    named = _VALUE.match(message)
+    if named and typed and named.group(1) in typed:
+        text = typed[named.group(1)]
+        message = message[:named.start(2)] + _as_typed(text) + message[named.end(2):]
+        if "," in str(text):
+            message += " (a point marks decimals: 0.5, not 0,5)"
     automatic = _RANGE.match(message)
     if automatic and automatic.group(1) in AUTOMATIC:
         message = message[:automatic.end()] + "0 (auto) or " + message[automatic.end():]

@@ -11,7 +11,7 @@ import skelcore
 from skelcore.shapes import make_shape
 
 from browser_support import (browser_missing, button, launch, number_input, open_tab, open_viewer, save_page,
-                             set_value, wait_until)
+                             set_value, shown_in_panel, wait_until)
 
 browser_needed = pytest.mark.skipif(browser_missing() is not None, reason=str(browser_missing()))
 
@@ -51,17 +51,19 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             browser = launch(playwright)
             page = open_viewer(browser, handle.inspector, handle.url)
             page.get_by_text("Labels", exact=True).first.wait_for()
+            open_tab(page, "Labels")
             weight = number_input(page, "Label 1 (")
             assert weight.input_value() == "2"
             set_value(page, "Label 1 (", "1e-2")  # a number box sent 1-2 of it
             wait_until(lambda: handle.session.label_weights == {1: 0.01}, "an exponent read as a number")
             set_value(page, "Label 1 (", "0")
             page.get_by_text("the weight of label 1 = '0': must be a positive number").first.wait_for()
+            page.get_by_text("put back to '0.01'").first.wait_for()
             wait_until(lambda: weight.input_value() == "0.01", "the refused weight put back")
             assert handle.session.label_weights == {1: 0.01}
             set_value(page, "Label 1 (", "6")
             wait_until(lambda: handle.session.label_weights == {1: 6.0}, "the label weight taken")
-            button(page, "Restart with these parameters").click()
+            button(page, "Restart with these weights").click()  # in the Labels tab, beside the weights
             wait_until(lambda: handle.session.run.weights is not None and handle.session.run.weights.max() == 6.0,
                        "the restart with the new weight")
             open_tab(page, "View", "Colour")
@@ -72,6 +74,11 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
             colours = np.asarray(page.viewer.view.drawn_colours("contracted"))
             assert len(np.unique(colours.reshape(-1, 3), axis=0)) == 2
             save_page(page, "inspect_labels.png")
+            small = open_viewer(browser, handle.inspector, handle.url, {"width": 1280, "height": 720})
+            open_tab(small, "Labels")  # its boxes under the run controls, as every tab's: typing scrolls nothing away
+            for widget in (button(small, "Step"), button(small, "Play"), number_input(small, "Label 1 ("),
+                           button(small, "Restart with these weights")):
+                assert shown_in_panel(small, widget)
             browser.close()
     finally:
         handle.stop()

@@ -927,11 +927,13 @@ def test_pending_change_and_old_view_are_told(fresh, page):
 def test_a_refused_value_is_said_in_the_panels_words_and_put_back(fresh, page):
     inspector = fresh
     set_value(page, "W_H0", 0)  # W_H0 must be > 0
-    page.get_by_text("W_H0 = 0.0: must be").first.wait_for()
+    page.get_by_text("W_H0 = '0': must be").first.wait_for()  # as typed, and what is back:
+    page.get_by_text("put back to '1'").first.wait_for()
     wait_until(lambda: number_input(page, "W_H0").input_value() == "1", "W_H0 put back to 1")
     set_value(page, "s_L", 1.5)  # a valid change right after is taken, not blocked by the refused one
     wait_until(lambda: inspector.session.params.sl == 1.5, "s_L = 1.5 in the session")
     page.get_by_text("s_L 1.5 from iteration").first.wait_for()
+    wait_until(lambda: page.get_by_text("W_H0 = '0': must be").count() == 0, "the refusal taken down: it is past")
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
 

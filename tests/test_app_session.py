@@ -789,6 +789,13 @@ def test_the_status_says_what_was_computed_ahead():
     assert "iteration 2 computed ahead" in run_state(history, "", False, types.SimpleNamespace(iteration=2))
     assert "ends the run" in run_state(history, "", False, types.SimpleNamespace(iteration=1))
     assert run_state(history, "computing iteration 2", False, None) == "busy: computing iteration 2…"
+    failing = types.SimpleNamespace(iteration=1, termination="solver_failure", message="")
+    weights = np.array([1.0, 4.0, 1e9])
+    assert run_state(history, "", False, failing, weights=weights) == (
+        "ready; the next step, computed ahead, ends the run (per-point weights 1 to 1e+09 in force)")
+    assert run_state([*history[:1], failing], "", False, weights=weights) == (
+        "ended: the next step was discarded, as the sparse solver failed (per-point weights 1 to 1e+09 in force)")
+    assert run_state([*history[:1], failing], "", False, weights=np.ones(3)).endswith("solver failed")
 
 
 def test_the_status_counts_the_points_held_on_thin_handles():

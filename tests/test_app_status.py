@@ -182,7 +182,7 @@ def _panel(monkeypatch):
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
                            lambda client, title, body: notices.append(body),
                            {part: lambda value, client, part=part: taken.append((part, value))
-                            for part in ("parameters", "radius")})
+                            for part in ("parameters", "radius")}, lambda title: None)
     return panel, boxes, pauses, notices, taken
 
 
@@ -211,28 +211,35 @@ def test_a_value_being_typed_is_taken_once_the_person_stops_or_clicks(monkeypatc
 
 def test_the_play_interval_is_typed_as_the_parameters_are(monkeypatch):
     """It was a slider, whose box sends a typed 2e-1 as -21 (viser drops the "e"), which the slider then set to 0
-    without a word: a text box now, taken once the person stops typing, a refusal said and put back."""
+    without a word: a text box now, taken once the person stops typing, a refusal said (quoting what was typed and
+    the value put back) and put back; a value taken later takes the refusal's notice down."""
     from app import playback
-    from app.panel import Part
 
     panel, _, pauses, notices, _ = _panel(monkeypatch)
+    panel._withdraw = lambda title: notices.append(f"withdrawn {title}")
     controls = types.SimpleNamespace(interval=types.SimpleNamespace(value="0.25"))
     play = playback.Playback(types.SimpleNamespace(playing=False), controls, changed=lambda: None)
-    panel.add_part("interval", Part(play.interval_shown, play.set_interval, play.show_interval))
+    panel.add_part("interval", play.interval_part())
     assert play.interval == 0.25
     controls.interval.value = "2e-1"
     panel.changed("interval", None, typing=True)
     pauses[-1]()
-    assert play.interval == 0.2 and notices == []
-    for typed in ("30", "-1", "soon"):
+    assert play.interval == 0.2 and notices == ["withdrawn Parameter refused"]
+    for typed in ("30", "-1", "soon", "0,5"):
         controls.interval.value = typed
         panel.changed("interval", None, typing=True)
         pauses[-1]()
         assert play.interval == 0.2 and controls.interval.value == "0.2"
-    assert notices == ["Play interval (s) = 30.0: must be from 0 to 10 seconds; put back to the last value taken",
-                       "Play interval (s) = -1.0: must be from 0 to 10 seconds; put back to the last value taken",
-                       "Play interval (s) = 'soon': must be a finite number (like 0.5 or 1e-3); put back to the last "
-                       "value taken"]
+    assert notices[1:] == [
+        "Play interval (s) = '30': must be from 0 to 10 seconds; put back to '0.2'",
+        "Play interval (s) = '-1': must be from 0 to 10 seconds; put back to '0.2'",
+        "Play interval (s) = 'soon': must be a finite number (like 0.5 or 1e-3); put back to '0.2'",
+        "Play interval (s) = '0,5': must be a finite number (like 0.5 or 1e-3) (a point marks decimals: 0.5, not "
+        "0,5); put back to '0.2'"]
+    controls.interval.value = "1"
+    panel.changed("interval", None, typing=True)
+    pauses[-1]()  # a value taken: the last refusal no longer holds
+    assert play.interval == 1.0 and notices[-1] == "withdrawn Parameter refused"
 
 
 def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_on_drops_it(monkeypatch):
@@ -252,11 +259,12 @@ def test_a_refused_value_waits_for_the_person_to_stop_typing_and_a_value_typed_o
     pauses[2]()
     assert [(part, value.termination) for part, value in taken] == [("parameters", 0.02)]
     pauses[1]()  # the radius was left at 0
-    assert notices == ["Sample radius = 0.0: must be a positive finite number; put back to the last value taken"]
+    assert notices == ["Sample radius = '0': must be a positive finite number; put back to '0.02'"]
     assert boxes.radius.value == "0.02" and not panel.typing and len(taken) == 1
     boxes.wh0.value = "0"
     assert panel.parameters(None) is None  # Restart: said at once
-    assert notices[-1].startswith("W_H0 = 0.0: must be") and boxes.wh0.value == "1" and len(pauses) == 3
+    assert notices[-1].startswith("W_H0 = '0': must be") and notices[-1].endswith("put back to '1'")
+    assert boxes.wh0.value == "1" and len(pauses) == 3
 
 
 def test_the_real_parameters_are_read_as_typed_with_an_exponent_and_words_are_refused(monkeypatch):
@@ -269,7 +277,7 @@ def test_the_real_parameters_are_read_as_typed_with_an_exponent_and_words_are_re
     assert (params.termination, params.wl_max, params.sl) == (0.001, 2000.0, 2.5) and notices == []
     boxes.wh0.value = "abc"
     assert panel.parameters(None) is None
-    assert notices == ["W_H0 = 'abc': must be a finite number (like 0.5 or 1e-3); put back to the last value taken"]
+    assert notices[-1] == "W_H0 = 'abc': must be a finite number (like 0.5 or 1e-3); put back to '1'"
     for typed, shown in (("", "(empty)"), ("1e400", "'1e400'")):
         boxes.sl.value = typed
         assert panel.parameters(None) is None and notices[-1].startswith(f"s_L = {shown}: must be a finite number")
@@ -289,10 +297,9 @@ def test_the_whole_number_parameters_are_read_as_typed_and_fractions_and_words_a
     for typed in ("twelve", "12.5", "nan"):
         boxes.k.value = typed
         assert panel.parameters(None) is None and boxes.k.value == "0"
-        assert notices[-1] == (f"k = '{typed}': must be 0 (auto) or a whole number (like 12 or 1e3); put back to "
-                               "the last value taken")
+        assert notices[-1] == f"k = '{typed}': must be 0 (auto) or a whole number (like 12 or 1e3); put back to '0'"
     boxes.max_iterations.value = "-3"
-    assert panel.parameters(None) is None and notices[-1].startswith("Max iterations = -3")
+    assert panel.parameters(None) is None and notices[-1].startswith("Max iterations = '-3'")
     assert boxes.max_iterations.value == "1000"
 
 
