@@ -2,9 +2,9 @@
 
 A tab beside the others, so that its boxes, like theirs, sit under the run controls in a 1280x720 window (a folder
 below the tabs put them under the window's edge, and typing into one scrolled Step and Play away). Shown only for
-a cloud with labels (a PLY label property, or labels given to skelcore.inspect). A weight
-changed here applies on the next Restart (it changes the system being solved, not one step). The weights are text
-boxes taken as the parameters' are (app.panel): once the person stops typing, a refused one said and put back.
+a cloud with labels (a PLY label property, or labels given to skelcore.inspect). A weight changed here applies on
+the next Restart (it changes the system being solved, not one step). The weights are text boxes taken as the
+parameters' are (app.panel): once the person stops typing, a refused one said and put back.
 """
 from __future__ import annotations
 

@@ -24,8 +24,6 @@ from .words import (METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, refus
                     typed_whole_number)
 
 TYPING_PAUSE = 1.0  # seconds without another key before a value being typed is taken (or refused)
-
-
 REFUSED = "Parameter refused"  # the title of a refusal's notice
 
 
