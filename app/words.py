@@ -17,9 +17,10 @@ PLAYBACK_LABELS = {"play_interval": "Play interval (s)"}
 AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic value (None)
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
-_ENGINE_NAMING = re.compile(r"parameter (\w+)=")  # how skelcore.params names a refused value
-_RANGE = re.compile(r"^parameter (\w+)=.*?: must be ")  # ... and says what it must be
-_VALUE = re.compile(r"^parameter (\w+)=(.*?): ")  # ... and the value it read
+# how skelcore.params names a refused value (a label's weight's box too, whose label can be negative), ...
+_ENGINE_NAMING = re.compile(r"parameter ([\w-]+)=")
+_RANGE = re.compile(r"^parameter ([\w-]+)=.*?: must be ")  # ... says what it must be
+_VALUE = re.compile(r"^parameter ([\w-]+)=(.*?): ")  # ... and the value it read
 _WEIGHT_NAME = re.compile(r"label_weight_(-?\d+)")
 
 

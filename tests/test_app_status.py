@@ -477,3 +477,18 @@ def test_about_this_run_says_a_cloud_is_sparser_than_the_skeletons_balls():
     assert note.startswith("a sparse cloud: its points lie ")
     assert f"A{note[1:]}." in run_notes(sparse.run, sparse.history[1], notice="", scale=[note])
     assert dense.run.surface[2].scale_notes(dense.sample_radius) == []
+
+
+def test_a_refused_label_weight_is_worded_as_the_panel_names_it_with_what_was_typed():
+    """The Labels tab's boxes: a refusal names the label (negative labels too) and quotes the text typed."""
+    from skelcore.errors import ParameterError
+
+    for label_value, typed in ((3, "0"), (-3, "x"), (7, "0,5")):
+        with pytest.raises(ParameterError) as refusal:
+            words.typed_weight(label_value, typed)
+        message = str(refusal.value)
+        assert words.refused_field(message) == words.weight_name(label_value)
+        worded = words.refused(message, {words.weight_name(label_value): typed})
+        assert worded.startswith(f"the weight of label {label_value} = '{typed}': must be a positive number")
+        assert worded.endswith("(a point marks decimals: 0.5, not 0,5)") == ("," in typed)
+    assert words.typed_weight(1, " 1e-2 ") == 0.01
