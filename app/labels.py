@@ -21,8 +21,8 @@ from .words import number_text, typed_weight, weight_name
 # purple removed points): ColorBrewer's Dark2/Set1 picks; the label's rank picks one, cycling
 PALETTE = np.array([[77, 175, 74], [231, 41, 138], [166, 118, 29], [27, 158, 119], [230, 171, 2], [102, 102, 102],
                     [166, 206, 227], [102, 166, 30], [251, 154, 153], [0, 90, 50]], dtype=np.uint8)
-MAX_WEIGHT_INPUTS = 5  # weight inputs for the labels with the most points (as many as fit a 1280x720 window
-# under the longest status); the others keep their weights (the Legend lists every label's)
+MAX_WEIGHT_INPUTS = 5  # a box per label up to this many (as many as fit a 1280x720 window under the longest
+# status); beyond, one box for the label chosen from a list (the Legend lists every label's weight)
 
 
 class LabelPanel:
@@ -35,7 +35,8 @@ class LabelPanel:
         self.gui, self.session, self.panel, self.tabs = gui, session, panel, tabs
         self.submit, self.on_change, self.wire_restart = submit, on_change, wire_restart
         self.tab = None
-        self.inputs: dict[int, viser.GuiTextHandle] = {}
+        self.inputs: dict[int, viser.GuiTextHandle] = {}  # label -> the box of its weight
+        self._choice, self._by_name = None, {}  # with more labels than boxes: the list to choose one from
         self.values = np.zeros(0, dtype=np.int64)  # the cloud's distinct labels, ascending
         self.accepted: dict[int, float] = dict(session.label_weights)  # the weights last taken
         panel.add_part("labels", Part(self._shown, self._take, self._put_back,
@@ -52,18 +53,35 @@ class LabelPanel:
         self.accepted = dict(self.session.label_weights)
         if not len(self.values):
             return
-        shown = sorted(self.values[np.argsort(-counts, kind="stable")[:MAX_WEIGHT_INPUTS]].tolist())
         count_of = dict(zip(self.values.tolist(), counts.tolist()))
+        named = {label: f"Label {label} ({count_of[label]:,} pts)" for label in self.values.tolist()}
         with self.tabs.add_tab("Labels") as self.tab:
-            for label in shown:  # text boxes: viser's number box sends 13 for a typed 1e3
-                handle = self.gui.add_text(f"Label {label} ({count_of[label]:,} pts)",
-                                           initial_value=number_text(self.accepted.get(label, 1.0)))
-                handle.on_update(self._on_typed)
-                self.inputs[label] = handle
-            unlisted = (f"; the {len(self.values) - len(shown)} labels with the fewest points keep their weights"
-                        if len(shown) < len(self.values) else "")
-            self.wire_restart(self.gui.add_button(
-                "Restart with these weights", hint=f"a label's weight multiplies W_L on its points' rows{unlisted}"))
+            if len(self.values) <= MAX_WEIGHT_INPUTS:
+                for label, name in named.items():  # text boxes: viser's number box sends 13 for a typed 1e3
+                    self.inputs[label] = self._weight_box(name, label)
+            else:  # more than fit: one box, for the label chosen
+                first = int(self.values[np.argmax(counts)])
+                self._choice = self.gui.add_dropdown("Label", tuple(named.values()), initial_value=named[first])
+                self._by_name = {name: label for label, name in named.items()}
+                self._choice.on_update(self._on_chosen)
+                self.inputs[first] = self._weight_box("Weight", first)
+            self.wire_restart(self.gui.add_button("Restart with these weights",
+                                                  hint="a label's weight multiplies W_L on its points' rows"))
+
+    def _weight_box(self, name: str, label: int) -> viser.GuiTextHandle:
+        box = self.gui.add_text(name, initial_value=number_text(self.accepted.get(label, 1.0)))
+        box.on_update(self._on_typed)
+        return box
+
+    async def _on_chosen(self, event: viser.GuiEvent) -> None:
+        """The one weight box now edits the chosen label's weight: what was typed for the label before is taken
+        first."""
+        if event.client is None:
+            return
+        self.panel.flush()
+        label, box = self._by_name[self._choice.value], next(iter(self.inputs.values()))
+        self.inputs = {label: box}
+        box.value = number_text(self.accepted.get(label, 1.0))
 
     def colours(self, point_ids: np.ndarray) -> np.ndarray | None:
         """(m,3) colours of the labels of the input points `point_ids` (None: the cloud has no labels)."""

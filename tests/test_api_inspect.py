@@ -84,6 +84,49 @@ def test_inspect_serves_a_page_a_browser_loads_with_the_labels_panel(labelled):
         handle.stop()
 
 
+@pytest.mark.browser
+@browser_needed
+def test_a_cloud_with_more_labels_than_boxes_sets_each_weight_by_choosing_its_label(labelled):
+    """Ten labels: one weight box, for the label chosen from a list (a box each would not fit a 1280x720 window);
+    a weight typed and the label changed at once is the typed label's, and each keeps its own."""
+    from playwright.sync_api import sync_playwright
+
+    from app.labels import MAX_WEIGHT_INPUTS
+
+    points, _ = labelled
+    labels = np.digitize(points[:, 2], np.quantile(points[:, 2], np.linspace(0, 1, 11)[1:-1])).astype(np.int64)
+    assert len(np.unique(labels)) > MAX_WEIGHT_INPUTS
+    handle = skelcore.inspect(points, labels=labels, max_iterations=3)
+    try:
+        with sync_playwright() as playwright:
+            browser = launch(playwright)
+            page = open_viewer(browser, handle.inspector, handle.url, {"width": 1280, "height": 720})
+            open_tab(page, "Labels")
+
+            def choose(label: int) -> None:
+                page.get_by_label("Label", exact=True).click()
+                page.get_by_role("option", name=f"Label {label} (").click()
+
+            choose(7)
+            weight = number_input(page, "Weight")
+            weight.click()
+            page.keyboard.press("Control+A")
+            page.keyboard.type("3", delay=50)
+            choose(2)  # at once: the 3 is label 7's
+            wait_until(lambda: handle.session.label_weights == {7: 3.0}, "label 7's weight taken")
+            wait_until(lambda: weight.input_value() == "1", "label 2's weight shown")
+            set_value(page, "Weight", "5e-1")
+            wait_until(lambda: handle.session.label_weights == {7: 3.0, 2: 0.5}, "label 2's weight taken")
+            choose(7)
+            wait_until(lambda: weight.input_value() == "3", "label 7's weight shown again")
+            restart = button(page, "Restart with these weights")
+            for widget in (button(page, "Step"), button(page, "Play"), weight, restart):
+                assert shown_in_panel(page, widget)
+            browser.close()
+    finally:
+        handle.stop()
+
+
 def test_inspect_a_result_contracted_at_reduced_resolution_runs_it_again_reduced():
     """Its states carry every input point but not the reduced rings skeletons are made from, so the inspector
     contracts it again, reduced as the run was (its budget), from iteration 0."""
