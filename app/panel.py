@@ -35,7 +35,7 @@ class Part:
     shown: Callable[[], object]
     take: Callable[[object, object], None]
     put_back: Callable[[], None]
-    boxes: Callable[[], dict] = dict
+    boxes: Callable[[], dict]
 
 
 class ParameterPanel:
@@ -142,9 +142,8 @@ class ParameterPanel:
         try:
             value = handler.shown()
         except ParameterError as error:
-            boxes = handler.boxes()
-            message, field = refused(str(error), {name: box.value for name, box in boxes.items()}), refused_field(
-                str(error))
+            boxes, field = handler.boxes(), refused_field(str(error))
+            message = refused(str(error), {name: box.value for name, box in boxes.items()})
             handler.put_back()
             back = repr(str(boxes[field].value)) if field in boxes else "the last value taken"
             self._notify(client, REFUSED, f"{message}; put back to {back}")

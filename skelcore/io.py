@@ -210,10 +210,9 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
         points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
-    loops, no_solid = solid_loops(faces, len(points))
-    if no_solid:
-        points, faces, labels, rows = welded(points, faces, labels, rows, notes)
-        loops, no_solid = solid_loops(faces, len(points))  # said after what loading did to the points
+    loops, no_solid = solid_loops(faces, len(points))  # said after what loading did to the points
+    if no_solid and (weld := welded(points, faces, labels, rows, notes)) is not None:
+        (points, faces, labels, rows, loops), no_solid = weld, ""
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None

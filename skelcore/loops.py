@@ -77,7 +77,7 @@ from scipy.spatial import cKDTree
 
 from .distances import triangle_distance
 from .inside import InsideTest
-from .neighbours import pca_frames
+from .neighbours import local_frames
 from .normalise import object_diagonal
 from .normals import COLLAPSED
 from .regions import border_labels, dilated, label_regions
@@ -132,10 +132,10 @@ class SurfaceProbe:
         if len(missing):
             k = min(NORMAL_K, len(self.points))
             _, neighbours = self.tree.query(self.points[missing], k=k)
-            neighbours = neighbours.reshape(len(missing), k)
-            _, frames = pca_frames(self.points, neighbours)
+            local = self.points[neighbours.reshape(len(missing), k)]  # the point itself first
+            _, frames, _ = local_frames(local)
             normal, first, second = frames[:, :, 0], frames[:, :, 2], frames[:, :, 1]
-            offsets = self.points[neighbours[:, 1:]] - self.points[missing, None]
+            offsets = local[:, 1:] - local[:, :1]
             angles = np.sort(np.arctan2(np.einsum("ikj,ij->ik", offsets, second),
                                         np.einsum("ikj,ij->ik", offsets, first)), axis=1)
             gaps = np.diff(np.concatenate([angles, angles[:, :1] + 2 * np.pi], axis=1), axis=1)

@@ -34,9 +34,10 @@ def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.nda
 
 
 def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, rows: np.ndarray | None,
-           notes: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+           notes: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None, int] | None:
     """A mesh whose faces close no solid with its vertices closer than WELD_SHARE of its median edge merged (each
-    group into its first vertex; said in `notes`), when that closes one; else the mesh as it came."""
+    group into its first vertex; said in `notes`), with the loops through the solid it then bounds; None when that
+    closes none (the mesh stays as it came)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -46,7 +47,7 @@ def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, row
     tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # built for one query: the quick build
     pairs = tree.query_pairs(WELD_SHARE * edge, output_type="ndarray") if edge > 0 else ()
     if not len(pairs):
-        return points, faces, labels, rows
+        return None
     ones = np.ones(len(pairs), dtype=np.int8)
     _, group = connected_components(coo_matrix((ones, pairs.T), shape=(len(points),) * 2), directed=False)
     first = np.full(group.max() + 1, len(points))
@@ -55,11 +56,12 @@ def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, row
     rank = np.empty(len(points), dtype=np.int64)
     rank[kept] = np.arange(len(kept))
     merged = _with_three_corners(rank[first[group]][faces])
-    if solid_loops(merged, len(kept))[0] is None:
-        return points, faces, labels, rows
+    loops = solid_loops(merged, len(kept))[0]
+    if loops is None:
+        return None
     notes.append(f"merged {len(points) - len(kept)} mesh vertices within {WELD_SHARE * edge:.3g} of another (the "
                  f"file writes them apart by rounding), so the faces close a solid")
-    return points[kept], merged, *(None if values is None else values[kept] for values in (labels, rows))
+    return points[kept], merged, *(None if values is None else values[kept] for values in (labels, rows)), loops
 
 
 def _with_three_corners(faces: np.ndarray) -> np.ndarray:
