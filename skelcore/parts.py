@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from .solid_blocks import (SEGMENTS, arc_points, box, cone, cylinder, flat_ring, manifold3d, standing_ring,
+from .solid_blocks import (SEGMENTS, arc_points, box, cone, cylinder, flat_ring, manifold3d, standing_ring, torus,
                            tube_along, union)
 
 
@@ -287,7 +287,7 @@ def colander():
     m3d = manifold3d()
     bowl = (m3d.Manifold.sphere(12.0, SEGMENTS) - m3d.Manifold.sphere(11.7, SEGMENTS)).trim_by_plane((0.0, 0.0, -1.0),
                                                                                                    0.0)
-    rim = m3d.Manifold.revolve(m3d.CrossSection.circle(0.35, SEGMENTS).translate((11.85, 0.0)), SEGMENTS)
+    rim = torus(11.85, 0.35)
     up = np.radians(50.0)  # each hole along its radius, 50 degrees from the bottom
     holes = [cylinder(8.0, 1.0, 12.0 * np.array([np.sin(up) * np.cos(a), np.sin(up) * np.sin(a), -np.cos(up)]),
                        (0.0, -50.0, np.degrees(a)))
@@ -301,8 +301,7 @@ def bucket():
     m3d = manifold3d()
     body = m3d.Manifold.revolve(m3d.CrossSection([[(0.0, 0.0), (11.0, 0.0), (13.0, 25.0), (12.8, 25.0), (10.8, 0.2),
                                                    (0.0, 0.2)]]), SEGMENTS)
-    rim = m3d.Manifold.revolve(m3d.CrossSection.circle(0.3, SEGMENTS).translate((12.9, 0.0)), SEGMENTS).translate(
-        (0.0, 0.0, 25.0))
+    rim = torus(12.9, 0.3).translate((0.0, 0.0, 25.0))
     ears = [box((1.6, 2.0, 2.5), (side * 13.4, 0.0, 22.0)) for side in (-1.0, 1.0)]
     return union([body, rim, *ears, tube_along(arc_points((0.0, 0.0, 22.0), 14.0, 0.0, 180.0, count=60), 0.25)])
 
