@@ -143,7 +143,7 @@ def _statistics(entry: dict) -> dict:
         stats = entry[key]
         kept[key] = {name: stats[name] for name in ("mean", "median", "std", "skewness", "kurtosis", "symmetry",
                                                     "unimodality", "n_undefined")}
-        kept[key]["peaks"] = {"count": stats["peaks"]["count"]}
+        kept[key]["peaks"] = {name: stats["peaks"][name] for name in ("count", "positions")}
     kept["boundedness"] = entry["boundedness"]
     kept["curve"] = entry["curve"]
     return kept

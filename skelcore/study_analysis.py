@@ -26,7 +26,8 @@ GOAL_PRECISION = 0.9  # "stable" must be right in this share of the runs it labe
 FALSE_STABLE_COST = GOAL_PRECISION / (1 - GOAL_PRECISION)  # a wrong "stable" costs 9 right ones
 BAD_SETTINGS = ("wl0 x100", "stop after 1")  # of skelcore.study.SETTINGS: must never be judged stable
 CANDIDATES = {
-    "max_peaks": [1, 2, 3, MANY_PEAKS],
+    "max_d_theta_peaks": [1, 2, 3, MANY_PEAKS],
+    "max_delta_kappa_peaks": [1, 2, 3, MANY_PEAKS],
     "min_symmetry": [0.0, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9],
     "delta_kappa_tolerance": [0.02, 0.05, 0.1, 0.2, 0.4],
     "min_inside_share": [0.0, 0.5, 0.7, 0.8, 0.9, 0.95],
@@ -45,11 +46,12 @@ CANDIDATES = {
 # skeleton's own scale;
 # d_theta_tolerance stays at half the target (skelcore.verdict.StabilityThresholds says why).
 # The loosest value of each threshold: a criterion switched off, to measure what it contributes.
-PERMISSIVE = {"max_peaks": MANY_PEAKS, "min_symmetry": 0.0, "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0,
-              "min_inside_share": 0.0, "max_step_shrink": 1.0, "shrink_tolerance": 1.0, "min_spread_ratio": 0.0,
-              "min_curve_share": 0.0, "min_steps": 1}
+PERMISSIVE = {"max_d_theta_peaks": MANY_PEAKS, "max_delta_kappa_peaks": MANY_PEAKS, "min_symmetry": 0.0,
+              "d_theta_tolerance": 1.0, "delta_kappa_tolerance": 1.0, "min_inside_share": 0.0, "max_step_shrink": 1.0,
+              "shrink_tolerance": 1.0, "min_spread_ratio": 0.0, "min_curve_share": 0.0, "min_steps": 1}
 CRITERIA_GROUPS = {  # name in the tables -> thresholds switched off (or "skeleton": no skeleton checks)
-    "histogram peaks (paper)": ["max_peaks"], "histogram symmetry (paper)": ["min_symmetry"],
+    "D_theta peaks (paper)": ["max_d_theta_peaks"], "delta_kappa peaks (paper)": ["max_delta_kappa_peaks"],
+    "histogram symmetry (paper)": ["min_symmetry"],
     "mean D_theta (paper)": ["d_theta_tolerance"], "mean delta_kappa (paper)": ["delta_kappa_tolerance"],
     "inside the original (paper)": ["min_inside_share"],
     "shrinking, no one-step collapse (paper's X_k+1 <= X_k)": ["max_step_shrink", "shrink_tolerance"],

@@ -99,7 +99,8 @@ def test_calibration_keeps_the_floors_and_is_no_stricter_than_the_data_demand():
     assert fitted.min_steps == 2  # the one-step run kept out, at the floor
     assert fitted.min_symmetry == 0.5  # the loosest that keeps the symmetry of 0.4 out
     assert fitted.d_theta_tolerance == StabilityThresholds().d_theta_tolerance  # not calibrated
-    assert fitted.max_peaks == 100 and fitted.min_curve_share == 0.0  # criteria the data do not need: off
+    # criteria the data do not need: off
+    assert fitted.max_d_theta_peaks == fitted.max_delta_kappa_peaks == 100 and fitted.min_curve_share == 0.0
     assert fitted.min_spread_ratio == 0.2  # the size rule's floor, never off
 
 

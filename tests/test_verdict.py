@@ -8,15 +8,16 @@ from skelcore.verdict import (OFF_NOTE, StabilityThresholds, count_loops, count_
 
 
 # Fixed thresholds, so that these tests do not follow the study's calibration of the defaults.
-T = StabilityThresholds(max_peaks=1, min_symmetry=0.8, d_theta_tolerance=0.1, delta_kappa_tolerance=0.05, min_inside_share=0.9,
-                        shrink_tolerance=0.01, max_step_shrink=0.5, min_spread_ratio=0.5, min_curve_share=0.8,
-                        loop_death=4.0)
+T = StabilityThresholds(max_d_theta_peaks=1, max_delta_kappa_peaks=1, min_symmetry=0.8, d_theta_tolerance=0.1,
+                        delta_kappa_tolerance=0.05, min_inside_share=0.9, shrink_tolerance=0.01, max_step_shrink=0.5,
+                        min_spread_ratio=0.5, min_curve_share=0.8, loop_death=4.0)
 
 
 def entry(d_mean=0.5, k_mean=0.0, peaks=1, symmetry=0.95, inside=1.0, growth=-0.1, spread=0.9, linear=0.95,
-          iteration=3):
-    stats = lambda mean: {"mean": mean, "peaks": {"count": peaks}, "symmetry": symmetry}
-    return {"iteration": iteration, "d_theta": stats(d_mean), "delta_kappa": stats(k_mean),
+          iteration=3, d_peaks=None):
+    stats = lambda mean, count: {"mean": mean, "peaks": {"count": count}, "symmetry": symmetry}
+    return {"iteration": iteration, "d_theta": stats(d_mean, peaks if d_peaks is None else d_peaks),
+            "delta_kappa": stats(k_mean, peaks),
             "boundedness": {"inside_share": inside, "growth": growth, "spread_ratio": spread},
             "curve": {"curve_share": linear}, "verdict": {"label": "stable"}}
 
@@ -52,6 +53,35 @@ def test_a_step_that_grows_the_spread_by_3_to_5_percent_still_counts_as_shrinkin
     assert verdict["label"] == "unstable" and "spread change this step: +6.0% (at most +5%): fail" in verdict["reasons"]
 
 
+def test_d_theta_peaks_are_shown_not_counted_by_default_and_delta_kappa_peaks_still_decide():
+    """A drilled plate contracts within its own plane: its faces' normals keep their line and the outward sign
+    splits them between D_theta 0 and 1, three peaks on a right skeleton (calibrated off on 2026-12-07); two
+    delta_kappa peaks still make an iteration unstable."""
+    verdict = judge(features(entry(d_peaks=3), evidence()), 5)
+    rows = {c["name"]: c for c in verdict["criteria"]}
+    assert verdict["label"] == "stable"
+    assert rows["D_theta peaks"]["text"] == "D_theta peaks: 3 (for information only): not counted"
+    assert rows["delta_kappa peaks"]["passed"] is True
+    verdict = judge(features(entry(peaks=2, d_peaks=1), evidence()), 5)
+    assert verdict["label"] == "unstable"
+    assert verdict["reasons"] == ["delta_kappa peaks: 2 (at most 1 (2% rule)): fail"]
+
+
+def test_a_drilled_plates_right_skeleton_is_stable_though_d_theta_shows_its_faces_and_rims_apart():
+    import skelcore
+    from skelcore.solids import sample_mesh, solid_mesh
+
+    points, _ = sample_mesh(*solid_mesh("block_2_holes"), 10000, seed=0)
+    result = skelcore.skeletonize(points)
+    rows = {c["name"]: c for c in result.verdict["criteria"]}
+    assert result.skeleton.topology()["cycles"] == 2
+    peaks = result.metrics[-1].d_theta_stats["peaks"]
+    # the faces' normals kept their line (D_theta 0 and 1), the rims' turned a right angle (0.5)
+    assert peaks["count"] == 3 and peaks["positions"][0] < 0.1 < 0.4 < peaks["positions"][1] < 0.6 < 0.9 \
+        < peaks["positions"][2]
+    assert rows["D_theta peaks"]["passed"] is None and result.verdict["label"] == "stable"
+
+
 def test_values_are_stated_plainly():
     verdict = judge(features(entry(d_mean=0.26)), 2, T)
     assert verdict["label"] == "not yet converged"
@@ -62,7 +92,7 @@ def test_values_are_stated_plainly():
 
 
 @pytest.mark.parametrize("change, label", [
-    ({"peaks": 2}, "unstable"), ({"inside": 0.5}, "unstable"), ({"growth": 0.2}, "unstable"),
+    ({"peaks": 2}, "unstable"), ({"d_peaks": 2}, "unstable"), ({"inside": 0.5}, "unstable"), ({"growth": 0.2}, "unstable"),
     ({"growth": -0.9}, "unstable"), ({"spread": 0.1}, "unstable"), ({"linear": 0.3}, "not yet converged"),
     ({"symmetry": 0.3}, "not yet converged"), ({"k_mean": 0.3}, "not yet converged"),
 ])
