@@ -204,7 +204,8 @@ def build_viewer(gui: viser.GuiApi, order: float, notes_order: float) -> ViewerC
     follow = gui.add_checkbox("Follow newest", True, hint="show each new iteration as it is computed (key L)",
                               order=order + 0.4)
     status = gui.add_markdown("", order=order + 0.6)
-    with gui.add_folder("About this run", order=notes_order, expand_by_default=False, visible=False) as notes_folder:
+    # Open: what was done to a person's data is read, not found; the last thing in the panel, it moves no control
+    with gui.add_folder("About this run", order=notes_order, visible=False) as notes_folder:
         notes = gui.add_markdown("")
     plots_panel = gui.add_panel()
     plots = build_plots(gui, plots_panel)

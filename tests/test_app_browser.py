@@ -324,12 +324,11 @@ def test_the_run_controls_and_restart_fit_the_window_beside_a_large_clouds_statu
     assert inside_viewport(page, interval) and inside_viewport(page, number_input(page, "Play interval (s)"))
     play, row, end = (each.bounding_box() for each in (button(page, "Play"), interval, button(page, "Run to end")))
     assert play["y"] + play["height"] <= row["y"] < row["y"] + row["height"] <= end["y"]
-    open_folder(page, "About this run")  # the notes are still there, a click away
+    # the notes open below the controls, moving none of them
     page.get_by_text(f"{len(inspector.session.run.reduction.points):,} voxel centroids").wait_for()
     page.get_by_text("Showing 750 of 1,500 contracted points in the view").wait_for()
     close_browser_notices(page)
     save_page(page, f"browser-large-cloud-status-{page.size_name}.png")
-    open_folder(page, "About this run")
     page.get_by_label("Method").click()
     page.get_by_role("option", name="LBC").click()
     set_value(page, "W_H0", inspector.session.start_params.wh0)
@@ -409,11 +408,11 @@ def test_the_longest_status_leaves_the_run_controls_and_every_tab_in_the_window(
         page.get_by_text(re.compile(r"no skeleton yet: \d+% of points curve-like, 50% needed")).first.wait_for()
         _the_panel_fits_under_the_status(page)
         save_page(page, f"browser-longest-status-behind-{page.size_name}.png")
-        open_folder(page, "About this run")
         page.get_by_text(f"{latest.anchored:,} points on thin handles are held in place").first.wait_for()
         page.get_by_text(f"Run ended at iteration 3: {latest.message}.").first.wait_for()
-        page.wait_for_timeout(500)  # the folder's opening animation, for the picture
         save_page(page, f"browser-longest-status-notes-{page.size_name}.png")
+        open_folder(page, "About this run")  # a click on the title folds the notes away
+        page.get_by_text(f"Run ended at iteration 3: {latest.message}.").first.wait_for(state="hidden")
         open_folder(page, "About this run")
     finally:  # the module's settings, cloud and run; this browser follows the newest again
         set_value(page, "Iteration", len(session.history) - 1)
