@@ -18,7 +18,7 @@ from .errors import InputError
 from .mesh_topology import mesh_topology as surface_topology
 from .household import HOUSEHOLD
 from .parts import PARTS
-from .solid_blocks import SEGMENTS, cylinder, manifold3d, torus
+from .solid_blocks import SEGMENTS, box, cone, cylinder, manifold3d, sphere, torus, union
 from .surface_sampling import SURFACE_POINTS, sample_surface
 
 DEFAULT_POINTS = SURFACE_POINTS
@@ -43,13 +43,10 @@ class BenchmarkShape:
 
 def _stadium_link(half_straight: float, major: float, minor: float):
     """A chain link: two half rings joined by straight bars along x, in the xy plane."""
-    m3d = manifold3d()
     right, left = torus(major, minor).split_by_plane((1.0, 0.0, 0.0), 0.0)
-    bar = m3d.Manifold.cylinder(2 * half_straight, minor, minor, SEGMENTS, True).rotate((0.0, 90.0, 0.0))
-    return m3d.Manifold.batch_boolean([
-        right.translate((half_straight, 0.0, 0.0)), left.translate((-half_straight, 0.0, 0.0)),
-        bar.translate((0.0, major, 0.0)), bar.translate((0.0, -major, 0.0)),
-    ], m3d.OpType.Add)
+    bar = cylinder(2 * half_straight, minor, turn=(0.0, 90.0, 0.0))
+    return union([right.translate((half_straight, 0.0, 0.0)), left.translate((-half_straight, 0.0, 0.0)),
+                  bar.translate((0.0, major, 0.0)), bar.translate((0.0, -major, 0.0))])
 
 
 def _upright(solid):
@@ -59,32 +56,29 @@ def _upright(solid):
 
 def drilled_block(holes: int):
     """A plate 0.6 thick with `holes` round holes drilled through it: in a row, or a 2x2 grid for 4."""
-    m3d = manifold3d()
     pitch, radius = 1.0, 0.28
     if holes == 4:
         size, centres = (2.2, 2.2), [(x, y) for x in (-0.5, 0.5) for y in (-0.5, 0.5)]
     else:
         size, centres = (holes * pitch + 0.4, 1.2), [((i - (holes - 1) / 2) * pitch, 0.0) for i in range(holes)]
-    block = m3d.Manifold.cube((size[0], size[1], 0.6), True)
-    drill = m3d.Manifold.cylinder(1.0, radius, radius, SEGMENTS, True)
-    return block - m3d.Manifold.batch_boolean([drill.translate((x, y, 0.0)) for x, y in centres], m3d.OpType.Add)
+    # made first: a boolean's faces come in the order its solids were made, and the benchmark's samples follow them
+    block = box((size[0], size[1], 0.6))
+    drill = cylinder(1.0, radius)
+    return block - union(drill.translate((x, y, 0.0)) for x, y in centres)
 
 
 def mug():
     """A cup with an open cavity (walls 0.1 thick) and a ring handle on its side: genus 1."""
-    m3d = manifold3d()
-    body = m3d.Manifold.cylinder(1.1, 0.5, 0.5, SEGMENTS)
-    cavity = m3d.Manifold.cylinder(1.1, 0.4, 0.4, SEGMENTS).translate((0.0, 0.0, 0.12))
+    body, cavity = cone(1.1, 0.5, 0.5), cone(1.1, 0.4, 0.4, lift=0.12)
     handle = _upright(torus(0.3, 0.08)).translate((0.5, 0.0, 0.55))
     # The handle's ends are cut inside the wall (not on its surface: coincident faces would leave slivers).
-    return (body - cavity) + (handle - m3d.Manifold.cylinder(1.1, 0.45, 0.45, SEGMENTS))
+    return (body - cavity) + (handle - cone(1.1, 0.45, 0.45))
 
 
 def pretzel():
     """Three rings in a row, each overlapping the next along a lens (no extra hole between them): genus 3."""
-    m3d = manifold3d()
     ring = torus(1.0, 0.3)
-    return m3d.Manifold.batch_boolean([ring.translate((x, 0.0, 0.0)) for x in (-1.7, 0.0, 1.7)], m3d.OpType.Add)
+    return union(ring.translate((x, 0.0, 0.0)) for x in (-1.7, 0.0, 1.7))
 
 
 def linked_rings(count: int):
@@ -93,76 +87,65 @@ def linked_rings(count: int):
     everywhere); longer chains space the rings 4/3 apart, which puts both a ring's neighbours and the rings
     two along 2/3 away. The tube radius is 0.15 of that distance: the gap (0.7 of it) is over 8 standard
     deviations of the strongest benchmark noise, so noise never joins two rings."""
-    m3d = manifold3d()
     pitch, closest = (1.0, 1.0) if count == 2 else (4.0 / 3.0, 2.0 / 3.0)
     ring = torus(1.0, 0.15 * closest)
     rings = [(ring if i % 2 == 0 else _upright(ring)).translate((pitch * i, 0.0, 0.0)) for i in range(count)]
-    return m3d.Manifold.batch_boolean(rings, m3d.OpType.Add) if count > 1 else rings[0]
+    return union(rings) if count > 1 else rings[0]
 
 
 def gear(teeth: int = 12, holes: int = 4):
     """A toothed disc 0.3 thick with a centre bore and `holes` lightening holes: genus holes + 1."""
-    m3d = manifold3d()
-    disc = m3d.Manifold.cylinder(0.3, 1.0, 1.0, SEGMENTS, True)
-    tooth = m3d.Manifold.cube((0.3, 0.18, 0.3), True).translate((1.1, 0.0, 0.0))
-    disc = m3d.Manifold.batch_boolean([disc] + [tooth.rotate((0.0, 0.0, 360.0 * i / teeth)) for i in range(teeth)],
-                                      m3d.OpType.Add)
-    drill = m3d.Manifold.cylinder(1.0, 0.18, 0.18, SEGMENTS, True)
+    disc = cylinder(0.3, 1.0)  # made before the teeth (see drilled_block)
+    tooth = box((0.3, 0.18, 0.3), (1.1, 0.0, 0.0))
+    disc = union([disc] + [tooth.rotate((0.0, 0.0, 360.0 * i / teeth)) for i in range(teeth)])
+    drill = cylinder(1.0, 0.18)
     bores = [drill.scale((1.2, 1.2, 1.0))]
     bores += [drill.translate((0.6 * np.cos(a), 0.6 * np.sin(a), 0.0))
               for a in 2 * np.pi * (np.arange(holes) + 0.5) / holes]
-    return disc - m3d.Manifold.batch_boolean(bores, m3d.OpType.Add)
+    return disc - union(bores)
 
 
 def chain(links: int = 3):
     """`links` oval links, alternately in the xy and xz planes; each end loop threads its neighbour's with
     its centreline 0.5 (the end radius) from the neighbour's, and the links two along are as far apart.
     Tubes of radius 0.08 leave a gap of 0.34, over 8 standard deviations of the strongest benchmark noise."""
-    m3d = manifold3d()
     half_straight, major, minor = 0.25, 0.5, 0.08
     pitch = 2 * half_straight + major  # a neighbour's end circle passes through this link's end-circle centre
     link = _stadium_link(half_straight, major, minor)
     parts = [(link if i % 2 == 0 else _upright(link)).translate((pitch * i, 0.0, 0.0)) for i in range(links)]
-    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
-
+    return union(parts)
 
 
 def table():
     """A top 2 x 1.2 x 0.08 on four round legs (radius 0.05, 1 long): genus 0, plates and rods at joints."""
-    m3d = manifold3d()
     legs = [cylinder(1.0, 0.05, (x, y, 0.5)) for x in (-0.9, 0.9) for y in (-0.5, 0.5)]
-    return m3d.Manifold.batch_boolean([m3d.Manifold.cube((2.0, 1.2, 0.08), True).translate((0.0, 0.0, 1.0)), *legs],
-                                      m3d.OpType.Add)
+    return union([box((2.0, 1.2, 0.08), (0.0, 0.0, 1.0)), *legs])
 
 
 def chair():
     """A seat 1 x 1 x 0.08 on four legs (radius 0.04), a back of two uprights joined by a top rail and a middle
     rail: genus 2 (the two openings of the back)."""
-    m3d = manifold3d()
-    parts = [m3d.Manifold.cube((1.0, 1.0, 0.08), True).translate((0.0, 0.0, 0.5))]
+    parts = [box((1.0, 1.0, 0.08), (0.0, 0.0, 0.5))]
     parts += [cylinder(0.5, 0.04, (x, y, 0.25)) for x in (-0.45, 0.45) for y in (-0.45, 0.45)]
     parts += [cylinder(1.0, 0.04, (x, 0.45, 1.0)) for x in (-0.45, 0.45)]
     parts += [cylinder(0.94, radius, (0.0, 0.45, z), (0.0, 90.0, 0.0)) for z, radius in ((1.47, 0.04), (1.0, 0.03))]
-    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+    return union(parts)
 
 
 def stool():
     """A round seat (radius 0.5, 0.06 thick) on three legs joined by a ring below it: genus 3 (the ring, and two
     independent loops through the seat between the legs)."""
-    m3d = manifold3d()
     parts = [cylinder(0.06, 0.5, (0.0, 0.0, 1.0))]
     parts += [cylinder(1.0, 0.04, (0.4 * np.cos(a), 0.4 * np.sin(a), 0.5)) for a in 2 * np.pi * np.arange(3) / 3]
     parts.append(torus(0.4, 0.03).translate((0.0, 0.0, 0.4)))
-    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+    return union(parts)
 
 
 def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
     """A ball of radius 1 with `handles` small ring handles (ring radius `ring`, tube `tube`) standing on it, half
     sunk, at spread-out directions: genus `handles`, with loops small beside the body (an elephant's handles)."""
-    m3d = manifold3d()
-    ball = m3d.Manifold.sphere(1.0, SEGMENTS)
+    parts = [sphere(1.0)]  # made before the handles (see drilled_block)
     handle = _upright(torus(ring, tube))  # in the xz plane, around the y axis
-    parts = [ball]
     for i in range(handles):  # golden-angle directions on the upper half: apart from each other
         height = 0.8 - 1.2 * i / max(handles - 1, 1)
         azimuth = np.degrees(2.39996 * i)
@@ -170,7 +153,7 @@ def handled_ball(handles: int = 3, ring: float = 0.3, tube: float = 0.07):
         # standing on the north pole (its inner arc sunk by half the ring), then turned to its direction
         standing = handle.translate((0.0, 0.0, 1.0 + ring / 2))
         parts.append(standing.rotate((0.0, tilt, 0.0)).rotate((0.0, 0.0, azimuth)))
-    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+    return union(parts)
 
 
 def trefoil(minor: float = 0.25, steps: int = 400):
