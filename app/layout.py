@@ -1,14 +1,14 @@
 """Where the inspector's widgets live. Three places, so the plots stay readable beside the controls:
 
 - the control panel (docked right): the run controls and status on top, then tabs Parameters | More | View | Files |
-  Log, and Labels for a cloud with labels (Parameters: the weights and Restart; More: the less-used parameters;
-  View and Files: tabs of their own; Labels: app.labels), below them the parameter changes waiting for a step or a
-  restart and the notes on the run (folded). viser's panel is one scroll area: a box below the window's edge is
-  reached by scrolling the run controls off its top, and a box being typed into is scrolled back into view when the
-  text above it grows. So each tab, and each tab within one, fits a 1280x720 window under the run controls and
-  the status at its longest (tabs, not folders: an open folder adds its height; the status keeps to a few lines,
-  app.status), and what changes as a person types (the pending changes) or is seldom read (the notes) sits below
-  the tabs;
+  Log, and Labels for a cloud with labels (Parameters: the weights and Restart; More: the less-used parameters; View
+  and Files: tabs of their own; Labels: app.labels), below them the parameter changes waiting for a step or a
+  restart and the notes on the run (open; a click on the title folds them). viser's panel is one scroll area: a box
+  below the window's edge is reached by scrolling the run controls off its top, and a box being typed into is
+  scrolled back into view when the text above it grows. So each tab, and each tab within one, fits a 1280x720 window
+  under the run controls and the status at its longest (tabs, not folders: an open folder adds its height; the
+  status keeps to a few lines, app.status), and what changes as a person types (the pending changes) or is seldom
+  read (the notes) sits below the tabs;
 - the plots panel (docked left): tabs Histograms (both histograms under a one-line verdict) | Convergence |
   Verdict (each criterion, threshold, value, pass or fail) | Compare; a new view of the metrics is one more
   `with panel.add_tab(...)` in `build_plots`;
@@ -79,7 +79,7 @@ class ViewerControls:
     follow: viser.GuiCheckboxHandle
     status: viser.GuiMarkdownHandle
     notes_folder: viser.GuiFolderHandle
-    notes: viser.GuiMarkdownHandle  # app.status.run_notes, folded below the tabs
+    notes: viser.GuiMarkdownHandle  # app.status.run_notes, below the tabs
     plots: "PlotWidgets"
     legend: viser.GuiHtmlHandle
     plots_panel: object

@@ -1,5 +1,5 @@
 """The words a browser shows about the iteration it looks at: the status under the run controls, the notes on the
-run folded below the tabs, the verdict's headline above the histograms, and the legend over the 3-D view. Plain
+run below the tabs, the verdict's headline above the histograms, and the legend over the 3-D view. Plain
 functions of what is shown; nothing here computes.
 
 The status sits above the tabs, so every line it has pushes the tabs' boxes towards the window's edge (app.layout):
@@ -106,7 +106,7 @@ def skeleton_note(readiness: Readiness | None, skeleton_shown: bool, provisional
 def status_markdown(session, index: int, *, run: str, readiness: Readiness | None, skeleton: str,
                     following: bool) -> str:
     """The status of history[index] as one browser sees it; `readiness`: None while not measured yet. Parameter
-    changes (`pending_markdown`) and notes on the run (`run_notes`, folded) are said below the tabs."""
+    changes (`pending_markdown`) and notes on the run (`run_notes`) are said below the tabs."""
     history = session.history
     state, latest = history[index], history[-1]
     removed = len(state.owner) - state.n_points
