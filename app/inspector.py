@@ -156,7 +156,7 @@ class Inspector:
            typed=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
         for handle in ui.params.contraction_handles():  # a box is typed key by key; a list or switch is not
-            typing = isinstance(handle, (viser.GuiNumberHandle, viser.GuiTextHandle))
+            typing = isinstance(handle, viser.GuiTextHandle)
             on(handle, lambda e, typing=typing: self.panel.changed("parameters", e.client, typing), person_only=True,
                method="on_update")
         for part, handle in (("radius", ui.params.radius), ("interval", ui.run.interval)):

@@ -101,9 +101,13 @@ class ParameterWidgets:
     radius: viser.GuiTextHandle
     restart: viser.GuiButtonHandle
 
+    def number_boxes(self) -> dict[str, viser.GuiTextHandle]:
+        """The contraction's number boxes by the ContractionParams field each holds."""
+        return {"wl0": self.wl0, "wh0": self.wh0, "sl": self.sl, "wl_max": self.wl_max, "k": self.k,
+                "max_iterations": self.max_iterations, "termination": self.termination}
+
     def contraction_handles(self) -> tuple:
-        return (self.method, self.wl0, self.wh0, self.sl, self.wl_max, self.k, self.max_iterations, self.termination,
-                self.hold_curves, self.hold_inside)
+        return (self.method, *self.number_boxes().values(), self.hold_curves, self.hold_inside)
 
 
 @dataclass

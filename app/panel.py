@@ -17,7 +17,7 @@ from typing import Callable
 
 from skelcore.errors import ParameterError
 from skelcore.options import RunOptions
-from skelcore.params import ContractionParams
+from skelcore.params import AUTOMATIC, INTEGERS, ContractionParams
 
 from .layout import ParameterWidgets
 from .words import (METHOD_LABELS, METHODS_BY_LABEL, number_text, refused, refused_field, typed_number,
@@ -49,13 +49,10 @@ class ParameterPanel:
         self._changes: dict[str, int] = {}  # a wait for the person stands while its part has not changed since
         self._lock = threading.Lock()
         self._parts: dict[str, Part] = {}
-        p = widgets
-        typed = {"wl0": p.wl0, "wh0": p.wh0, "sl": p.sl, "wl_max": p.wl_max, "k": p.k,
-                 "max_iterations": p.max_iterations, "termination": p.termination}
         self.add_part("parameters", Part(self._parameters_shown, take["parameters"], lambda: self.show(self.accepted),
-                                         lambda: typed))
+                                         widgets.number_boxes))
         self.add_part("radius", Part(self._radius_shown, take["radius"], self._radius_put_back,
-                                     lambda: {"sample_radius": p.radius}))
+                                     lambda: {"sample_radius": widgets.radius}))
 
     def add_part(self, name: str, part: Part) -> None:
         """Boxes of another part (a new part, or one replacing the part of that name), taken as the others are."""
@@ -96,22 +93,19 @@ class ParameterPanel:
         self.accepted = params
         p = self.widgets
         p.method.value = METHOD_LABELS[params.method]
-        p.wl0.value = number_text(params.wl0 or 0.0)
-        p.wh0.value, p.sl.value = number_text(params.wh0), number_text(params.sl)
-        p.wl_max.value, p.termination.value = number_text(params.wl_max), number_text(params.termination)
-        p.k.value, p.max_iterations.value = number_text(params.k or 0), number_text(params.max_iterations)
+        for field, box in p.number_boxes().items():
+            box.value = number_text(getattr(params, field) or 0)
         p.hold_curves.value, p.hold_inside.value = params.hold_curves, params.hold_inside
 
     def _parameters_shown(self) -> ContractionParams:
         """The panel's values on top of the run's parameters (fields the panel lacks stay); refused: ParameterError."""
         p = self.widgets
+        typed = {field: (typed_whole_number if field in INTEGERS else typed_number)(field, box.value)
+                 for field, box in p.number_boxes().items()}
+        typed.update({field: typed[field] or None for field in AUTOMATIC})  # a 0 in their box: the engine chooses
         self.accepted = self.session.params.replace(
-            method=METHODS_BY_LABEL[p.method.value], k=typed_whole_number("k", p.k.value) or None,
-            wl0=typed_number("wl0", p.wl0.value) or None, wh0=typed_number("wh0", p.wh0.value),
-            sl=typed_number("sl", p.sl.value), wl_max=typed_number("wl_max", p.wl_max.value),
-            max_iterations=typed_whole_number("max_iterations", p.max_iterations.value),
-            termination=typed_number("termination", p.termination.value),
-            hold_curves=bool(p.hold_curves.value), hold_inside=bool(p.hold_inside.value))
+            method=METHODS_BY_LABEL[p.method.value], hold_curves=bool(p.hold_curves.value),
+            hold_inside=bool(p.hold_inside.value), **typed)
         return self.accepted
 
     def _radius_shown(self) -> float:

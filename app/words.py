@@ -7,14 +7,13 @@ import math
 import re
 
 from skelcore.errors import ParameterError
-from skelcore.params import WEIGHT_MAX
+from skelcore.params import AUTOMATIC, WEIGHT_MAX
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves",
                     "hold_inside": "Hold inside"}
 SKELETON_LABELS = {"sample_radius": "Sample radius"}  # the skeleton's parameter in the More tab
 PLAYBACK_LABELS = {"play_interval": "Play interval (s)"}
-AUTOMATIC = ("wl0", "k")  # fields whose box takes 0 for the engine's automatic value (None)
 METHOD_LABELS = {"lbc": "LBC", "glskeleton": "GLSkeleton"}
 METHODS_BY_LABEL = {shown: method for method, shown in METHOD_LABELS.items()}
 # how skelcore.params names a refused value (a label's weight's box too, whose label can be negative), ...

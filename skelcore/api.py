@@ -329,7 +329,10 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
         if labels is not None or label_weights is not None or weights is not None or params:
             raise ParameterError("inspect: a Result opens with its own parameters and weights")
         result = points_or_result
-        return open_inspector(result.cloud, result.options.params, host=host, port=port or 0,
+        # the parameters its states ran with: a closed solid's run held inside again (skelcore.pipeline) differs
+        # from the options it was asked with
+        return open_inspector(result.cloud, result.states[-1].params, host=host, port=port or 0,
+                              sample_radius=result.options.sample_radius,
                               label_weights=dict(result.options.label_weights),
                               history=None if result.reduction is not None else result.states,
                               point_budget=result.options.point_budget,

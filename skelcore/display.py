@@ -27,11 +27,6 @@ class PointValues:
     measured: int  # points whose own value was computed
     carried: int  # points that took the value of their nearest measured point
 
-    @property
-    def complete(self) -> bool:
-        """Whether every point's value is its own."""
-        return self.carried == 0
-
 
 def values_for_all_points(metrics: IterationMetrics, points: np.ndarray, quantity: str) -> PointValues:
     """Values of "d_theta" or "delta_kappa" for every row of `points` (the cloud `metrics` was evaluated on).

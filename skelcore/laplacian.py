@@ -23,11 +23,6 @@ def cotangent_weights(points: np.ndarray, triangles: np.ndarray) -> tuple[np.nda
     return np.concatenate([i, i]), np.concatenate([j, l]), weights
 
 
-def cotangent_laplacian(points: np.ndarray, rings: OneRings) -> sp.csr_matrix:
-    """L with L_ij = w_ij and L_ii = -sum_j w_ij (eq. 1)."""
-    return LaplacianSystem(rings).laplacian(points)
-
-
 class LaplacianSystem:
     """Fixed sparsity of L for one set of rings; values are refilled per iteration.
 

@@ -21,6 +21,7 @@ LIMITS = {
     "gl_merge": (0.0, math.inf, False), "gl_covariance": (0.0, math.inf, False), "gl_merge_share": (0.0, 1.0, False),
 }
 INTEGERS = ("k", "max_iterations")
+AUTOMATIC = ("k", "wl0")  # None: the engine chooses (default_k, and W_L0 from the one-rings)
 
 
 def default_k(n_points: int) -> int:
@@ -73,7 +74,7 @@ class ContractionParams:
         check_flags(self)
         for name, (low, high, closed) in LIMITS.items():
             value = getattr(self, name)
-            if value is None and name in ("k", "wl0"):  # automatic
+            if value is None and name in AUTOMATIC:
                 continue
             if name in INTEGERS and not is_integer(value):
                 raise ParameterError(f"parameter {name}={value!r}: must be an integer between {low} and {high}")

@@ -127,6 +127,32 @@ def test_a_cloud_with_more_labels_than_boxes_sets_each_weight_by_choosing_its_la
         handle.stop()
 
 
+def test_inspect_a_result_opens_with_its_sample_radius_and_the_parameters_its_states_ran_with():
+    """A result skeletonised at its own sample radius shows the same skeleton; one the pipeline ran again held
+    inside (its options still say hold_inside off) opens with Hold inside on, so Reset runs what the states show."""
+    import dataclasses
+
+    from skelcore.api import Result
+    from skelcore.io import validate
+    from skelcore.options import RunOptions
+    from skelcore.pipeline import compute
+
+    points = make_shape("torus", 1500, seed=0).points
+    result = skelcore.skeletonize(points, sample_radius=0.05)
+    with skelcore.inspect(result) as handle:
+        session = handle.session
+        assert session.sample_radius == 0.05
+        last = len(session.history) - 1
+        assert session.skeleton(last).radius == result.skeleton.radius
+        assert session.skeleton(last).graph.number_of_nodes() == result.skeleton.graph.number_of_nodes()
+    options = RunOptions()
+    held = compute(validate(points, name="torus"), dataclasses.replace(
+        options, params=options.params.replace(hold_inside=True)))
+    result = Result(held.cloud, held.states, held.skeleton, held.metrics, options)
+    with skelcore.inspect(result) as handle:
+        assert handle.session.params.hold_inside and handle.inspector.ui.params.hold_inside.value
+
+
 def test_inspect_a_result_contracted_at_reduced_resolution_runs_it_again_reduced():
     """Its states carry every input point but not the reduced rings skeletons are made from, so the inspector
     contracts it again, reduced as the run was (its budget), from iteration 0."""

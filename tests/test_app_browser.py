@@ -553,8 +553,7 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
 
     monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     session, box = inspector.session, inspector.ui.params.max_iterations
-    set_value(page, "Play interval (s)", 0.5)
-    wait_until(lambda: inspector.playback.interval == 0.5, "the play interval")
+    _take_play_interval(page, inspector, 0.5)  # the pause after typing it never ends here
     try:
         click(page, "Play")
         button(page, "Pause").wait_for()
@@ -585,8 +584,16 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
         wait_until(lambda: box.value == str(RUN["max_iterations"]), "the module's max iterations typed")
         inspector.panel.flush()
         wait_until(lambda: session.params.max_iterations == RUN["max_iterations"], "the module's max iterations")
-        set_value(page, "Play interval (s)", PLAY_INTERVAL)
+        _take_play_interval(page, inspector, PLAY_INTERVAL)
         open_tab(page, "Parameters")
+
+
+def _take_play_interval(page, inspector, seconds: float) -> None:
+    """Type the Play interval and have it taken at once, as a click on Step would (`flush`)."""
+    set_value(page, "Play interval (s)", seconds)
+    wait_until(lambda: inspector.ui.run.interval.value == str(seconds), "the play interval typed")
+    inspector.panel.flush()
+    wait_until(lambda: inspector.playback.interval == seconds, "the play interval")
 
 
 def _run_state(page) -> str:

@@ -162,6 +162,7 @@ def test_before_the_first_step_the_status_says_the_input_is_shown_not_iteration_
 def _panel(monkeypatch):
     """A ParameterPanel on plain boxes, its pauses ended by hand; (panel, boxes, pauses, notices, taken)."""
     from app import panel as panel_module
+    from app.layout import ParameterWidgets
     from app.panel import ParameterPanel
 
     pauses = []
@@ -175,9 +176,10 @@ def _panel(monkeypatch):
 
     monkeypatch.setattr(panel_module, "threading", types.SimpleNamespace(Timer=Pause, Lock=threading.Lock))
     box = types.SimpleNamespace
-    boxes = box(method=box(value="LBC"), k=box(value="0"), wl0=box(value="0"), wh0=box(value="1"), sl=box(value="3"),
-                wl_max=box(value="2048"), max_iterations=box(value="20"), termination=box(value="0.01"),
-                hold_curves=box(value=True), hold_inside=box(value=False), radius=box(value="0.02"))
+    boxes = ParameterWidgets(method=box(value="LBC"), k=box(value="0"), wl0=box(value="0"), wh0=box(value="1"),
+                             sl=box(value="3"), wl_max=box(value="2048"), max_iterations=box(value="20"),
+                             termination=box(value="0.01"), hold_curves=box(value=True), hold_inside=box(value=False),
+                             radius=box(value="0.02"), restart=None)
     notices, taken = [], []
     panel = ParameterPanel(boxes, types.SimpleNamespace(params=ContractionParams(), sample_radius=0.02),
                            lambda client, title, body: notices.append(body),
