@@ -25,6 +25,7 @@ import statistics
 import threading
 import time
 
+from skelcore.cli import default_of
 from skelcore.io import validate
 from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
@@ -153,11 +154,12 @@ def _wait(condition) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m app.bench", description=__doc__.splitlines()[0])
-    parser.add_argument("--points", type=int, default=10_000)
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--shape", default="torus")
+    width, height = default_of(run_bench, "viewport")
+    parser.add_argument("--points", type=int, default=default_of(run_bench, "n_points"))
+    parser.add_argument("--repeats", type=int, default=default_of(run_bench, "repeats"))
+    parser.add_argument("--shape", default=default_of(run_bench, "shape"))
     parser.add_argument("--hide-skeleton", action="store_true", help="measure with the skeleton layer off")
-    parser.add_argument("--viewport", default="1280x800", help="browser window size, WIDTHxHEIGHT")
+    parser.add_argument("--viewport", default=f"{width}x{height}", help="browser window size, WIDTHxHEIGHT")
     parser.add_argument("--only", choices=("look-ahead", "no-look-ahead"),
                         help="measure one server only (default: both, one after the other)")
     parser.add_argument("--json", action="store_true", help="print the full results as JSON")

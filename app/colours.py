@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from skelcore.metrics import D_THETA_RANGE, DELTA_KAPPA_RANGE
+from skelcore.verdict import StabilityThresholds
 
 POINT_LAYERS = ("original", "contracted", "removed")
 # original: light enough that the dark skeleton inside it reads through the points in front of it
@@ -26,7 +27,7 @@ NODE_LOOKS = {"end": (77, 147, 199), "path node": (77, 77, 77), "junction": (207
 # a diverging map whose centre, the quantity's target, is dark, so the best points stand out on the
 # white background; blue below the target, red above.
 COLOUR_RANGES = {"D_theta": D_THETA_RANGE, "delta_kappa": DELTA_KAPPA_RANGE}
-TARGETS = {"D_theta": 0.5, "delta_kappa": 0.0}
+TARGETS = {"D_theta": StabilityThresholds.d_theta_target, "delta_kappa": StabilityThresholds.delta_kappa_target}
 _STOPS = np.array([[5, 90, 200], [90, 165, 225], [40, 40, 40], [245, 140, 60], [205, 10, 30]], float)
 _NAMES = {"D_theta": "D<sub>&theta;</sub>", "delta_kappa": "&delta;&kappa;"}
 

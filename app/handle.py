@@ -5,7 +5,7 @@ from skelcore.errors import InputError
 from skelcore.io import Cloud
 from skelcore.params import ContractionParams
 
-from .main import host_problem, serve
+from .main import LOCAL_HOST, host_problem, serve
 
 IFRAME_HEIGHT = 720  # pixels of the inline view in a notebook
 
@@ -61,7 +61,7 @@ class InspectorHandle:
         self.stop()
 
 
-def open_inspector(cloud: Cloud, params: ContractionParams = ContractionParams(), *, host: str = "127.0.0.1",
+def open_inspector(cloud: Cloud, params: ContractionParams = ContractionParams(), *, host: str = LOCAL_HOST,
                    port: int = 0, **session_options) -> InspectorHandle:
     """Serve the inspector on a validated cloud (port 0: a free one); session_options as app.main.serve's."""
     problem = host_problem(host)

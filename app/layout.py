@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import viser
 
 from skelcore import report
-from skelcore.display import UP_AXES
+from skelcore.display import DEFAULT_UP, UP_AXES
 from skelcore.io import FORMATS as INPUT_FORMATS
 from skelcore.params import ContractionParams
 
@@ -281,7 +281,7 @@ def build_view(gui: viser.GuiApi) -> ViewWidgets:
         for layer in LAYERS:
             size[layer] = gui.add_slider(layer.capitalize(), min=0.2, max=5.0, step=0.1, initial_value=1.0)
     with tabs.add_tab("Up"):
-        up = gui.add_dropdown("Up axis", tuple(UP_AXES), initial_value="+Z",
+        up = gui.add_dropdown("Up axis", tuple(UP_AXES), initial_value=DEFAULT_UP,
                               hint="the scene's up, which the camera orbits about (glTF files: +Y, by their format)")
     return ViewWidgets(show, opacity, size, provisional, colouring, colour_original, fit, up)
 

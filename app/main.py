@@ -1,4 +1,4 @@
-"""`skel-inspect [INPUT] [--host 127.0.0.1] [--port 8080]`: serve the inspector on one cloud.
+"""`skel-inspect [INPUT] [--host HOST] [--port PORT]`: serve the inspector on one cloud.
 
 Guarded as Jupyter guards its server: it listens on this machine only unless told otherwise. Bound to
 any other address it prints a warning, and the page and its websocket then require a token, printed in
@@ -27,6 +27,9 @@ from skelcore.params import ContractionParams
 from skelcore.shapes import make_shape
 
 from .session import Session
+
+LOCAL_HOST = "127.0.0.1"  # the address served by default: this machine only
+PORT = 8080  # the port asked for by default (the next free one is taken if busy)
 
 DEFAULT_ASSETS = ("torus.ply", "y_branch.ply")  # first that exists is opened when no INPUT is given
 FALLBACK_SHAPE = ("torus", 3000)  # synthesised when assets/ holds nothing
@@ -133,8 +136,9 @@ def serve(cloud: Cloud, host: str, port: int, *, save_dir: Path | None = None,
 def main(argv: list[str] | None = None) -> int:
     parser = OneLineParser(prog="skel-inspect", description=__doc__.split(":", 1)[1].strip())
     parser.add_argument("input", nargs="?", help="point cloud or mesh (default: a bundled asset)")
-    parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
-    parser.add_argument("--port", type=int, default=8080, help="port (the next free one is taken if busy)")
+    parser.add_argument("--host", default=LOCAL_HOST, help="address to bind (default %(default)s: this machine only)")
+    parser.add_argument("--port", type=int, default=PORT,
+                        help="port (default %(default)s; the next free one is taken if busy)")
     parser.add_argument("--save-dir", type=Path, help="where 'Also save on server' writes screenshots and bundles")
     parser.add_argument("--voxel-size", type=float, help="downsample INPUT to one point per voxel of this size "
                                                          "(for a cloud over the inspector's memory budget)")

@@ -39,7 +39,8 @@ class Presenter:
         playback: whether a person paused the run (None: tests without one)."""
         self.session, self.ui, self.activity, self.worker, self.server = session, ui, activity, worker, server
         self.playback = playback
-        self._chosen_up = "+Z"  # the up axis a person chose last: a cloud whose format fixes none opens with it
+        # the up axis a person chose last: a cloud whose format fixes none opens with it
+        self._chosen_up = display.DEFAULT_UP
         self.labels: LabelPanel | None = None  # set once built (it needs the worker)
         self.viewers: dict[int, Viewer] = {}  # by client id
         self.colour_by = "plain"

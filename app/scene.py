@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 import viser
 
-from skelcore.display import UP_AXES, clipping_planes, display_origin, framing_camera, turned_up
+from skelcore.display import DEFAULT_UP, UP_AXES, clipping_planes, display_origin, framing_camera, turned_up
 
 from .colours import EDGE_COLOUR, GHOST_COLOUR, LAYER_COLOURS, NODE_COLOURS, POINT_LAYERS, PROVISIONAL_EDGE_COLOUR
 
@@ -355,7 +355,7 @@ class SceneView:
 
 
 
-def frame_camera(camera, points: np.ndarray, aspect: float = 0.75, up=UP_AXES["+Z"]) -> None:
+def frame_camera(camera, points: np.ndarray, aspect: float = 0.75, up=UP_AXES[DEFAULT_UP]) -> None:
     """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
     between two panels, so taller than wide) at the whole cloud `points` (the original: the scene's origin is
     its display_origin), from above and aside, `up` up."""

@@ -121,6 +121,14 @@ class Result:
         check_flag("force", force)
         return self._save(out_dir, force, what="folder", replace="save with force=True")
 
+    def save_skeleton(self, path) -> Path:
+        """Write the skeleton alone to the file `path`, in the format its name ends in: .json (as skeleton.json),
+        .ply (vertex and edge elements), .obj (polylines, one per chain between ends and junctions) or .graphml
+        (node positions as x, y, z). Returns the path."""
+        from .export import write_skeleton_file
+
+        return write_skeleton_file(path, self.skeleton)
+
     def _save(self, out_dir, force: bool, **terms) -> Path:
         """`save`, whose refusal of earlier results names the folder and the way to replace them in `terms`
         (results.check_output's: `skelcore run` says --out and --force)."""
@@ -157,7 +165,7 @@ class Result:
         return f"<skelcore.Result {self.summary()}>"
 
 
-def skeletonize(points_or_path, method: str = "lbc", *, weights=None, labels=None, label_weights=None,
+def skeletonize(points_or_path, method: str = ContractionParams.method, *, weights=None, labels=None, label_weights=None,
                 cleaning: CleaningParams | bool = True,
                 sample_radius: float = RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
                 voxel_size: float | None = None, max_points: int = io.MAX_POINTS, drop_nonfinite: bool = False,
@@ -313,7 +321,7 @@ def _inspector():
     raise SkelError("inspect: no inspector is installed (reinstall skelcore: `pip install -e .` registers it)")
 
 
-def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1", labels=None,
+def inspect(points_or_result, port: int | None = None, *, host: str | None = None, labels=None,
             label_weights=None, weights=None, **params):
     """Open the inspector (a viser web app) on an array, a Cloud, a file path or a finished Result.
 
@@ -321,27 +329,29 @@ def inspect(points_or_result, port: int | None = None, *, host: str = "127.0.0.1
     shows the inspector inline (an iframe). A Result opens at its last iteration, with its parameters and
     weights (one contracted at reduced resolution runs again from iteration 0, reduced the same way: its
     states carry every input point, but skeletons are made from the reduced cloud's); an array starts at
-    iteration 0. port: None or 0 takes a free port. **params: contraction
-    parameters, as in `skeletonize`. The server runs in background threads until `.stop()`.
+    iteration 0. port: None or 0 takes a free port; host: None serves this machine only (the inspector's
+    default). **params: contraction parameters, as in `skeletonize`. The server runs in background threads until
+    `.stop()`.
     """
     open_inspector = _inspector()
+    served = {"port": port or 0, **({} if host is None else {"host": host})}
     if isinstance(points_or_result, Result):
         if labels is not None or label_weights is not None or weights is not None or params:
             raise ParameterError("inspect: a Result opens with its own parameters and weights")
         result = points_or_result
         # the parameters its states ran with: a closed solid's run held inside again (skelcore.pipeline) differs
         # from the options it was asked with
-        return open_inspector(result.cloud, result.states[-1].params, host=host, port=port or 0,
+        return open_inspector(result.cloud, result.states[-1].params, **served,
                               sample_radius=result.options.sample_radius,
                               label_weights=dict(result.options.label_weights),
                               history=None if result.reduction is not None else result.states,
                               point_budget=result.options.point_budget,
                               weights=None if result.options.label_weights else result.weights)
-    params = contraction_params(params.pop("method", "lbc"), params)
+    params = contraction_params(params.pop("method", ContractionParams.method), params)
     if isinstance(points_or_result, (str, Path)):
         cloud = io.load(points_or_result, labels=labels)
     else:
         cloud = as_cloud(points_or_result, labels)
     weights = io.weights_of(points_or_result, cloud, weights)
-    return open_inspector(cloud, params, host=host, port=port or 0,
-                          label_weights=check_label_weights(label_weights), weights=weights)
+    return open_inspector(cloud, params, **served, label_weights=check_label_weights(label_weights),
+                          weights=weights)

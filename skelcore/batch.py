@@ -28,7 +28,7 @@ from .batch_object import (DONE_FILE, RUN_COLUMNS, SUMMARY_COLUMNS, Job, one_lin
 from .batch_dask import check_workers
 from .errors import InputError
 from .options import RunOptions
-from .results import RESULT_FILES
+from .results import REPORT_FILE, RESULT_FILES
 
 __all__ = ["DONE_FILE", "RUN_COLUMNS", "SUMMARY_COLUMNS", "BatchResult", "collect_inputs", "object_names", "plan",
            "run_batch", "write_summary"]
@@ -196,7 +196,7 @@ def _write_report(out_dir: Path, rows: list[dict]) -> Path | None:
     succeeded and, for a batch of moderate size, each one's figures; a report failure is one line and leaves
     the summary."""
     run_dirs = [out_dir / row["name"] for row in rows if row["status"] == "ok"]
-    path = out_dir / "report.html"
+    path = out_dir / REPORT_FILE
     temporary = path.with_name(f".report.{os.getpid()}.tmp.html")
     try:
         from .report import write_report

@@ -61,11 +61,18 @@ def main(argv: list[str] | None = None) -> int:
     """`python -m skelcore.batch_bench`: the batch throughput benchmark."""
     import argparse
 
+    from .cli import default_of
+    from .params import ContractionParams
+
     parser = argparse.ArgumentParser(prog="python -m skelcore.batch_bench", description=main.__doc__)
-    parser.add_argument("--objects", type=int, default=20, help="shapes in the batch (default: %(default)s)")
-    parser.add_argument("--workers", type=int, default=2, help="Dask workers (default: %(default)s)")
-    parser.add_argument("--points", type=int, default=10_000, help="points per shape (default: %(default)s)")
-    parser.add_argument("--max-iterations", type=int, default=None, help="contraction iterations cap (default: 20)")
+    parser.add_argument("--objects", type=int, default=default_of(bench_batch, "n_objects"),
+                        help="shapes in the batch (default: %(default)s)")
+    parser.add_argument("--workers", type=int, default=default_of(bench_batch, "workers"),
+                        help="Dask workers (default: %(default)s)")
+    parser.add_argument("--points", type=int, default=default_of(bench_batch, "n_points"),
+                        help="points per shape (default: %(default)s)")
+    parser.add_argument("--max-iterations", type=int, default=None,
+                        help=f"contraction iterations cap (default: {ContractionParams.max_iterations})")
     args = parser.parse_args(argv)
     try:
         bench_batch(args.objects, args.workers, args.points, args.max_iterations)

@@ -19,10 +19,9 @@ from . import __version__
 from .errors import SkelError
 from .options import RunOptions
 from .pipeline import run_pipeline
-from .results import RESULT_FILES, write_atomic
+from .results import DONE_FILE, RESULT_FILES, write_atomic
 from .verdict import StabilityThresholds, failed_line
 
-DONE_FILE = "done.json"
 SUMMARY_COLUMNS = (
     "name", "input", "status", "error", "points", "iterations", "termination", "seconds",
     "nodes", "edges", "components", "cycles", "ends", "junctions",

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from . import startup
 from .errors import ParameterError
-from .params import is_integer, is_real
+from .params import METHODS, is_integer, is_real
 
 SIZES = (10_000, 30_000, 100_000, 300_000, 1_000_000)
 BASELINE_MAX = 30_000  # pc-skeletor's SuperLU solve is timed up to this size (minutes per run above it)
@@ -44,7 +44,7 @@ STAGES = ("load", "clean", "reduce", "contract", "skeleton", "carry", "metrics",
           "hold inside", "write")
 
 
-def run_bench(sizes=SIZES, *, methods=("lbc", "glskeleton"), baseline_max: int = BASELINE_MAX,
+def run_bench(sizes=SIZES, *, methods=METHODS, baseline_max: int = BASELINE_MAX,
               full_resolution: bool = False, noise: float = NOISE, pc_skeletor: str | None = None,
               out=print) -> list[dict]:
     """Time every (size, method) and the baseline; print the table, the ratios and the growth exponents.

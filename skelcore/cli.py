@@ -19,6 +19,13 @@ EXIT_INPUT = 2
 EXIT_INTERNAL = 3
 
 
+def default_of(function, parameter: str):
+    """The default of a function's parameter: a command's flag defaults to what the function it calls does."""
+    import inspect
+
+    return inspect.signature(function).parameters[parameter].default
+
+
 def _point_count(text: str) -> int:
     """A number of points to make: between the fewest a run needs and the most a cloud may hold (skelcore.io)."""
     from .io import MAX_POINTS, MIN_POINTS
@@ -55,11 +62,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(handler=_run)
 
     from .bench import BASELINE_MAX, NOISE, SIZES
+    from .params import METHODS
 
     bench = commands.add_parser("bench", help="time whole runs per stage on noisy tori, LBC and GLSkeleton, "
                                                "against pc-skeletor's LBC, with peak memory and growth")
     bench.add_argument("--points", type=_point_count, nargs="+", default=list(SIZES), help="cloud sizes (default: %(default)s)")
-    bench.add_argument("--method", choices=["lbc", "glskeleton", "both"], default="both")
+    bench.add_argument("--method", choices=[*METHODS, "both"], default="both")
     bench.add_argument("--baseline-max", type=int, default=BASELINE_MAX,
                        help="time pc-skeletor's LBC up to this many points (0: never; default: %(default)s)")
     bench.add_argument("--pc-skeletor", metavar="PYTHON", default=None,
@@ -71,8 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(handler=_bench)
 
     # -- bench-quality (skelcore.quality_bench) --
-    from .params import METHODS
-    from .quality_bench import BENCH_VARIANTS, NAMED_VARIANTS
+    from .quality_bench import BENCH_VARIANTS, NAMED_VARIANTS, run_quality_bench
     from .solids import DEFAULT_POINTS
 
     quality = commands.add_parser("bench-quality",
@@ -93,10 +100,11 @@ def build_parser() -> argparse.ArgumentParser:
                                                  f"'scan_lines', the mesh cut into a profile scanner's lines, only "
                                                  f"when named) (default: {' '.join(BENCH_VARIANTS)})")
     quality.add_argument("--points", type=_point_count, default=DEFAULT_POINTS, help="points per shape (default: %(default)s)")
-    quality.add_argument("--seeds", type=random_seed, nargs="+", default=[0], metavar="SEED",
-                         help="draws of the shapes' samples and of the variants, each a run of the whole grid "
-                              "(default: 0)")
-    quality.add_argument("--workers", type=int, default=1, help="runs in parallel processes (default: %(default)s)")
+    quality.add_argument("--seeds", type=random_seed, nargs="+", default=list(default_of(run_quality_bench, "seeds")),
+                         metavar="SEED", help="draws of the shapes' samples and of the variants, each a run of the "
+                                              f"whole grid (default: {' '.join(map(str, default_of(run_quality_bench, 'seeds')))})")
+    quality.add_argument("--workers", type=int, default=default_of(run_quality_bench, "workers"),
+                         help="runs in parallel processes (default: %(default)s)")
     quality.add_argument("--reference", default=None, metavar="DIR",
                          help="folder of the reference meshes and scans (default: ../shared/reference)")
     quality.add_argument("--json", default=None, metavar="OUT", help="also write every run and the summary here")
@@ -105,17 +113,18 @@ def build_parser() -> argparse.ArgumentParser:
     quality.set_defaults(handler=_bench_quality)
 
     # -- shapes (skelcore.shapes) --
-    from .shapes import SHAPE_POINTS, SHAPES
+    from .shapes import SHAPE_POINTS, SHAPES, write_shapes
 
     shapes = commands.add_parser("shapes", help="write point clouds sampled on tubes around known centrelines")
     shapes.add_argument("--out", required=True, help="output folder: NAME.ply (points) and NAME_centreline.json per shape")
     shapes.add_argument("--names", nargs="+", default=list(SHAPES), metavar="NAME",
                         help=f"shapes to write, of: {' '.join(SHAPES)} (default: all)")
     shapes.add_argument("--n", type=_point_count, default=SHAPE_POINTS, help="points per shape (default: %(default)s)")
-    shapes.add_argument("--seed", type=random_seed, default=0, help="random seed (default: %(default)s)")
-    shapes.add_argument("--noise", type=float, default=0.0,
+    shapes.add_argument("--seed", type=random_seed, default=default_of(write_shapes, "seed"),
+                        help="random seed (default: %(default)s)")
+    shapes.add_argument("--noise", type=float, default=default_of(write_shapes, "noise"),
                         help="std of Gaussian noise, a fraction of the bounding-box diagonal (default: %(default)s)")
-    shapes.add_argument("--nonuniform", type=float, default=0.0,
+    shapes.add_argument("--nonuniform", type=float, default=default_of(write_shapes, "nonuniform"),
                         help="in [0, 1): sampling density falls linearly along x from 1 to 1 - this (default: %(default)s)")
     shapes.add_argument("--force", action="store_true", help="replace shape files already in --out")
     shapes.set_defaults(handler=_shapes)
@@ -148,19 +157,21 @@ def build_parser() -> argparse.ArgumentParser:
     add_parameter_flags(batch)
     batch.set_defaults(handler=_batch)
     # -- study (skelcore.study) --
-    from .study import SETTINGS, STUDY_POINTS
+    from .study import SETTINGS, STUDY_POINTS, run_study
 
     study = commands.add_parser("study", help="measure the verdict's criteria against ground truth over a grid of "
                                               "shapes, variants, seeds and settings; calibrate the thresholds")
     study.add_argument("--out", required=True, help="output folder: runs.jsonl (resumable), study.csv, study.json, "
                                                     "thresholds.json, study.html")
     study.add_argument("--points", type=_point_count, default=STUDY_POINTS, help="points per cloud (default: %(default)s)")
-    study.add_argument("--seeds", type=random_seed, nargs="+", default=[0], help="sampling seeds (default: %(default)s)")
+    study.add_argument("--seeds", type=random_seed, nargs="+", default=list(default_of(run_study, "seeds")),
+                       help=f"sampling seeds (default: {' '.join(map(str, default_of(run_study, 'seeds')))})")
     study.add_argument("--settings", nargs="+", default=list(SETTINGS), metavar="SETTING",
                        help=f"parameter settings, of: {'; '.join(SETTINGS)} (default: all)")
     study.add_argument("--shapes", nargs="+", default=None, metavar="NAME", help="synthetic or benchmark shapes (default: all)")
     study.add_argument("--no-benchmark", action="store_true", help="leave out the real-shape benchmark")
-    study.add_argument("--jobs", type=int, default=1, help="worker processes (default: %(default)s)")
+    study.add_argument("--jobs", type=int, default=default_of(run_study, "jobs"),
+                       help="worker processes (default: %(default)s)")
     study.set_defaults(handler=_study)
     return parser
 
@@ -184,8 +195,9 @@ def _run(args: argparse.Namespace) -> int:
 
 def _bench(args: argparse.Namespace) -> int:
     from .bench import run_bench
+    from .params import METHODS
 
-    methods = ("lbc", "glskeleton") if args.method == "both" else (args.method,)
+    methods = METHODS if args.method == "both" else (args.method,)
     run_bench(args.points, methods=methods, full_resolution=args.full_resolution, noise=args.noise,
               baseline_max=args.baseline_max, pc_skeletor=args.pc_skeletor)
     return 0

@@ -96,6 +96,7 @@ CLIPPING = 1e3  # a camera's near and far planes, the cloud's diagonal over and 
 # The scene's up, by name: +Z as most scanners and CAD tools have it; glTF, and many graphics scans, have +Y
 UP_AXES = {"+Z": (0.0, 0.0, 1.0), "+Y": (0.0, 1.0, 0.0), "+X": (1.0, 0.0, 0.0),
            "-Z": (0.0, 0.0, -1.0), "-Y": (0.0, -1.0, 0.0), "-X": (-1.0, 0.0, 0.0)}
+DEFAULT_UP = "+Z"  # the up of a cloud whose format fixes none
 
 
 def turned_up(direction, up) -> np.ndarray:
@@ -140,7 +141,7 @@ def _axes(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return right, np.cross(forward, right), forward
 
 
-def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float = 0.8,
+def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float,
                    up=(0.0, 0.0, 1.0), bottom: float = 0.0) -> Camera:
     """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
     point fit in `fill` of the image: the projected bounding box of the points spans `fill` of the image

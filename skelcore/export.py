@@ -1,7 +1,8 @@
 """Writers for curve skeletons (JSON, PLY with vertex + edge elements, OBJ polylines, GraphML) and for the
 contracted points (binary PLY). Coordinates are written as given: the skeleton is in the user's coordinates.
-Writers take the destination first, like write_points_ply(path, points); write_skeleton(skeleton, out_dir)
-writes the two files of `skelcore run`."""
+Writers take the destination first, like write_points_ply(path, points); `skelcore run` writes skeleton.json
+and skeleton.ply (skelcore.results), and `write_skeleton_file` (Result.save_skeleton) one file in the format its
+suffix names."""
 from __future__ import annotations
 
 import json
@@ -10,7 +11,7 @@ from pathlib import Path
 import networkx as nx
 import numpy as np
 
-from .errors import InputError, SkelError
+from .errors import InputError, ParameterError, SkelError
 from .skeleton import Skeleton
 
 
@@ -96,15 +97,17 @@ def write_points_ply(path, points, dtype=np.float64, labels=None) -> Path:
     return _write(path, lambda f: f.write(header.encode("ascii") + body), "wb")
 
 
-def write_skeleton(skeleton: Skeleton, out_dir) -> dict[str, Path]:
-    """skeleton.json and skeleton.ply in `out_dir` (created if needed)."""
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise SkelError(f"{out}: cannot create the output folder ({error.strerror})") from None
-    return {"json": write_skeleton_json(out / "skeleton.json", skeleton),
-            "ply": write_skeleton_ply(out / "skeleton.ply", skeleton)}
+SKELETON_FORMATS = {".json": write_skeleton_json, ".ply": write_skeleton_ply, ".obj": write_skeleton_obj,
+                    ".graphml": write_skeleton_graphml}
+
+
+def write_skeleton_file(path, skeleton: Skeleton) -> Path:
+    """The skeleton written to `path` in the format its suffix names (SKELETON_FORMATS); a ParameterError for
+    another suffix."""
+    writer = SKELETON_FORMATS.get(Path(path).suffix.lower())
+    if writer is None:
+        raise ParameterError(f"{path}: a skeleton file's name ends in {', '.join(SKELETON_FORMATS)}")
+    return writer(path, skeleton)
 
 
 def polylines(graph: nx.Graph) -> list[list[int]]:

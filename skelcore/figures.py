@@ -18,8 +18,10 @@ from .verdict import StabilityThresholds, convergence
 
 # key -> (title, axis label, histogram range, target)
 MEASURES = {
-    "d_theta": ("D_theta", "D<sub>θ</sub> = arccos(cos_sim(n<sub>k</sub>, n<sub>0</sub>)) / π", D_THETA_RANGE, 0.5),
-    "delta_kappa": ("delta_kappa", "Δκ = κ<sub>k</sub> − κ<sub>0</sub>", DELTA_KAPPA_RANGE, 0.0),
+    "d_theta": ("D_theta", "D<sub>θ</sub> = arccos(cos_sim(n<sub>k</sub>, n<sub>0</sub>)) / π", D_THETA_RANGE,
+                StabilityThresholds.d_theta_target),
+    "delta_kappa": ("delta_kappa", "Δκ = κ<sub>k</sub> − κ<sub>0</sub>", DELTA_KAPPA_RANGE,
+                    StabilityThresholds.delta_kappa_target),
 }
 LABEL_COLOURS = {"stable": "#2a9d3f", "not yet converged": "#e08a00", "unstable": "#d1342f"}
 MAX_CLOUD_POINTS = 4000  # per cloud drawn in the report: enough to see the shape, about 90 kB of page each
@@ -148,9 +150,10 @@ def convergence_figure(iterations, thresholds: StabilityThresholds = StabilityTh
     trend = convergence(entries, thresholds)
     labels = [e["verdict"]["label"] for e in entries]
     figure = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.12,
-                           subplot_titles=("mean D<sub>θ</sub> → 0.5", "mean Δκ → 0"))
+                           subplot_titles=(f"mean D<sub>θ</sub> → {thresholds.d_theta_target:g}",
+                                           f"mean Δκ → {thresholds.delta_kappa_target:g}"))
     rows = (("d_theta", thresholds.d_theta_target, thresholds.d_theta_tolerance),
-            ("delta_kappa", 0.0, thresholds.delta_kappa_tolerance))
+            ("delta_kappa", thresholds.delta_kappa_target, thresholds.delta_kappa_tolerance))
     colours = [LABEL_COLOURS.get(label, "#555555") for label in labels]
     _target_bands(figure, rows)
     for row, (key, _, _) in enumerate(rows, start=1):
@@ -260,9 +263,10 @@ def convergence_comparison_figure(runs, thresholds: StabilityThresholds = Stabil
     from plotly.subplots import make_subplots
 
     figure = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.12,
-                           subplot_titles=("mean D<sub>θ</sub> → 0.5", "mean Δκ → 0"))
+                           subplot_titles=(f"mean D<sub>θ</sub> → {thresholds.d_theta_target:g}",
+                                           f"mean Δκ → {thresholds.delta_kappa_target:g}"))
     rows = (("d_theta", thresholds.d_theta_target, thresholds.d_theta_tolerance),
-            ("delta_kappa", 0.0, thresholds.delta_kappa_tolerance))
+            ("delta_kappa", thresholds.delta_kappa_target, thresholds.delta_kappa_tolerance))
     _target_bands(figure, rows)
     for number, run in enumerate(runs):
         trend = convergence(run["iterations"], thresholds)

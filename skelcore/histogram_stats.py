@@ -31,8 +31,8 @@ def significant_peaks(counts: np.ndarray, n_points: int, drop: float = 0.02) -> 
     return np.asarray(peaks, dtype=np.int64)
 
 
-def distribution_stats(values: np.ndarray, value_range: tuple[float, float], bins: int = 50,
-                       peak_drop: float = 0.02) -> dict:
+def distribution_stats(values: np.ndarray, value_range: tuple[float, float], bins: int,
+                       peak_drop: float) -> dict:
     """JSON-ready statistics of one per-point measure; NaN values are left out and counted."""
     values = np.asarray(values, dtype=float)
     finite = values[np.isfinite(values)]

@@ -68,6 +68,7 @@ from .normals import COLLAPSED, away_from_centroid, pca_features
 from .verdict import DELTA_KAPPA_RANGE, D_THETA_RANGE, StabilityThresholds, features, judge
 
 NORMAL_CONVENTIONS = ("outward", "tracked")
+METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (module docstring)
 NORMAL_CONVENTION = "outward"  # chosen by `skelcore study` (module docstring)
 JUDGED_POINTS = 5_000  # a larger cloud is judged on a fixed random sample of this many of its points (Scale)
 
@@ -140,7 +141,7 @@ class MetricsReference:
     spread: float = float("nan")  # X_0 of the whole input, for the iterations where every point is present
 
     @classmethod
-    def from_points(cls, points0, faces=None, k: int = 30, *, bins: int = 50,
+    def from_points(cls, points0, faces=None, k: int = METRICS_K, *, bins: int = 50,
                     thresholds: StabilityThresholds | None = None, max_points: int | None = JUDGED_POINTS,
                     seed: int = 0, convention: str = NORMAL_CONVENTION,
                     reduction: Reduction | None | Unread = UNREAD, tree: cKDTree | None = None,

@@ -19,7 +19,7 @@ _ORIENT_NEIGHBOURS = 10  # Riemannian graph of the MST orientation
 _TANGENT = 0.5  # an orientation edge must run along both surfaces: |n . edge direction| below this
 
 
-def pca_features(points: np.ndarray, k: int = 30, collapsed: float = 0.0, anchored: bool = False,
+def pca_features(points: np.ndarray, k: int, collapsed: float = 0.0, anchored: bool = False,
                  neighbours: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit normals (eq. 6, sign as the solver gives it), curvature (eq. 7) and kNN indices of every point,
     its neighbours taken among `points`.

@@ -8,11 +8,10 @@ import numpy as np
 from . import io, multires
 from .errors import InputError, ParameterError
 from .labels import check_label_weights, weights_from_labels
-from .metrics import NORMAL_CONVENTION
+from .metrics import METRICS_K, NORMAL_CONVENTION
 from .params import LIMITS, CleaningParams, ContractionParams, check_flags, is_integer
 from .skeleton import SkeletonParams
 
-METRICS_K = 30  # the paper's neighbourhood for PCA normals and curvature (see skelcore.metrics)
 
 
 @dataclass(frozen=True)

@@ -24,9 +24,13 @@ INTEGERS = ("k", "max_iterations")
 AUTOMATIC = ("k", "wl0")  # None: the engine chooses (default_k, and W_L0 from the one-rings)
 
 
+K_SHARE, K_MIN, K_MAX = 0.012, 8, 30  # cloudcontr GS.compute_k_knn: k = clamp(round(K_SHARE n), K_MIN, K_MAX)
+DEFAULT_K_RULE = f"clamp(round({K_SHARE} n), {K_MIN}, {K_MAX})"
+
+
 def default_k(n_points: int) -> int:
-    """cloudcontr GS.compute_k_knn: clamp(round(0.012 n), 8, 30)."""
-    return int(min(30, max(8, round(0.012 * n_points))))
+    """The one-rings' neighbours for n points: DEFAULT_K_RULE."""
+    return int(min(K_MAX, max(K_MIN, round(K_SHARE * n_points))))
 
 
 @dataclass(frozen=True)

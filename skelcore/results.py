@@ -24,7 +24,9 @@ from .step import TERMINATION_MESSAGES, IterationState
 from .verdict import run_verdict
 
 RESULT_FILES = ("skeleton.json", "skeleton.ply", "contracted.ply", "metrics.json", "params.json")
-EARLIER_RUN_FILES = ("done.json", "report.html")  # what `skelcore batch` adds to a run's folder
+DONE_FILE = "done.json"  # `skelcore batch`'s marker of an object run to its end (skelcore.batch_object)
+REPORT_FILE = "report.html"  # the HTML report `skelcore batch` writes beside its objects (skelcore.batch)
+EARLIER_RUN_FILES = (DONE_FILE, REPORT_FILE)  # what `skelcore batch` adds to a run's folder
 
 
 def metrics_document(cloud: io.Cloud, states: list[IterationState], metrics: list[IterationMetrics],

@@ -6,7 +6,7 @@ import argparse
 import re
 
 from .errors import SkelError
-from .params import METHODS, CleaningParams, ContractionParams
+from .params import DEFAULT_K_RULE, METHODS, CleaningParams, ContractionParams
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
@@ -21,7 +21,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                        help="lbc: Cao et al. 2010; glskeleton: Wen et al. 2024 with in-loop point reduction "
                             "(default: %(default)s)")
     group.add_argument("--k", type=int, default=None,
-                       help="neighbours per one-ring (default: clamp(round(0.012 n), 8, 30))")
+                       help=f"neighbours per one-ring (default: {DEFAULT_K_RULE})")
     group.add_argument("--wl0", type=float, default=None,
                        help="initial contraction weight W_L0 (default: 1 / (5 * mean one-ring edge length))")
     group.add_argument("--wh0", type=float, default=defaults.wh0,

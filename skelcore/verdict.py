@@ -77,6 +77,7 @@ class StabilityThresholds:
     # study judges last iterations, where it cost 2 of the 252 held-out right runs, and cannot see the early
     # iterations the inspector also labels.
     d_theta_tolerance: float = 0.25
+    delta_kappa_target: float = 0.0  # paper
     delta_kappa_tolerance: float = 0.4  # study: |mean delta_kappa| above this: not yet converged (adds nothing: off)
     min_inside_share: float = 0.9  # study: fewer points inside the original shape: unstable
     surface_tolerance: float = 0.01  # band around the surface that counts as inside (fraction of the diagonal)
@@ -231,7 +232,7 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
                          f"at most {most} ({100 * t.peak_drop:g}% rule)", off=_OFF if most >= MANY_PEAKS else None)
     for label, key, target, tolerance, (low, high) in (
             ("D_theta", "d_theta", t.d_theta_target, t.d_theta_tolerance, D_THETA_RANGE),
-            ("delta_kappa", "delta_kappa", 0.0, t.delta_kappa_tolerance, DELTA_KAPPA_RANGE)):
+            ("delta_kappa", "delta_kappa", t.delta_kappa_target, t.delta_kappa_tolerance, DELTA_KAPPA_RANGE)):
         mean, symmetry = v[f"{key}_mean"], v[f"{key}_symmetry"]
         if mean is None:
             yield _criterion(f"mean {label}", False, "not yet converged", "undefined at every point",
@@ -284,7 +285,7 @@ def convergence(iterations, thresholds: StabilityThresholds = StabilityThreshold
     entries = entries_of(iterations)
     steps = [e["iteration"] for e in entries]
     result = {"iteration": steps}
-    for key, target in (("d_theta", thresholds.d_theta_target), ("delta_kappa", 0.0)):
+    for key, target in (("d_theta", thresholds.d_theta_target), ("delta_kappa", thresholds.delta_kappa_target)):
         means = [e[key]["mean"] for e in entries]
         gaps = [None if m is None else abs(m - target) for m in means]
         later = [g for step, g in zip(steps, gaps) if step > 0 and g is not None]

@@ -131,6 +131,21 @@ def test_result_save_keeps_earlier_results_unless_forced(tmp_path):
     assert (tmp_path / "skeleton.json").read_text() == before and (tmp_path / "notes.txt").read_text() == "mine"
 
 
+def test_result_saves_its_skeleton_alone_in_the_format_its_file_name_ends_in(tmp_path):
+    import networkx as nx
+
+    result = skelcore.skeletonize(REPO / "assets" / "torus.ply")
+    document = json.loads(result.save_skeleton(tmp_path / "loop.json").read_text())
+    assert document["topology"] == result.topology and np.allclose(document["nodes"], result.nodes)
+    graph = nx.read_graphml(result.save_skeleton(tmp_path / "loop.GraphML"), node_type=int)
+    assert graph.number_of_edges() == len(result.edges)
+    lines = result.save_skeleton(tmp_path / "loop.obj").read_text().splitlines()
+    assert sum(line.startswith("v ") for line in lines) == len(result.nodes)
+    assert result.save_skeleton(tmp_path / "loop.ply").read_text().startswith("ply")
+    with pytest.raises(ParameterError, match="loop.dxf: a skeleton file's name ends in"):
+        result.save_skeleton(tmp_path / "loop.dxf")
+
+
 def test_labels_beyond_int64_are_refused_not_wrapped(tmp_path):
     points = np.random.default_rng(4).normal(size=(40, 3))
     write_points_ply(tmp_path / "p.ply", points)

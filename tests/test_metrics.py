@@ -146,17 +146,22 @@ def test_peak_rule_counts_separated_peaks():
 
 
 def test_distribution_statistics():
+    from skelcore.verdict import StabilityThresholds
+
+    def distribution_stats_as_run(values, value_range):  # the metrics' histogram and the verdict's peak rule
+        return distribution_stats(values, value_range, bins=50, peak_drop=StabilityThresholds().peak_drop)
+
     rng = np.random.default_rng(1)
-    normal = distribution_stats(rng.normal(0.5, 0.1, 20000), D_THETA_RANGE)
+    normal = distribution_stats_as_run(rng.normal(0.5, 0.1, 20000), D_THETA_RANGE)
     assert normal["peaks"]["count"] == 1
     assert abs(normal["skewness"]) < 0.1 and abs(normal["kurtosis"]) < 0.2
     assert normal["symmetry"] > 0.95 and abs(normal["unimodality"] - 2 / 3) < 0.03
     assert abs(normal["mean"] - 0.5) < 0.01 and abs(normal["std"] - 0.1) < 0.01
-    two = distribution_stats(np.concatenate([rng.normal(0.2, 0.03, 5000), rng.normal(0.8, 0.03, 5000)]), D_THETA_RANGE)
+    two = distribution_stats_as_run(np.concatenate([rng.normal(0.2, 0.03, 5000), rng.normal(0.8, 0.03, 5000)]), D_THETA_RANGE)
     assert two["peaks"]["count"] == 2 and two["unimodality"] < 0.2
-    skewed = distribution_stats(rng.exponential(0.1, 20000), D_THETA_RANGE)
+    skewed = distribution_stats_as_run(rng.exponential(0.1, 20000), D_THETA_RANGE)
     assert skewed["skewness"] > 1.5 and skewed["symmetry"] < 0.7
-    nan = distribution_stats(np.array([np.nan, 0.5, 0.5, 0.5]), D_THETA_RANGE)
+    nan = distribution_stats_as_run(np.array([np.nan, 0.5, 0.5, 0.5]), D_THETA_RANGE)
     assert nan["n"] == 3 and nan["n_undefined"] == 1 and nan["skewness"] is None and nan["symmetry"] == 1.0
     json.dumps(nan)
 

@@ -40,8 +40,16 @@ def test_every_everyday_part_is_closed_with_the_genus_its_description_gives(name
 def test_bench_quality_runs_the_everyday_parts_by_flag_or_by_name(capsys, monkeypatch):
     from skelcore import cli, quality_bench
 
+    import inspect
+
     asked = []
-    monkeypatch.setattr(quality_bench, "run_quality_bench", lambda **kwargs: asked.append(kwargs["shapes"]) or [])
+
+    def recorded(**kwargs):
+        asked.append(kwargs["shapes"])
+        return []
+
+    recorded.__signature__ = inspect.signature(quality_bench.run_quality_bench)  # the flags' defaults read it
+    monkeypatch.setattr(quality_bench, "run_quality_bench", recorded)
     monkeypatch.setattr(quality_bench, "format_table", lambda *args: "")
     assert cli.main(["bench-quality", "--parts", "--quiet"]) == 0
     assert cli.main(["bench-quality", "--shapes", "wrench", "block_1_hole", "--quiet"]) == 0

@@ -9,8 +9,8 @@ from scipy.spatial import cKDTree
 from skelcore import loops
 from skelcore.errors import InputError, ParameterError, SkelError
 from skelcore.evaluate import load_graph
-from skelcore.export import (polylines, skeleton_document, write_points_ply, write_skeleton, write_skeleton_graphml,
-                             write_skeleton_obj)
+from skelcore.export import (polylines, skeleton_document, write_points_ply, write_skeleton_file,
+                             write_skeleton_graphml, write_skeleton_obj)
 from skelcore.neighbours import one_rings
 from skelcore.normalise import object_diagonal
 from skelcore.refine import drop_collinear
@@ -494,8 +494,7 @@ def y_skeleton():
 
 
 def test_json_and_ply_round_trip(y_skeleton, tmp_path):
-    paths = write_skeleton(y_skeleton, tmp_path / "new" / "out")
-    assert {p.name for p in paths.values()} == {"skeleton.json", "skeleton.ply"}
+    paths = {kind: write_skeleton_file(tmp_path / f"skeleton.{kind}", y_skeleton) for kind in ("json", "ply")}
     document = json.loads(paths["json"].read_text())
     assert np.array_equal(document["nodes"], y_skeleton.nodes_array())
     assert np.array_equal(document["edges"], y_skeleton.edges_array())
@@ -552,9 +551,9 @@ def test_write_errors_are_one_line(y_skeleton, tmp_path):
         write_skeleton_obj(tmp_path, y_skeleton)  # a folder, not a file
     with pytest.raises(InputError, match=r"\(n, 3\)"):
         write_points_ply(tmp_path / "p.ply", np.zeros((4, 2)))
-    (tmp_path / "file").write_text("")
-    with pytest.raises(SkelError, match="cannot create"):
-        write_skeleton(y_skeleton, tmp_path / "file" / "out")
+    with pytest.raises(ParameterError, match=r"skeleton\.off: a skeleton file's name ends in \.json, \.ply, \.obj, "
+                                             r"\.graphml"):
+        write_skeleton_file(tmp_path / "skeleton.off", y_skeleton)
 
 
 def test_whole_pipeline_on_the_cloudcontr_golden_case(reference_dir):
