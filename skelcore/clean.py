@@ -13,7 +13,11 @@ Both rules compare each point with the cloud's own typical spacing, so they foll
   degenerate cotangents; the projection removes the normal part of the noise. On a clean surface it
   moves a point by about the sagitta of its neighbourhood, a fraction of a point spacing. Where the
   neighbourhood holds two parallel sheets (a wall thinner than its reach) the plane pulls them together;
-  the cloud's `surface`, which its inside tests sample, keeps them apart (`_own_sheets`);
+  the cloud's `surface`, which its inside tests sample, keeps them apart (`_own_sheets`). A neighbourhood with
+  no plane stays as it is: a thin tube a few points around (a bucket's wire bail) lines its neighbours up
+  along its axis, spread alike in both directions across it, and the plane PCA picks there is set by which
+  sides the few samples happen to lie on; projected onto it, the tube flattens into a ribbon whose
+  cross-section no longer reads as a hollow tube (skelcore.curveness.thin_tubes);
 - stray pieces: the cloud is split into pieces where no chain of near neighbours (each step at most
   `piece_gap` times the typical spacing) joins them; pieces holding less than `min_piece_share` of the
   points are removed (a scan's stray clusters, far or near). A piece of the object holding that share is
@@ -31,6 +35,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .coordinates import on_one_line
+from .curveness import CURVE_RATIO
 from .density import group_medians
 from .errors import InputError
 from .io import Cloud
@@ -40,6 +45,7 @@ from .normals import COLLAPSED
 from .params import CleaningParams
 
 
+ROUND_ACROSS = 0.5  # a curve-like neighbourhood's two spreads across its line at least this near: a tube, no plane
 SHEET_GAP = 4.0  # a neighbourhood holds two sheets where its heights part by this many times their spread...
 SHEET_POINTS = 3  # ... into groups of at least this many (a plane needs three)
 SHEET_NEAREST = 5  # the heights are taken along the plane of this many nearest (itself included)
@@ -186,12 +192,14 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
         rows = slice(start, start + CHUNK)
         local = points[index[rows]]
         counts = None if weights is None else weights[index[rows]]
-        _, frames, mean = local_frames(local, counts)
-        projected[rows] = _onto_plane(points[rows], frames, mean)
+        spreads, frames, mean = local_frames(local, counts)
+        tube = _tube_like(spreads)
+        projected[rows] = np.where(tube[:, None], points[rows], _onto_plane(points[rows], frames, mean))
         if not walls:
             return np.zeros(0, np.int64), np.zeros((0, 3))
         sheets, frames, mean = _own_sheets(local, points[rows], counts, frames, mean)
-        return start + sheets, _onto_plane(points[start + sheets], frames, mean)
+        flat = ~tube[sheets]
+        return start + sheets[flat], _onto_plane(points[start + sheets[flat]], frames[flat], mean[flat])
 
     starts = range(0, len(points), CHUNK)
     if len(starts) == 1:
@@ -207,6 +215,15 @@ def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = Non
     apart = projected.copy()
     apart[walled] = np.concatenate([onto for _, onto in blocks])
     return projected, apart
+
+
+def _tube_like(spreads: np.ndarray) -> np.ndarray:
+    """(n,) which neighbourhoods, by their PCA variances `spreads` (n, 3) ascending, have no plane: curve-like
+    (the spread across at most CURVE_RATIO of the spread along, as curveness reads a curve) and about as wide
+    in both directions across (ROUND_ACROSS): a thin tube's few points around. A noisy sheet is wide along two
+    directions, a ribbon or a crease narrow across one."""
+    along, across, least = spreads[:, 2], spreads[:, 1], np.maximum(spreads[:, 0], 0.0)
+    return (across <= CURVE_RATIO ** 2 * along) & (least >= ROUND_ACROSS ** 2 * across)
 
 
 def _onto_plane(points: np.ndarray, frames: np.ndarray, mean: np.ndarray) -> np.ndarray:

@@ -198,7 +198,10 @@ def _thin_tubes_judged(points: np.ndarray, radius: float, edges: np.ndarray, k: 
     _, ratio, along = curve_likeness(points, radius, among_all=True, tree=tree, radii=scale)
     judged = np.flatnonzero(np.isfinite(ratio))
     surface = coo_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(len(points),) * 2)
-    centroids, closed = _cross_sections(tree, surface.tocsr(), points[probes[judged]], along[judged], scale[judged])
+    centroids, closed, told = _cross_sections(tree, surface.tocsr(), points[probes[judged]], along[judged],
+                                              scale[judged])
+    # a cross-section too thinly sampled to tell has no say (a sparse wire's probes flicker between the two)
+    judged, centroids, closed = judged[told], centroids[told], closed[told]
     if not closed.any():
         return anchors
     thin, centroid, axis = np.zeros(len(probes), dtype=bool), np.zeros((len(probes), 3)), np.zeros((len(probes), 3))
@@ -278,13 +281,14 @@ def _far_ends(graph) -> tuple[int, int]:
 
 
 def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarray, scale: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each probe (m, 3) with its unit direction along and its scale (m,): the centroid of the input's
-    cross-section there (the input: the points of `tree`), and whether that cross-section is a hollow one within
-    the scale of it (thin_tubes). The cross-section is the piece of the slab that the input's surface edges
-    (`surface`, a symmetric CSR adjacency) join to the probe: where a handle stands close to the body, the slab
-    also cuts the body's surface beside it, which is no part of the handle's wall (on a sparse cloud the scale,
-    and with it the slab, reaches the body along most of a small handle)."""
+    cross-section there (the input: the points of `tree`), whether that cross-section is a hollow one within
+    the scale of it (thin_tubes), and whether it holds the MIN_NEIGHBOURS points that tell. The cross-section is
+    the piece of the slab that the input's surface edges (`surface`, a symmetric CSR adjacency) join to the
+    probe: where a handle stands close to the body, the slab also cuts the body's surface beside it, which is no
+    part of the handle's wall (on a sparse cloud the scale, and with it the slab, reaches the body along most of
+    a small handle)."""
     points = tree.data
     pair_rows, pair_cols = _within(cKDTree(probes), tree, 2 * scale)
     offset = points[pair_cols] - probes[pair_rows]
@@ -299,7 +303,8 @@ def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarra
         centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
     across -= centroid[rows]
     distance = np.linalg.norm(across, axis=1)
-    closed = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
+    told = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
+    closed = told.copy()
     closed[rows[distance > scale[rows]]] = False
     # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
     # crease or a strip has points at its centroid (a strip a sixth of them within HOLLOW of the mean, a twig
@@ -307,7 +312,7 @@ def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarra
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.bincount(rows, distance, len(probes)) / count
         inner = np.bincount(rows, distance < HOLLOW * mean[rows], len(probes)) / count
-    return probes + centroid, closed & (inner <= STRAY)
+    return probes + centroid, closed & (inner <= STRAY), told
 
 
 def _piece_through_probe(surface, rows: np.ndarray, cols: np.ndarray, to_probe: np.ndarray) -> np.ndarray:

@@ -493,6 +493,17 @@ def test_flat_and_framed_parts_keep_their_loops_and_ends():
                                                                                       result.topology)
 
 
+def test_a_buckets_wire_bail_keeps_its_loop():
+    """The bucket at 10,000 points, clean, both methods: its bail, a wire 0.5 thick about three points around,
+    lost its loop as cleaning's denoising flattened it into a ribbon (skelcore.clean) and, where a cross-section
+    held too few points to tell, the thin-handle test counted that as a vote against a tube (skelcore.curveness):
+    the bail was neither held nor kept in place and shrank onto the rim."""
+    from skelcore.quality_bench import run_quality_bench
+
+    for result in run_quality_bench(methods=("lbc", "glskeleton"), shapes=["bucket"], variants=("clean",)):
+        assert result.exact, (result.method, result.topology)
+
+
 def test_a_depth_camera_s_layers_add_no_loop_to_a_drilled_plate():
     """The plate with one hole at 10,000 points with coordinates in layers of 0.5% of the diagonal (draw 0): the
     rows of points on its faces used to make flat one-ring triangles whose clamped cotangents pulled points 0.1
