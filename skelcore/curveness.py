@@ -14,14 +14,14 @@ inspector): the share at the skeleton's default sample radius, a fraction of the
 a limb): the points whose W_L the contraction may hold (skelcore.step.hold_curves).
 
 `thin_tubes` finds, on the input itself, the handles thinner than the skeleton or the contraction resolves:
-where the input's cross-section across the part is a hollow curve within one sample radius of its centroid, or
+where the input's cross-section across the part is a hollow curve within one sample radius of its centre, or
 within the reach of the one-rings' neighbourhoods where the input is sparser, the skeleton draws the part as a
 curve through those centroids (recentred nodes) whatever the contraction does, so contraction there can only do
 harm: a few points around, such a tube's one-rings (the PCA plane of k neighbours) lie flat over it, so the
 first steps barely contract it, and later ones shorten it shut as a curve-shortening flow while the bulk beside
 it contracts (skelcore.step.anchored keeps it in place, and each state shows it on its axis). The cross-section
 tells them from a sheet or a bulky part (their cross-section runs on past the radius) and from a crease, a strip
-or a twig one point wide (their cross-section has points at its centroid). Only thin parts that close a loop of
+or a twig one point wide (their cross-section has points at its centre). Only thin parts that close a loop of
 the input are kept: a limb or a tail ends, and the hold above keeps its end.
 """
 from __future__ import annotations
@@ -41,7 +41,7 @@ MIN_NEIGHBOURS = 8  # probes within the radius needed to judge; fewer: spread to
 NEAREST_INPUT = 30  # input points that judge whether a contracted point is surrounded (cloudcontr's k)
 SURROUNDED = 0.5  # length of the mean unit direction to them, below which they lie on all sides
 MIN_CURVE_RADII = 2.0  # a thin part spans at least this many sample radii: two skeleton edges
-HOLLOW = 1 / 3  # a closed cross-section's points lie at least this share of their mean distance from its centroid,
+HOLLOW = 1 / 3  # a closed cross-section's points lie at least this share of their mean distance from its centre,
 STRAY = 0.1  # all but at most this share of them (noise scatters a few of a wall's points inwards)
 
 
@@ -166,7 +166,7 @@ def thin_tubes(points: np.ndarray, radius: float, edges: np.ndarray, k: int) -> 
     The direction along a probe's part is the principal direction of the input within its scale, and its
     cross-section the input within twice the scale and within half of it of the plane through the probe across
     that direction. The part is thin where that cross-section holds at least MIN_NEIGHBOURS points, lies within
-    the scale of its centroid and is hollow (at most a share STRAY of its points nearer the centroid than HOLLOW
+    the scale of its centre and is hollow (at most a share STRAY of its points nearer the centre than HOLLOW
     of their mean distance to it). A point is thin when most probes judged within their scale of it are, and its
     axis is its nearest probe's, the line along the direction through the centroid. Thin pieces (points within
     their scale of each other) spanning less than MIN_CURVE_RADII radii are left out, a bump the skeleton could
@@ -283,12 +283,12 @@ def _far_ends(graph) -> tuple[int, int]:
 def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarray, scale: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each probe (m, 3) with its unit direction along and its scale (m,): the centroid of the input's
-    cross-section there (the input: the points of `tree`), whether that cross-section is a hollow one within
-    the scale of it (thin_tubes), and whether it holds the MIN_NEIGHBOURS points that tell. The cross-section is
-    the piece of the slab that the input's surface edges (`surface`, a symmetric CSR adjacency) join to the
-    probe: where a handle stands close to the body, the slab also cuts the body's surface beside it, which is no
-    part of the handle's wall (on a sparse cloud the scale, and with it the slab, reaches the body along most of
-    a small handle)."""
+    cross-section there (the input: the points of `tree`), whether that cross-section is a hollow one within the
+    scale of its centre (the circle's through it, `_circle_centres`: thin_tubes), and whether it holds the
+    MIN_NEIGHBOURS points that tell. The cross-section is the piece of the slab that the input's surface edges
+    (`surface`, a symmetric CSR adjacency) join to the probe: where a handle stands close to the body, the slab
+    also cuts the body's surface beside it, which is no part of the handle's wall (on a sparse cloud the scale,
+    and with it the slab, reaches the body along most of a small handle)."""
     points = tree.data
     pair_rows, pair_cols = _within(cKDTree(probes), tree, 2 * scale)
     offset = points[pair_cols] - probes[pair_rows]
@@ -301,18 +301,56 @@ def _cross_sections(tree: cKDTree, surface, probes: np.ndarray, along: np.ndarra
     count = np.bincount(rows, minlength=len(probes))
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.stack([np.bincount(rows, across[:, axis], len(probes)) for axis in range(3)], 1) / count[:, None]
-    across -= centroid[rows]
-    distance = np.linalg.norm(across, axis=1)
     told = count >= MIN_NEIGHBOURS  # fewer: too thinly sampled to tell a cross-section
+    across -= centroid[rows]
+    shift = _circle_centres(across, rows, along, told)
+    distance = np.linalg.norm(across - shift[rows], axis=1)
     closed = told.copy()
     closed[rows[distance > scale[rows]]] = False
-    # hollow: on a closed wall every point lies about their mean distance from the centroid; an open arc, a
-    # crease or a strip has points at its centroid (a strip a sixth of them within HOLLOW of the mean, a twig
-    # most), while noise scatters only a few of a wall's points inwards
+    # hollow: on a closed wall every point lies about their mean distance from the centre; an open arc, a crease
+    # or a strip has points at its centre (a strip a sixth of them within HOLLOW of the mean, a twig most), while
+    # noise scatters only a few of a wall's points inwards
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.bincount(rows, distance, len(probes)) / count
         inner = np.bincount(rows, distance < HOLLOW * mean[rows], len(probes)) / count
     return probes + centroid, closed & (inner <= STRAY), told
+
+
+def _circle_centres(across: np.ndarray, rows: np.ndarray, along: np.ndarray, fitted: np.ndarray) -> np.ndarray:
+    """(m, 3) for each probe, the centre of the circle through its cross-section's points `across` (their offsets
+    from its centroid, of probe `rows`), from that centroid: Kasa's algebraic fit (least squares of
+    x^2 + y^2 = 2 a x + 2 b y + c) in the plane across `along`, for the probes `fitted`; 0 for the rest and where
+    the fit has no single answer (points on one line) or the points do not lie all round the circle's centre (a
+    gap of half a turn or more between two of them, seen from it). A few points around a tube fall unevenly round
+    it and pull their centroid to one side, where the nearest then read as inside the tube; the circle's centre
+    stays on its axis."""
+    if not len(rows):
+        return np.zeros((len(along), 3))
+    first = np.cross(along, np.eye(3)[np.argmin(np.abs(along), axis=1)])
+    first /= np.linalg.norm(first, axis=1, keepdims=True)
+    second = np.cross(along, first)
+    x, y = np.einsum("ij,ij->i", across, first[rows]), np.einsum("ij,ij->i", across, second[rows])
+    terms = np.stack([2 * x, 2 * y, np.ones_like(x)], axis=1)
+    normal = np.zeros((len(along), 3, 3))
+    np.add.at(normal, rows, terms[:, :, None] * terms[:, None, :])
+    right = np.zeros((len(along), 3))
+    np.add.at(right, rows, terms * (x * x + y * y)[:, None])
+    solvable = fitted & (np.abs(np.linalg.det(normal)) > 1e-12 * np.abs(normal).max(axis=(1, 2)) ** 3)
+    solution = np.zeros((len(along), 3))
+    solution[solvable] = np.linalg.solve(normal[solvable], right[solvable][:, :, None])[:, :, 0]
+    # only a centre the points lie all round (no gap of half a turn between them, seen from it): an open arc (a
+    # tube seen from one side) has a circle too, and its points would all read as on a wall around it
+    angle = np.arctan2(y - solution[rows, 1], x - solution[rows, 0])
+    order = np.lexsort((angle, rows))
+    sorted_rows, sorted_angle = rows[order], angle[order]
+    start = np.flatnonzero(np.r_[True, sorted_rows[1:] != sorted_rows[:-1]])
+    gaps = np.diff(np.r_[sorted_angle, 0.0])
+    last = np.r_[start[1:], len(order)] - 1
+    gaps[last] = sorted_angle[start] + 2 * np.pi - sorted_angle[last]  # round from the last to the first
+    widest = np.zeros(len(along))
+    np.maximum.at(widest, sorted_rows, gaps)
+    solution[widest >= np.pi] = 0.0
+    return solution[:, :1] * first + solution[:, 1:2] * second
 
 
 def _piece_through_probe(surface, rows: np.ndarray, cols: np.ndarray, to_probe: np.ndarray) -> np.ndarray:

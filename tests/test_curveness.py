@@ -186,3 +186,26 @@ def test_points_flung_far_out_neither_overflow_nor_stretch_the_density_cells(far
     dense = np.vstack([cloud, torus[:1] + np.random.default_rng(0).normal(0.0, 1e-4, (2000, 3))])
     kept = density.capped(dense, 0.01)
     assert kept is not None and np.isin(np.arange(1, 5002), kept).all() and len(kept) < 5002 + 200
+
+
+def test_a_few_points_unevenly_round_a_tube_find_its_axis_not_their_centroid():
+    """Ten points of a wire's cross-section, eight of them within 120 degrees of its circle and two across (a few
+    points around fall unevenly): their centroid lies nearly half a radius off the axis, near the eight, which
+    then read as inside the tube (not hollow); the circle through them has the axis as its centre. The points of
+    an open arc (a tube seen from one side: a gap of more than half a turn) and of a line keep their centroid."""
+    from skelcore.curveness import _circle_centres
+
+    def on_circle(degrees):
+        angles = np.radians(degrees)
+        return np.column_stack([0.25 * np.cos(angles) + 3.0, 0.25 * np.sin(angles) - 2.0, np.zeros(len(angles))])
+
+    uneven = on_circle(np.r_[np.linspace(-60, 60, 8), 150, 210])
+    arc = on_circle(np.linspace(-75, 75, 10))
+    line = np.column_stack([np.zeros(10), np.linspace(-0.2, 0.2, 10), np.zeros(10)])
+    sections = [uneven, arc, line]
+    centroids = np.array([section.mean(axis=0) for section in sections])
+    rows = np.repeat(np.arange(3), 10)
+    shift = _circle_centres(np.concatenate(sections) - centroids[rows], rows, np.tile([0.0, 0.0, 1.0], (3, 1)),
+                            np.ones(3, dtype=bool))
+    assert np.linalg.norm(centroids[0] - [3.0, -2.0, 0.0]) > 0.1
+    assert np.allclose(centroids[0] + shift[0], [3.0, -2.0, 0.0]) and np.allclose(shift[1:], 0.0)
