@@ -38,7 +38,7 @@ _PARAM_NAMES = tuple(field.name for field in dataclasses.fields(ContractionParam
 
 
 def load(path, *, labels=None, sample: int | None = None, voxel_size: float | None = None,
-         max_points: int = io.MAX_POINTS, seed: int = 0, drop_nonfinite: bool = False) -> io.Cloud:
+         max_points: int = io.MAX_POINTS, seed: int = RunOptions.seed, drop_nonfinite: bool = False) -> io.Cloud:
     """Read a point cloud or mesh file (.ply .pcd .xyz .pts .txt .off .obj .stl .glb) into a validated Cloud.
 
     `cloud.points` is an (n,3) float64 array (duplicates removed, noted in `cloud.notes`); `cloud.labels`
@@ -165,9 +165,9 @@ class Result:
         return f"<skelcore.Result {self.summary()}>"
 
 
-def skeletonize(points_or_path, method: str = ContractionParams.method, *, weights=None, labels=None, label_weights=None,
-                cleaning: CleaningParams | bool = True,
-                sample_radius: float = RunOptions.sample_radius, seed: int = 0, sample: int | None = None,
+def skeletonize(points_or_path, method: str = ContractionParams.method, *, weights=None, labels=None,
+                label_weights=None, cleaning: CleaningParams | bool = True,
+                sample_radius: float = RunOptions.sample_radius, seed: int = RunOptions.seed, sample: int | None = None,
                 voxel_size: float | None = None, max_points: int = io.MAX_POINTS, drop_nonfinite: bool = False,
                 point_budget: int | None = RunOptions.point_budget, progress: Callable[[str], None] | None = None,
                 **params) -> Result:

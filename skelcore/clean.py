@@ -177,7 +177,8 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
 
 def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None,
              weights: np.ndarray | None = None, walls: bool = False):
-    """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included).
+    """Each point projected onto the PCA plane of its `neighbours` nearest points (itself included), but where
+    they have no plane (`_tube_like`: left as it is).
     `index`: those neighbours when known, (n, neighbours) rows into `points`. `weights`: (n,) how many points
     each stands for (a voxel centroid's count), which weigh the plane's fit (None: one each). walls: also the
     points projected with a thin wall's faces kept apart (`_own_sheets`), which the inside tests sample:

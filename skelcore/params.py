@@ -139,7 +139,7 @@ class CleaningParams:
     outlier_ratio: float = 1.5  # times the spacing of its own neighbours
     outlier_spread: float = 3.0  # robust standard deviations above the cloud's median spacing (the 3-sigma rule)
     remove_stray: bool = True
-    denoise: bool = True  # project every point onto the PCA plane of its neighbours, once
+    denoise: bool = True  # project every point onto the PCA plane of its neighbours, once (where they have one)
     piece_gap: float = 3.0  # a chain of neighbours joins two points when each step is at most this many spacings
     min_piece_share: float = 0.01  # pieces with fewer points than this share are stray
 

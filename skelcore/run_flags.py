@@ -83,7 +83,8 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
                             "for pixels without depth) instead of refusing the file")
     group.add_argument("--no-denoise", action="store_true",
                        help="keep the points where they are (by default each is projected once onto the PCA plane "
-                            "of its neighbours, which removes sampling noise; a large cloud's voxel centroids too)")
+                            "of its neighbours where they have one, which removes sampling noise; a large cloud's "
+                            "voxel centroids too)")
     group.add_argument("--no-outlier-removal", action="store_true",
                        help="keep points far from their neighbours (removed by default: statistical outliers)")
     group.add_argument("--no-stray-removal", action="store_true",

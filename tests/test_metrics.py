@@ -157,7 +157,8 @@ def test_distribution_statistics():
     assert abs(normal["skewness"]) < 0.1 and abs(normal["kurtosis"]) < 0.2
     assert normal["symmetry"] > 0.95 and abs(normal["unimodality"] - 2 / 3) < 0.03
     assert abs(normal["mean"] - 0.5) < 0.01 and abs(normal["std"] - 0.1) < 0.01
-    two = distribution_stats_as_run(np.concatenate([rng.normal(0.2, 0.03, 5000), rng.normal(0.8, 0.03, 5000)]), D_THETA_RANGE)
+    two = distribution_stats_as_run(np.concatenate([rng.normal(0.2, 0.03, 5000), rng.normal(0.8, 0.03, 5000)]),
+                                    D_THETA_RANGE)
     assert two["peaks"]["count"] == 2 and two["unimodality"] < 0.2
     skewed = distribution_stats_as_run(rng.exponential(0.1, 20000), D_THETA_RANGE)
     assert skewed["skewness"] > 1.5 and skewed["symmetry"] < 0.7
