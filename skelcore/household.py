@@ -5,7 +5,9 @@ its description. Bulky bodies with a handle (a kettlebell, a watering can), thin
 buckle, a picture frame, a trivet, a bent sheet-metal bracket), thin rings on a plate or a post (a ring binder, a
 towel ring) and a pair of pliers. Eight more from a fourth probe (2026-12-07): hardware loops (a padlock, a
 carabiner), a coil spring, a frame of bars (a cube's twelve edges), a stool with a footrest ring, headphones, and
-parallel prongs a few point spacings apart (a table fork, a comb), which noise bridges. Units: centimetres.
+parallel prongs a few point spacings apart (a table fork, a comb), which noise bridges. A stapler from a sixth
+probe (2026-12-07): an arm over a base, the slot between them closed at the hinge, open at three sides and a few
+point spacings wide. Units: centimetres.
 """
 from __future__ import annotations
 
@@ -13,12 +15,6 @@ import numpy as np
 
 from .solid_blocks import (SEGMENTS, arc_points, box, cylinder, manifold3d, rod, rounded_rectangle, slab, sphere,
                            stadium, torus, tube_along, union)
-
-
-
-
-
-
 
 
 def kettlebell():
@@ -196,6 +192,15 @@ def footrest_stool():
                   torus(15.0 - 4.0 * 16.0 / 45.0, 0.9).translate((0.0, 0.0, 16.0))])
 
 
+def stapler():
+    """A desk stapler 16 long: a base 16 x 4 x 1.2, an arm 15 x 3.6 x 2.2 over it tilted down to a hinge block at
+    the back, the slot under the arm narrowing from 0.9 at the front to 0.4 at the hinge."""
+    base = slab(rounded_rectangle(16.0, 4.0, 1.0), 1.2)
+    tilt = np.degrees(np.arctan2(0.5, 12.5))
+    arm = slab(rounded_rectangle(15.0, 3.6, 1.0), 2.2).translate((0.5, 0.0, -1.1)).rotate((0.0, -tilt, 0.0))
+    return union([base, arm.translate((0.0, 0.0, 2.95)), box((3.0, 3.0, 1.6), (-6.3, 0.0, 1.9))])
+
+
 def headphones():
     """A headband 3 wide, 0.6 thick, on an arc of radius 9 over the top with a pad under it, and on a single post
     (rod 0.5) at each end an ear cup (a disc of radius 4.5, 3 thick, a cushion ring on its inner face)."""
@@ -235,4 +240,5 @@ HOUSEHOLD = {
     "cube_frame": (cube_frame, 0, "the twelve edges of a cube as bars (genus 5)"),
     "footrest_stool": (footrest_stool, None, "seat on four splayed legs joined by a footrest ring (genus 4)"),
     "headphones": (headphones, None, "headband with an ear cup on a post at each end"),
+    "stapler": (stapler, None, "arm over a base, the slot between them a few spacings wide, closed at the hinge"),
 }

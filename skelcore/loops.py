@@ -56,7 +56,11 @@ original point within the skeleton's sample radius r crosses empty space that th
 ends lie more than r from that middle too): it is a jump across a gap of the scan, where the k-nearest
 one-rings reach over nothing (a twig's tip beside another branch, a partial scan's shadow), not surface. In a
 cloud sparser than the skeleton's balls r is the points' spacing (the median surface edge) instead: there
-most edges have no point within a ball of their middle, over surface that is there.
+most edges have no point within a ball of their middle, over surface that is there. An edge whose middle lies
+outside the solid (the inside test's, within a spacing of the surface counting as inside) is a jump too, over
+a gap narrower than 2r: the slot under a stapler's arm, 1.6-2.3 r wide and open at three sides, which the
+one-rings bridged 3.5 spacings long, their middles 0.9-1.0 r from both walls. An edge up to two spacings long
+has its middle within a spacing of its ends, so only longer ones are asked.
 A cycle with an edge whose shortest supporting surface edge is such a jump is no loop of the shape,
 whatever its disk says: the walls of the branches it runs along cross it. A long edge over surface that is
 there (a sparse patch, the merged rings of GLSkeleton's reduction, a chord over points that went to another
@@ -294,12 +298,14 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
     codes, inverse, counts = np.unique(low[between] * m + high[between], return_inverse=True, return_counts=True)
     pairs = list(zip((codes // m).tolist(), (codes % m).tolist()))
     support = dict(zip(pairs, counts.tolist()))
-    jump = _jumps(probe, edges[between], inverse.ravel(), pairs, radius) if radius > 0 else {}
+    jump: dict | None = None  # found once there is a cycle to judge (its inside test is made then)
     judged: dict[frozenset, bool] = {}
     cuts = 0
     while True:
         graph = nx.Graph((u, v, {"length": math.dist(xyz[u], xyz[v])}) for u in adj for v in adj[u] if u < v)
         basis, minimum = short_cycle_basis(graph)
+        if basis and jump is None:
+            jump = _jumps(probe, edges[between], inverse.ravel(), pairs, radius) if radius > 0 else {}
         false_cycles = []
         for cycle in sorted(basis, key=len):
             ordered = _ordered(graph, cycle)
@@ -369,16 +375,17 @@ def short_cycle_basis(graph: nx.Graph) -> tuple[list[list[int]], bool]:
 
 def _jumps(probe: SurfaceProbe, edges: np.ndarray, pair_of_edge: np.ndarray, pairs: list, radius: float) -> dict:
     """The node pairs (of `pairs`, each edge's in `pair_of_edge`) that only a jump joins (the module's jump
-    rule), each with the width of its gap. The gap is as wide as the shortest edge across it: when even that
-    edge is a jump, the longer ones run across the same gap (or slant over surface beside it)."""
+    rules: no point within `radius` of its middle, or its middle outside the solid), each with the width of its
+    gap. The gap is as wide as the shortest edge across it: when even that edge is a jump, the longer ones run
+    across the same gap (or slant over surface beside it)."""
     lengths = np.linalg.norm(probe.points[edges[:, 0]] - probe.points[edges[:, 1]], axis=1)
     order = np.lexsort((lengths, pair_of_edge))
     first = order[np.searchsorted(pair_of_edge[order], np.arange(len(pairs)))]  # each pair's shortest edge
-    long = first[lengths[first] > 2 * radius]  # a shorter edge has an end within r of its middle
+    long = first[lengths[first] > 2 * probe.spacing]  # a shorter edge's middle lies within a spacing of its ends
     if not len(long):
         return {}
     middles = (probe.points[edges[long, 0]] + probe.points[edges[long, 1]]) / 2
-    gaps = long[probe.tree.query(middles, workers=-1)[0] > radius]
+    gaps = long[(probe.tree.query(middles, workers=-1)[0] > radius) | ~probe.inside().contains(middles)]
     return {pairs[pair_of_edge[i]]: float(lengths[i]) for i in gaps.tolist()}
 
 

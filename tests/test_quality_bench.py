@@ -507,6 +507,18 @@ def test_containers_wire_handles_keep_their_loops():
         assert result.exact, (result.method, result.topology)
 
 
+def test_a_slot_under_an_arm_closes_no_loop():
+    """The stapler at 10,000 points, clean, GLSkeleton: its arm over its base, the slot between them 1.2-2.6
+    sample radii wide, closed at the hinge and open at three sides. The one-rings bridged the slot 3.5 spacings
+    long, their middles about a radius from both walls, so the distance rule saw no jump and the skeleton's rungs
+    across the slot closed two false loops, whose disks the slot's walls cross as a hole's would. Those middles
+    lie outside the solid: the rungs are jumps (skelcore.loops)."""
+    from skelcore.quality_bench import run_quality_bench
+
+    result, = run_quality_bench(methods=("glskeleton",), shapes=["stapler"], variants=("clean",))
+    assert result.exact, result.topology
+
+
 def test_a_depth_camera_s_layers_add_no_loop_to_a_drilled_plate():
     """The plate with one hole at 10,000 points with coordinates in layers of 0.5% of the diagonal (draw 0): the
     rows of points on its faces used to make flat one-ring triangles whose clamped cotangents pulled points 0.1
