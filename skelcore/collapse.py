@@ -114,10 +114,6 @@ class SampleComplex:
             if len(birth) == 3:
                 self.remove_triangle(*sorted(birth))
 
-    def triangle_count(self) -> int:
-        """The number of triangles."""
-        return sum(len(apexes) for apexes in self.apex.values()) // 3
-
     def link_condition(self, u: int, v: int) -> bool:
         """Lk(u) & Lk(v) == Lk(uv) in a 2-complex: the common neighbours are exactly the apexes of uv, and no
         edge cw joins two of them with triangles ucw and vcw both present."""

@@ -170,11 +170,3 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
     rotation = np.column_stack([right, down, forward])
     return Camera(centre - forward * distance, centre, rotation)
 
-
-def projected_box_share(points: np.ndarray, camera: Camera, fov: float, width: int, height: int) -> float:
-    """Share of the shorter image side spanned by the projected bounding box of the points (for checks)."""
-    local = (as_points(points, "points") - camera.position) @ camera.rotation
-    focal = height / 2 / np.tan(fov / 2)
-    u = local[:, 0] / local[:, 2] * focal
-    v = local[:, 1] / local[:, 2] * focal
-    return float(max(np.ptp(u), np.ptp(v)) / min(width, height))

@@ -541,8 +541,16 @@ def test_dense_clouds_start_thinned():
 
 
 
+def projected_box_share(points, camera, fov, width, height):
+    """Share of the shorter image side spanned by the projected bounding box of the points."""
+    local = (points - camera.position) @ camera.rotation
+    focal = height / 2 / np.tan(fov / 2)
+    return float(max(np.ptp(local[:, 0] / local[:, 2] * focal), np.ptp(local[:, 1] / local[:, 2] * focal))
+                 / min(width, height))
+
+
 def test_framing_camera_fills_the_shorter_side():
-    from skelcore.display import framing_camera, projected_box_share
+    from skelcore.display import framing_camera
 
     points = make_shape("torus", 800).points * 3.0 + 10.0
     for direction, (width, height) in (((1, -1, 0.5), (1280, 720)), ((0, 0, -1), (800, 600)),
