@@ -9,7 +9,7 @@ from . import io, multires
 from .errors import InputError, ParameterError
 from .labels import check_label_weights, weights_from_labels
 from .metrics import METRICS_K, NORMAL_CONVENTION
-from .params import LIMITS, CleaningParams, ContractionParams, check_flags, is_integer
+from .params import LIMITS, SEED, CleaningParams, ContractionParams, check_flags, is_integer
 from .skeleton import SkeletonParams
 
 
@@ -19,7 +19,7 @@ class RunOptions:
     """Everything that shapes a run besides the input: contraction and skeleton parameters, sampling, labels."""
     params: ContractionParams = ContractionParams()
     sample_radius: float = SkeletonParams.sample_radius  # skeleton ball radius, fraction of the object's diagonal
-    seed: int = 0
+    seed: int = SEED
     sample: int | None = None  # mesh input: points sampled evenly over the surface
     voxel_size: float | None = None
     max_points: int = io.MAX_POINTS

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from .errors import ParameterError
 
 METHODS = ("lbc", "glskeleton")
+SEED = 0  # a run's seed for every random choice (RunOptions.seed, --seed)
 # Accepted values of the numeric parameters: name -> (low, high, low included); `validated` checks them
 # and the inspector's widgets take their ranges from here, so every valid value can be entered.
 # Weights enter eq. 2's normal equations squared (W_L^2 L^T L + W_H^2): past WEIGHT_MAX their squares leave float range.

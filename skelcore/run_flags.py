@@ -6,7 +6,7 @@ import argparse
 import re
 
 from .errors import SkelError
-from .params import DEFAULT_K_RULE, METHODS, CleaningParams, ContractionParams
+from .params import DEFAULT_K_RULE, METHODS, SEED, CleaningParams, ContractionParams
 
 
 def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
@@ -68,7 +68,7 @@ def add_parameter_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--sample-radius", type=float, default=SkeletonParams.sample_radius,
                        help="skeleton sample radius, a fraction of the object's bounding-box diagonal, far strays "
                             "left out (default: %(default)s)")
-    group.add_argument("--seed", type=random_seed, default=0,
+    group.add_argument("--seed", type=random_seed, default=SEED,
                        help="seed for every random choice (default: %(default)s)")
     group.add_argument("--sample", type=int, default=None,
                        help="for a mesh input: sample this many points evenly over its surface instead of its "
