@@ -7,7 +7,10 @@ towel ring) and a pair of pliers. Eight more from a fourth probe (2026-12-07): h
 carabiner), a coil spring, a frame of bars (a cube's twelve edges), a stool with a footrest ring, headphones, and
 parallel prongs a few point spacings apart (a table fork, a comb), which noise bridges. A stapler from a sixth
 probe (2026-12-07): an arm over a base, the slot between them closed at the hinge, open at three sides and a few
-point spacings wide. Units: centimetres.
+point spacings wide. Four from a seventh probe the same day: a jug and a teapot (bulky bodies with loop handles,
+which a single view barely sees where they join), an office chair (its backrest's opening, the backrest a little
+behind the seat) and a hand grip (an open coil whose turns lie closer than the skeleton resolves). Units:
+centimetres.
 """
 from __future__ import annotations
 
@@ -201,6 +204,55 @@ def stapler():
     return union([base, arm.translate((0.0, 0.0, 2.95)), box((3.0, 3.0, 1.6), (-6.3, 0.0, 1.9))])
 
 
+def jug():
+    """A water jug 21 high: a closed body of revolution (radius 6 at the base, 7.5 at the belly, 5 at the neck)
+    and a loop handle of tube 1.0 on one side, its opening about 4 x 9."""
+    profile = [(0.0, 0.0), (6.0, 0.0), (7.3, 4.0), (7.5, 8.0), (6.8, 13.0), (5.4, 17.0), (5.0, 19.5), (5.2, 21.0),
+               (0.0, 21.0)]
+    body = manifold3d().Manifold.revolve(manifold3d().CrossSection([profile]), 96)
+    angle = np.radians(np.linspace(80.0, -80.0, 30))
+    arc = np.c_[-6.0 - 5.0 * np.cos(angle), np.zeros(30), 10.5 + 6.0 * np.sin(angle)]
+    return union([body, tube_along(np.r_[[(-4.5, 0.0, 16.4)], arc, [(-5.5, 0.0, 4.6)]], 1.0)])
+
+
+def teapot():
+    """A teapot 17 high: a squat body (an ellipsoid 18 x 18 x 14 cut flat at its foot), a lid with a knob, a loop
+    handle of tube 0.9 and a solid spout tapering from radius 1.4 to 0.6."""
+    body = sphere(1.0).scale((9.0, 9.0, 7.0)).translate((0.0, 0.0, 7.5)) - box((30.0, 30.0, 2.0))
+    lid = cylinder(1.0, 4.5, (0.0, 0.0, 14.2)) + sphere(1.2, (0.0, 0.0, 15.8))
+    angle = np.radians(np.linspace(70.0, -70.0, 30))
+    arc = np.c_[-8.0 - 4.5 * np.cos(angle), np.zeros(30), 8.0 + 5.0 * np.sin(angle)]
+    handle = tube_along(np.r_[[(-5.0, 0.0, 12.7)], arc, [(-7.0, 0.0, 3.3)]], 0.9)
+    along = np.linspace(0.0, 1.0, 20)
+    spout = tube_along(np.c_[6.5 + 9.0 * along, np.zeros(20), 4.5 + 10.0 * along ** 1.6], 1.4 - 0.8 * along)
+    return union([body, lid, handle, spout])
+
+
+def office_chair():
+    """An office chair 112 high: a five-star base on castors, a gas column, a seat 48 x 46 x 8 and, 2 behind it
+    on a bar, a backrest 44 x 50 x 4 with a lumbar opening 24 x 8."""
+    parts = [cylinder(6.0, 4.0, (0.0, 0.0, 10.0)), rod((0.0, 0.0, 10.0), (0.0, 0.0, 47.0), 2.5)]
+    for degrees in np.arange(5) * 72.0:
+        x, y = 29.0 * np.cos(np.radians(degrees)), 29.0 * np.sin(np.radians(degrees))
+        parts += [box((30.0, 4.0, 3.0), (15.0, 0.0, 0.0)).rotate((0.0, 0.0, degrees)).translate((0.0, 0.0, 9.0)),
+                  rod((x, y, 9.0), (x, y, 4.5), 0.8), cylinder(2.0, 2.5, (x, y, 2.5), (90.0, 0.0, degrees))]
+    seat = slab(rounded_rectangle(48.0, 46.0, 6.0), 8.0, 46.0)
+    bar = [box((4.0, 6.0, 2.0), (-24.0, 0.0, 47.0)), box((2.0, 6.0, 16.0), (-25.5, 0.0, 54.0))]
+    back = box((4.0, 44.0, 50.0), (-28.0, 0.0, 86.0)) - box((10.0, 24.0, 8.0), (-28.0, 0.0, 70.0))
+    return union([*parts, seat, *bar, back])
+
+
+def hand_grip():
+    """A hand-grip exerciser 18 high: two handles (rod 1.3, 10 long) on wire legs (0.25) from a torsion coil of
+    2.5 turns (radius 1, pitch 0.7: the turns 0.2 apart, not touching), an open coil."""
+    turn = np.linspace(0.0, 5.0 * np.pi, 161)
+    coil = np.c_[np.cos(turn), 0.7 * turn / (2.0 * np.pi) - 0.875, 15.0 + np.sin(turn)]
+    legs = [[coil[0], (4.0, coil[0, 1], 9.0), (4.0, 0.0, 6.0), (4.0, 0.0, 3.0)],
+            [coil[-1], (-4.0, coil[-1, 1], 9.0), (-4.0, 0.0, 6.0), (-4.0, 0.0, 3.0)]]
+    return union([tube_along(coil, 0.25), *(tube_along(leg, 0.25) for leg in legs),
+                  *(rod((x, 0.0, -5.0), (x, 0.0, 5.0), 1.3) for x in (4.0, -4.0))])
+
+
 def headphones():
     """A headband 3 wide, 0.6 thick, on an arc of radius 9 over the top with a pad under it, and on a single post
     (rod 0.5) at each end an ear cup (a disc of radius 4.5, 3 thick, a cushion ring on its inner face)."""
@@ -241,4 +293,8 @@ HOUSEHOLD = {
     "footrest_stool": (footrest_stool, None, "seat on four splayed legs joined by a footrest ring (genus 4)"),
     "headphones": (headphones, None, "headband with an ear cup on a post at each end"),
     "stapler": (stapler, None, "arm over a base, the slot between them a few spacings wide, closed at the hinge"),
+    "jug": (jug, None, "bulky body with a loop handle (genus 1)"),
+    "teapot": (teapot, None, "squat body with a loop handle, a spout and a lid's knob (genus 1)"),
+    "office_chair": (office_chair, None, "five-star base, seat, and a backrest with an opening 2 behind it (genus 1)"),
+    "hand_grip": (hand_grip, None, "two handles on the legs of an open coil whose turns are 0.2 apart"),
 }
