@@ -395,9 +395,9 @@ def test_bench_quality_runs_prints_one_table_and_survives_a_failing_run(monkeypa
 def test_bench_quality_refuses_unknown_shapes_in_one_line(capsys):
     from skelcore.cli import main
 
-    assert main(["bench-quality", "--shapes", "teapot", "--quiet"]) == 2
+    assert main(["bench-quality", "--shapes", "samovar", "--quiet"]) == 2
     error = capsys.readouterr().err.strip()
-    assert error.startswith("skelcore bench-quality: error: shape 'teapot': unknown") and "\n" not in error
+    assert error.startswith("skelcore bench-quality: error: shape 'samovar': unknown") and "\n" not in error
 
 
 def test_bench_quality_refuses_a_reference_folder_that_is_not_there(tmp_path, capsys, monkeypatch):
