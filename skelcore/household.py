@@ -295,6 +295,6 @@ HOUSEHOLD = {
     "stapler": (stapler, None, "arm over a base, the slot between them a few spacings wide, closed at the hinge"),
     "jug": (jug, None, "bulky body with a loop handle (genus 1)"),
     "teapot": (teapot, None, "squat body with a loop handle, a spout and a lid's knob (genus 1)"),
-    "office_chair": (office_chair, None, "five-star base, seat, and a backrest with an opening 2 behind it (genus 1)"),
+    "office_chair": (office_chair, None, "five-star base, seat, and 2 behind it a backrest with an opening (genus 1)"),
     "hand_grip": (hand_grip, None, "two handles on the legs of an open coil whose turns are 0.2 apart"),
 }

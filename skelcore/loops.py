@@ -58,9 +58,9 @@ one-rings reach over nothing (a twig's tip beside another branch, a partial scan
 cloud sparser than the skeleton's balls r is the points' spacing (the median surface edge) instead: there
 most edges have no point within a ball of their middle, over surface that is there. An edge whose middle lies
 outside the solid (the inside test's, within a spacing of the surface counting as inside) is a jump too, over
-a gap narrower than 2r: the slot under a stapler's arm, 1.6-2.3 r wide and open at three sides, which the
-one-rings bridged 3.5 spacings long, their middles 0.9-1.0 r from both walls. An edge up to two spacings long
-has its middle within a spacing of its ends, so only longer ones are asked.
+a gap narrower than 2r: the slot under a stapler's arm, 1.2-2.6 r wide and open at three sides, which the
+one-rings bridged where it is 1.6-2.3 r wide, 3.5 spacings long, their middles 0.9-1.0 r from both walls. An
+edge up to two spacings long has its middle within a spacing of its ends, so only longer ones are asked.
 A cycle with an edge whose shortest supporting surface edge is such a jump is no loop of the shape,
 whatever its disk says: the walls of the branches it runs along cross it. A long edge over surface that is
 there (a sparse patch, the merged rings of GLSkeleton's reduction, a chord over points that went to another
