@@ -540,7 +540,6 @@ def test_dense_clouds_start_thinned():
     assert auto_opacity(2_000_000) == pytest.approx(0.05)
 
 
-
 def projected_box_share(points, camera, fov, width, height):
     """Share of the shorter image side spanned by the projected bounding box of the points."""
     local = (points - camera.position) @ camera.rotation
