@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from .errors import InputError
 from .neighbours import knn
 from .normals import orient_outward, pca_features
+from .open_space import facing_open_space
 from .regions import border_labels, dilated, label_regions
 
 SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
@@ -56,13 +57,16 @@ class InsideTest:
 
     @classmethod
     def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float, tree: cKDTree | None = None,
-                     spacing: np.ndarray | None = None) -> "InsideTest":
+                     spacing: np.ndarray | None = None, neighbours: np.ndarray | None = None) -> "InsideTest":
         """tree, spacing: a cKDTree over `samples` and each sample's distance to its nearest other sample, when
-        the caller has them (used only when every sample has a normal)."""
+        the caller has them (used only when every sample has a normal). neighbours: each sample's kNN indices
+        (itself first) when the normals' orientation was propagated along them (a cloud's), so that a part may
+        face inward as a whole: such parts are turned to face the open space (skelcore.open_space)."""
         keep = np.linalg.norm(np.nan_to_num(normals), axis=1) > 0.5  # mesh vertices without faces have none
         if keep.sum() < 4:
             raise InputError("no part of the cloud is large enough for its extent to have a surface normal "
                              "(small clusters far apart?); skeletonise the parts one by one")
+        propagated = (samples, normals)  # as the neighbours index them (samples without a normal never vote)
         if tree is None or spacing is None or not keep.all():
             samples, normals = samples[keep], normals[keep]
             tree = cKDTree(samples)
@@ -75,14 +79,17 @@ class InsideTest:
         occupied[tuple(np.floor((samples - origin) / size).astype(int).T)] = True
         shell = dilated(occupied)
         regions, count = label_regions(~shell)
+        border = border_labels(regions)
+        voters = ~shell & dilated(shell)
+        if neighbours is not None:
+            normals = facing_open_space(*propagated, neighbours, origin, size,
+                                        np.isin(regions, border[border > 0]), voters)[keep]
         test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing,
                    np.zeros(shape, bool))
         centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
-        voters = ~shell & dilated(shell)
         votes = test.side_of(centres(voters)) <= 0
         inside_share = (np.bincount(regions[voters], votes, count + 1)
                         / np.maximum(np.bincount(regions[voters], minlength=count + 1), 1))
-        border = border_labels(regions)
         side = (inside_share > 0.5).astype(np.int8)
         side[border] = 0
         side[0] = -1  # label 0 is the shell
@@ -100,13 +107,14 @@ class InsideTest:
                  ) -> "InsideTest":
         """The inside test of a point cloud taken as its own surface sample. Its normals are PCA normals of
         SURFACE_NEIGHBOURS neighbours (k neighbours wrap around a thin tube, whose PCA normal then runs along its
-        axis, so a small neighbourhood gives them), oriented outward along a minimum spanning tree; collapsed:
-        the neighbourhood size below which a point has no normal. tree: a cKDTree over `samples`, if made."""
+        axis, so a small neighbourhood gives them), oriented outward along a minimum spanning tree and turned part
+        by part to face the open space (skelcore.open_space); collapsed: the neighbourhood size below which a point
+        has no normal. tree: a cKDTree over `samples`, if made."""
         tree = cKDTree(samples) if tree is None else tree
         # One kNN query serves the normals, their orientation and the test's spacing.
         distances, idx = knn(samples, min(SURFACE_NEIGHBOURS, len(samples)), tree)
         normals, _, _ = pca_features(samples, idx.shape[1], collapsed=collapsed, neighbours=idx)
-        return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1])
+        return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1], idx)
 
     def with_band(self, band: float) -> "InsideTest":
         """The same surface (samples, oriented normals, tree) tested with another band. The grid is made again

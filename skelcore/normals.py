@@ -100,6 +100,19 @@ def _eigenvector(xx, xy, xz, yy, yz, zz, eigenvalue):
     return vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
 
 
+def tangent_edges(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols): the edges from each point to its first _ORIENT_NEIGHBOURS neighbours in `idx` (column 0 the
+    point itself) that run along the tangent planes of both ends, so do not cross the surface (across a thin tube
+    or plate, where the two sides face opposite ways). normals: without NaN."""
+    cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1].ravel()
+    rows = np.repeat(np.arange(len(points)), idx[:, 1:_ORIENT_NEIGHBOURS + 1].shape[1])
+    direction = points[cols] - points[rows]
+    direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
+    along = ((np.abs(np.einsum("ij,ij->i", normals[rows], direction)) < _TANGENT)
+             & (np.abs(np.einsum("ij,ij->i", normals[cols], direction)) < _TANGENT))
+    return rows[along], cols[along]
+
+
 def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Flip normals consistently along a minimum spanning tree of the kNN graph (weight 2 - |n_i.n_j|), then
     turn each connected part outward as a whole: by the divergence theorem the flux of x - c through a closed
@@ -110,16 +123,10 @@ def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> 
     away that term outweighed a thin torus's volume and turned both of two tori inward. (One point's sign, such
     as the farthest point's, fails where its PCA normal is ill-defined: a tip, or noise; with 1% noise it turned
     whole clouds inward.) Edges that cross the surface (across a thin tube or plate, where the two sides face
-    opposite ways) are left out: an edge must run along the tangent planes of both its ends."""
+    opposite ways) are left out: an edge must run along the tangent planes of both its ends (tangent_edges)."""
     n = len(points)
     usable = np.nan_to_num(normals)
-    cols = idx[:, 1:_ORIENT_NEIGHBOURS + 1].ravel()
-    rows = np.repeat(np.arange(n), idx[:, 1:_ORIENT_NEIGHBOURS + 1].shape[1])
-    direction = points[cols] - points[rows]
-    direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
-    along = ((np.abs(np.einsum("ij,ij->i", usable[rows], direction)) < _TANGENT)
-             & (np.abs(np.einsum("ij,ij->i", usable[cols], direction)) < _TANGENT))
-    rows, cols = rows[along], cols[along]
+    rows, cols = tangent_edges(points, usable, idx)
     weights = 2.0 - np.abs(np.einsum("ij,ij->i", usable[rows], usable[cols]))
     graph = sp.csr_matrix((weights, (rows, cols)), shape=(n, n))
     # Weights and the tangent test are symmetric, so the upper triangle of the symmetrised graph holds every
