@@ -1,8 +1,9 @@
 """Which points lie inside a closed surface given by samples with outward normals (the boundedness test
 X_k << X_o of the stability metrics), and dense outward-oriented samples of a mesh's surface.
 
-A point cloud is its own sample (with MST-oriented PCA normals, skelcore.normals); a mesh is sampled densely
-with its face normals after trimesh's winding repair, each body turned outward. Away from a band around the
+A point cloud is its own sample (with MST-oriented PCA normals, skelcore.normals, whose parts facing away from
+the open space are then turned, skelcore.open_space); a mesh is sampled densely with its face normals after
+trimesh's winding repair, each body turned outward. Away from a band around the
 surface this agrees with the winding number of a closed mesh: the nearest sample lies within half a sample
 spacing of the nearest surface point, whose normal gives the exact side.
 """
