@@ -82,13 +82,18 @@ class InsideTest:
         regions, count = label_regions(~shell)
         border = border_labels(regions)
         voters = ~shell & dilated(shell)
+        # Each voter's offset from its nearest sample, read along that sample's normal (side_of), once turned.
+        centres = origin + (np.argwhere(voters) + 0.5) * size
+        nearest = tree.query(centres, workers=-1)[1]
+        offsets = centres - samples[nearest]
         if neighbours is not None:
-            normals = facing_open_space(*propagated, neighbours, origin, size,
-                                        np.isin(regions, border[border > 0]), voters)[keep]
+            open_space = np.isin(regions, border[border > 0])
+            beside = open_space[voters]
+            normals = facing_open_space(*propagated, neighbours, origin, size, open_space, offsets[beside],
+                                        np.flatnonzero(keep)[nearest[beside]])[keep]
         test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing,
                    np.zeros(shape, bool))
-        centres = lambda where: origin + (np.argwhere(where) + 0.5) * size
-        votes = test.side_of(centres(voters)) <= 0
+        votes = np.einsum("ij,ij->i", offsets, normals[nearest]) <= 0
         inside_share = (np.bincount(regions[voters], votes, count + 1)
                         / np.maximum(np.bincount(regions[voters], minlength=count + 1), 1))
         side = (inside_share > 0.5).astype(np.int8)
