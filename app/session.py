@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from skelcore import contraction, multires, pipeline
+from skelcore import contraction, multires, pipeline, single_view
 from skelcore.clean import clean, cleaned
 from skelcore.api import Result
 from skelcore.contraction import IterationState, record
@@ -377,8 +377,10 @@ class Session:
         """The files of `skelcore run` (skeleton.json/.ply, contracted.ply, metrics.json, params.json)
         for the run up to history[index]."""
         run = self.run
-        cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name)  # never the server's paths
         self.verdict(index, run, with_skeleton=True)  # the evidence the inspector judged by (a cloud's solid read)
+        cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name,  # never the server's paths
+                                    notes=single_view.with_note(run.cloud.notes, None if run.metrics is None
+                                                                else run.metrics.reference.inside))
         Result(cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
                self.run_options(run), run.weights, reduction=run.reduction,
                evidence=run.evidence[(index, self.skeleton_params)]).save(out_dir)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+from skelcore import single_view
 from skelcore.metrics import JUDGED_POINTS
 from skelcore.step import REJECTION_CAUSES, TERMINATION_MESSAGES
 
@@ -141,8 +142,9 @@ def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
     skeleton's balls cannot resolve (`scale`, OriginalSurface.scale_notes), the contraction at reduced
     resolution, the points held on thin handles, what the view leaves out (`notice`), the sample the histograms
     judge and the figures the run ended on."""
+    inside = None if run.metrics is None else run.metrics.reference.inside
     input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
-                   for note in [*run.cloud.notes, *(scale or [])]]
+                   for note in [*single_view.with_note(run.cloud.notes, inside), *(scale or [])]]
     reduction = run.reduction
     if reduction is None:
         reduced = ""

@@ -2,7 +2,8 @@
 X_k << X_o of the stability metrics), and dense outward-oriented samples of a mesh's surface.
 
 A point cloud is its own sample (with MST-oriented PCA normals, skelcore.normals, whose parts facing away from
-the open space are then turned, skelcore.open_space); a mesh is sampled densely with its face normals after
+the open space are then turned, skelcore.open_space; a single view's signed to face its viewer instead,
+skelcore.single_view); a mesh is sampled densely with its face normals after
 trimesh's winding repair, each body turned outward. Away from a band around the
 surface this agrees with the winding number of a closed mesh: the nearest sample lies within half a sample
 spacing of the nearest surface point, whose normal gives the exact side.
@@ -19,9 +20,10 @@ from scipy.spatial import cKDTree
 
 from .errors import InputError
 from .neighbours import knn
-from .normals import orient_outward, pca_features
+from .normals import orient_outward, pca_features, tangent_edges
 from .open_space import facing_open_space
 from .regions import border_labels, dilated, label_regions
+from .single_view import RIM_NEIGHBOURS, facing_viewer
 
 SURFACE_NEIGHBOURS = 10  # PCA neighbourhood of a cloud's own surface normals (of_cloud)
 MAX_CELLS = 2_000_000  # cells of an inside test's grid, about at most (a run's take a few hundred thousand)
@@ -55,19 +57,22 @@ class InsideTest:
     band: float
     spacing: np.ndarray  # each sample's distance to its nearest other sample
     undecided: np.ndarray  # (nx,ny,nz) bool: the cells made SPLIT, whether or not a point has resolved them since
+    single_view: bool = False  # a cloud read as one view, its normals signed to face the viewer (of_cloud)
 
     @classmethod
     def from_samples(cls, samples: np.ndarray, normals: np.ndarray, band: float, tree: cKDTree | None = None,
-                     spacing: np.ndarray | None = None, neighbours: np.ndarray | None = None) -> "InsideTest":
+                     spacing: np.ndarray | None = None, surface_edges: tuple[np.ndarray, np.ndarray] | None = None
+                     ) -> "InsideTest":
         """tree, spacing: a cKDTree over `samples` and each sample's distance to its nearest other sample, when
-        the caller has them (used only when every sample has a normal). neighbours: each sample's kNN indices
-        (itself first) when the normals' orientation was propagated along them (a cloud's), so that a part may
-        face inward as a whole: such parts are turned to face the open space (skelcore.open_space)."""
+        the caller has them (used only when every sample has a normal). surface_edges: (rows, cols) of the edges
+        between samples the normals' orientation was propagated along (a cloud's; skelcore.normals.tangent_edges),
+        so that a part may face inward as a whole: such parts are turned to face the open space
+        (skelcore.open_space)."""
         keep = np.linalg.norm(np.nan_to_num(normals), axis=1) > 0.5  # mesh vertices without faces have none
         if keep.sum() < 4:
             raise InputError("no part of the cloud is large enough for its extent to have a surface normal "
                              "(small clusters far apart?); skeletonise the parts one by one")
-        propagated = (samples, normals)  # as the neighbours index them (samples without a normal never vote)
+        propagated = (samples, normals)  # as the edges index them (samples without a normal never vote)
         if tree is None or spacing is None or not keep.all():
             samples, normals = samples[keep], normals[keep]
             tree = cKDTree(samples)
@@ -86,10 +91,10 @@ class InsideTest:
         centres = origin + (np.argwhere(voters) + 0.5) * size
         nearest = tree.query(centres, workers=-1)[1]
         offsets = centres - samples[nearest]
-        if neighbours is not None:
+        if surface_edges is not None:
             open_space = np.isin(regions, border[border > 0])
             beside = open_space[voters]
-            normals = facing_open_space(*propagated, neighbours, origin, size, open_space, offsets[beside],
+            normals = facing_open_space(*propagated, surface_edges, origin, size, open_space, offsets[beside],
                                         np.flatnonzero(keep)[nearest[beside]])[keep]
         test = cls(origin, size, np.full(shape, -1, np.int8), samples, normals, tree, band, spacing,
                    np.zeros(shape, bool))
@@ -114,13 +119,20 @@ class InsideTest:
         """The inside test of a point cloud taken as its own surface sample. Its normals are PCA normals of
         SURFACE_NEIGHBOURS neighbours (k neighbours wrap around a thin tube, whose PCA normal then runs along its
         axis, so a small neighbourhood gives them), oriented outward along a minimum spanning tree and turned part
-        by part to face the open space (skelcore.open_space); collapsed: the neighbourhood size below which a point
+        by part to face the open space (skelcore.open_space), or if the cloud is a single view, signed to face its
+        viewer (skelcore.single_view); collapsed: the neighbourhood size below which a point
         has no normal. tree: a cKDTree over `samples`, if made."""
         tree = cKDTree(samples) if tree is None else tree
-        # One kNN query serves the normals, their orientation and the test's spacing.
-        distances, idx = knn(samples, min(SURFACE_NEIGHBOURS, len(samples)), tree)
+        # One kNN query serves the normals, their orientation, the single view's rim and the test's spacing.
+        distances, nearest = knn(samples, min(max(SURFACE_NEIGHBOURS, RIM_NEIGHBOURS), len(samples)), tree)
+        idx = nearest[:, :SURFACE_NEIGHBOURS]
         normals, _, _ = pca_features(samples, idx.shape[1], collapsed=collapsed, neighbours=idx)
-        return cls.from_samples(samples, orient_outward(samples, normals, idx), band, tree, distances[:, 1], idx)
+        edges = tangent_edges(samples, np.nan_to_num(normals), idx)  # the surface edges every step below reads
+        viewed = facing_viewer(samples, normals, edges, nearest)
+        if viewed is not None:  # no part of a view faces away from its viewer: nothing for the open space to turn
+            return dataclasses.replace(cls.from_samples(samples, viewed, band, tree, distances[:, 1]), single_view=True)
+        return cls.from_samples(samples, orient_outward(samples, normals, idx, edges), band, tree, distances[:, 1],
+                                edges)
 
     def with_band(self, band: float) -> "InsideTest":
         """The same surface (samples, oriented normals, tree) tested with another band. The grid is made again

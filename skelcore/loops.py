@@ -81,7 +81,7 @@ from scipy.spatial import cKDTree
 
 from .distances import triangle_distance
 from .inside import InsideTest
-from .neighbours import local_frames
+from .neighbours import local_frames, widest_gap
 from .normalise import object_diagonal
 from .normals import COLLAPSED
 from .regions import border_labels, dilated, label_regions
@@ -139,15 +139,8 @@ class SurfaceProbe:
             local = self.points[neighbours.reshape(len(missing), k)]  # the point itself first
             _, frames, _ = local_frames(local)
             normal, first, second = frames[:, :, 0], frames[:, :, 2], frames[:, :, 1]
-            offsets = local[:, 1:] - local[:, :1]
-            angles = np.sort(np.arctan2(np.einsum("ikj,ij->ik", offsets, second),
-                                        np.einsum("ikj,ij->ik", offsets, first)), axis=1)
-            gaps = np.diff(np.concatenate([angles, angles[:, :1] + 2 * np.pi], axis=1), axis=1)
-            widest = gaps.argmax(axis=1)
-            rows = np.arange(len(missing))
-            middle = angles[rows, widest] + gaps[rows, widest] / 2
-            edge = np.cos(middle)[:, None] * first + np.sin(middle)[:, None] * second
-            edge[gaps[rows, widest] < math.radians(EDGE_GAP)] = np.nan
+            gap, edge = widest_gap(local[:, 1:] - local[:, :1], first, second)
+            edge[gap < math.radians(EDGE_GAP)] = np.nan
             self._across[missing, 0], self._across[missing, 1] = normal, edge
             self._known[missing] = True
         return self._across[ids]

@@ -36,7 +36,8 @@ Boundedness (X_{k+1} <= X_k << X_o): the share of points inside the original sha
 side of the nearest reference surface sample's outward normal, within a band of `surface_tolerance`
 times the original object diagonal (skelcore.normalise.object_box; points on the surface count as inside;
 skelcore.inside). A point cloud is its own sample with MST-oriented PCA normals of 10 neighbours
-(orientation edges that cross a thin part are left out); a mesh is sampled densely with its face normals.
+(orientation edges that cross a thin part are left out), or if it is a single view, PCA normals signed to face the
+viewer (skelcore.single_view); a mesh is sampled densely with its face normals.
 The size X of a cloud is its RMS distance to its centroid (it follows the collapse of every cross-section; a
 bounding box only sees the extreme tips and stays put while a tube collapses): shrinking means
 X_k <= (1 + shrink_tolerance) X_{k-1}, X_0 and X_{k-1} taken over the same ids (GLSkeleton merges points

@@ -291,3 +291,17 @@ def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, n
         stack[base + size] = incoming
         size += 1
     return stack.reshape(n, steps) - (rows * width)[:, None], size
+
+
+def widest_gap(offsets: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(angle, direction): the widest angle around each point that its neighbours' `offsets` (n, k, 3) leave empty
+    in the plane of the unit axes `first` and `second` (n, 3), and the unit direction through its middle (off a
+    surface's edge, where the angle is wide)."""
+    angles = np.sort(np.arctan2(np.einsum("ikj,ij->ik", offsets, second),
+                                np.einsum("ikj,ij->ik", offsets, first)), axis=1)
+    gaps = np.diff(np.concatenate([angles, angles[:, :1] + 2 * np.pi], axis=1), axis=1)
+    widest = gaps.argmax(axis=1)
+    rows = np.arange(len(offsets))
+    angle = gaps[rows, widest]
+    middle = angles[rows, widest] + angle / 2
+    return angle, np.cos(middle)[:, None] * first + np.sin(middle)[:, None] * second

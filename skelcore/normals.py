@@ -113,7 +113,8 @@ def tangent_edges(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> t
     return rows[along], cols[along]
 
 
-def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> np.ndarray:
+def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray,
+                   edges: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Flip normals consistently along a minimum spanning tree of the kNN graph (weight 2 - |n_i.n_j|), then
     turn each connected part outward as a whole: by the divergence theorem the flux of x - c through a closed
     surface with outward normals is three times its volume whatever the point c, so the sum of n_i.(p_i - c)
@@ -126,7 +127,7 @@ def orient_outward(points: np.ndarray, normals: np.ndarray, idx: np.ndarray) -> 
     opposite ways) are left out: an edge must run along the tangent planes of both its ends (tangent_edges)."""
     n = len(points)
     usable = np.nan_to_num(normals)
-    rows, cols = tangent_edges(points, usable, idx)
+    rows, cols = tangent_edges(points, usable, idx) if edges is None else edges
     weights = 2.0 - np.abs(np.einsum("ij,ij->i", usable[rows], usable[cols]))
     graph = sp.csr_matrix((weights, (rows, cols)), shape=(n, n))
     # Weights and the tangent test are symmetric, so the upper triangle of the symmetrised graph holds every

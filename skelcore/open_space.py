@@ -18,8 +18,6 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, maximum_flow
 
-from .normals import tangent_edges
-
 REACH = 6  # cells along a normal, each way, searched for the open space
 MARGIN = 2  # half-cell steps by which one side must meet the open space sooner for its sample to vote
 AGREE = 0.5  # cosine above which two neighbours' normals agree, so the surface edge between them binds them
@@ -50,21 +48,22 @@ def votes(samples: np.ndarray, normals: np.ndarray, origin: np.ndarray, size: fl
     return turn, keep
 
 
-def facing_open_space(samples: np.ndarray, normals: np.ndarray, neighbours: np.ndarray, origin: np.ndarray,
-                      size: float, open_space: np.ndarray, voter_offsets: np.ndarray, voter_nearest: np.ndarray
-                      ) -> np.ndarray:
+def facing_open_space(samples: np.ndarray, normals: np.ndarray, edges: tuple[np.ndarray, np.ndarray],
+                      origin: np.ndarray, size: float, open_space: np.ndarray, voter_offsets: np.ndarray,
+                      voter_nearest: np.ndarray) -> np.ndarray:
     """`normals` (NaN where a sample has none) with the parts that face away from the open space turned, if that
     removes at least CLOSING of the inside votes of the open space's cells beside the surface (voter_offsets: each
     such cell's centre less its nearest sample with a normal, voter_nearest: that sample's index; a vote is inside
-    when the offset does not lie in front of the sample's normal). neighbours: each sample's kNN indices, itself
-    first (those the orientation was propagated along). The cut turns a set of samples when its turn votes outnumber its keep
-    votes by more than BIND per binding edge to the rest: a part joined to the rest by a seam turns, the noise of
-    an open sheet's votes does not (the cut alone turned 61% of the duck scan at one vote per edge, 0.1% at two)."""
+    when the offset does not lie in front of the sample's normal). edges: (rows, cols) of the surface edges the
+    orientation was propagated along (skelcore.normals.tangent_edges). The cut turns a set of samples when its turn
+    votes outnumber its keep votes by more than BIND per binding edge to the rest: a part joined to the rest by a
+    seam turns, the noise of an open sheet's votes does not (the cut alone turned 61% of the duck scan at one vote
+    per edge, 0.1% at two)."""
     usable = np.nan_to_num(normals)
     turn, keep = votes(samples, usable, origin, size, open_space)
     if not turn.any():
         return normals
-    rows, cols = tangent_edges(samples, usable, neighbours)
+    rows, cols = edges
     binding = np.einsum("ij,ij->i", usable[rows], usable[cols]) > AGREE
     n = len(samples)
     source, sink = n, n + 1  # the source's side keeps its orientation, the sink's is turned

@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import cloud_topology, io, multires
+from . import cloud_topology, io, multires, single_view
 from .clean import clean, cleaned
 from .contraction import IterationState, contract, record
 from .step import REJECTION_CAUSES
@@ -222,6 +222,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
             _say(progress, f"{cloud.name}: {note}")
         weights = options.weights(cloud) if weights is None else weights
         computed = _contract_and_judge(cloud, options, weights, progress, clock)
+        if computed.inside is not None and computed.inside.single_view:
+            computed = _noted(computed, single_view.NOTE, progress)
         loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
                                    computed.skeleton.radius)
         clock.mark("solid loops")
@@ -271,9 +273,13 @@ def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str],
     loops = "loop" if wanted == 1 else "loops"
     note = (f"the skeleton keeps {kept} of the {wanted} {loops} through {solid}, so the "
             f"contraction was run again with the points held inside the solid (hold_inside): that run {outcome}")
-    _say(progress, f"{cloud.name}: {note}")
-    chosen = held if better else plain
-    return dataclasses.replace(chosen, cloud=dataclasses.replace(cloud, notes=[*cloud.notes, note]))
+    return _noted(dataclasses.replace(held if better else plain, cloud=cloud), note, progress)
+
+
+def _noted(computed: Computed, note: str, progress: Callable[[str], None] | None) -> Computed:
+    """`computed` with `note` said and added to its cloud's notes."""
+    _say(progress, f"{computed.cloud.name}: {note}")
+    return dataclasses.replace(computed, cloud=dataclasses.replace(computed.cloud, notes=[*computed.cloud.notes, note]))
 
 
 def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarray | None,

@@ -968,3 +968,28 @@ def test_a_cloud_on_scan_lines_is_contracted_one_line_spacing_apart_and_about_sa
     assert "one line spacing apart: the points lie on scan lines" in run_notes(session.run, session.history[-1],
                                                                                   notice="")
     assert Session(cloud, point_budget=None).run.reduction is None
+
+
+def test_a_single_view_is_said_once_in_the_notes_and_in_the_files_the_inspector_writes(tmp_path):
+    """The door pull's single view: once the metrics' inside test has read it as a view, the notes below the tabs
+    say so, once, and so does metrics.json of the results the inspector writes (`skelcore run` says it the same)."""
+    import json
+
+    from app.status import run_notes
+    from skelcore import single_view
+    from skelcore.perturb import perturb
+    from skelcore.solids import benchmark_shapes
+
+    shape = benchmark_shapes(names=["door_pull"])[0]
+    view = perturb(shape.points, "partial", seed=0, normals=shape.normals, loops=True)
+    session = Session(validate(view, name="door_pull_view.xyz"))
+    session.step()
+    session.metrics_upto(1)
+    said = single_view.NOTE[:1].upper() + single_view.NOTE[1:]
+    assert run_notes(session.run, session.history[1], notice="").count(said) == 1
+    session.write_results(1, tmp_path / "out")
+    assert json.loads((tmp_path / "out" / "metrics.json").read_text())["notes"].count(single_view.NOTE) == 1
+    plain = Session(validate(shape.points, name="door_pull.xyz"))
+    plain.step()
+    plain.metrics_upto(1)
+    assert "single view" not in run_notes(plain.run, plain.history[1], notice="")

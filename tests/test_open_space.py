@@ -4,7 +4,7 @@ import pytest
 
 from skelcore.inside import SURFACE_NEIGHBOURS, InsideTest, mesh_surface
 from skelcore.neighbours import knn
-from skelcore.normals import COLLAPSED, orient_outward, pca_features
+from skelcore.normals import COLLAPSED, orient_outward, pca_features, tangent_edges
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def test_a_backrest_turned_inward_as_a_whole_is_turned_back_to_face_the_open_spa
     assert np.array_equal(as_given.normals, flipped)
     assert not as_given.contains(inside_back)[0]  # the premise
     neighbours = knn(samples, SURFACE_NEIGHBOURS)[1]
-    turned = InsideTest.from_samples(samples, flipped, 0.3, neighbours=neighbours)
+    turned = InsideTest.from_samples(samples, flipped, 0.3, surface_edges=tangent_edges(samples, flipped, neighbours))
     agree = np.einsum("ij,ij->i", turned.normals, normals) > 0
     assert agree.mean() > 0.99, (agree[on_back].mean(), agree[~on_back].mean())
     assert turned.contains(inside_back)[0] and not turned.contains(behind_back)[0]
@@ -48,7 +48,8 @@ def test_scattered_wrong_normals_are_turned_back_one_by_one(seat_and_backrest):
     scattered = normals.copy()
     scattered[chosen] = -scattered[chosen]
     neighbours = knn(samples, SURFACE_NEIGHBOURS)[1]
-    turned = InsideTest.from_samples(samples, scattered, 0.3, neighbours=neighbours).normals
+    turned = InsideTest.from_samples(samples, scattered, 0.3,
+                                     surface_edges=tangent_edges(samples, scattered, neighbours)).normals
     assert (np.einsum("ij,ij->i", turned[seat], normals[seat]) > 0).mean() > 0.98
 
 
@@ -64,7 +65,8 @@ def test_an_open_sheet_keeps_its_propagated_orientation(noise):
     idx = knn(cap, SURFACE_NEIGHBOURS)[1]
     normals = pca_features(cap, idx.shape[1], collapsed=COLLAPSED * 2.0, neighbours=idx)[0]
     propagated = orient_outward(cap, normals, idx)
-    tested = InsideTest.of_cloud(cap, 0.0, COLLAPSED * 2.0)
+    tested = InsideTest.from_samples(cap, propagated, 0.0,
+                                     surface_edges=tangent_edges(cap, np.nan_to_num(propagated), idx))
     turned = np.einsum("ij,ij->i", np.nan_to_num(tested.normals), np.nan_to_num(propagated)) < 0
     assert turned.mean() < 0.01, turned.mean()
 
@@ -91,7 +93,8 @@ def test_an_open_sheet_is_not_turned_to_face_its_own_inside(monkeypatch):
                                                      neighbours=idx)[0], idx)
 
     def turned_share():
-        tested = InsideTest.of_cloud(points, 0.0, COLLAPSED * 2.0).normals
+        tested = InsideTest.from_samples(points, propagated, 0.0,
+                                         surface_edges=tangent_edges(points, np.nan_to_num(propagated), idx)).normals
         return (np.einsum("ij,ij->i", np.nan_to_num(tested), np.nan_to_num(propagated))[:len(sheet)] < 0).mean()
 
     assert (np.einsum("ij,ij->i", np.nan_to_num(propagated[:len(sheet)]), sheet) > 0).all()  # outward as given
