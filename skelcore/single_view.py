@@ -14,8 +14,8 @@ leaves the fewest neighbours disagreeing, those that remain lie within RIM_HOPS 
 d is told by the rim too: seen edge-on, a surface curves away from the viewer behind its outline, so the rim's
 outward directions point away from the viewer. A thin closed wall, whose two faces each sign alike and disagree
 only at its folds, has folds turning both ways and is no view. A wall thinner than the sampling's spacing is one
-sheet to the normals (a frying pan 0.3 thick at 5,000 points, 0.45 apart, read as a view from below), and the
-lip of a container seen from above turns towards the viewer (a colander's view is signed from below).
+sheet to the normals (a frying pan's wall, 0.3 thick, sampled 0.45 apart at 5,000 points, reads as a view), and
+the lip of a container seen from above turns towards the viewer (a colander's view is signed from below).
 """
 from __future__ import annotations
 
@@ -25,7 +25,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from .neighbours import widest_gap
-
 
 COARSE = 200  # view directions first tried, spread over the sphere (half of them: -d signs alike), 14 degrees apart
 FINE = 3200  # directions over the sphere, 3.6 degrees apart, tried next where within REFINE of the best coarse one
