@@ -293,6 +293,14 @@ def _graham_scan(plane: np.ndarray, sequence: np.ndarray) -> tuple[np.ndarray, n
     return stack.reshape(n, steps) - (rows * width)[:, None], size
 
 
+def plane_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors spanning the plane normal to each unit normal (both zero where a normal is zero)."""
+    axis = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
+    first = np.cross(normals, axis)
+    first /= np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
+    return first, np.cross(normals, first)
+
+
 def widest_gap(offsets: np.ndarray, first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(angle, direction): the widest angle around each point that its neighbours' `offsets` (n, k, 3) leave empty
     in the plane of the unit axes `first` and `second` (n, 3), and the unit direction through its middle (off a

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours import OneRings, delaunay_fans
+from .neighbours import OneRings, delaunay_fans, plane_basis
 
 MIN_FAN_TRIANGLES = 3  # Ring_combination.m: more than 3 ring entries (a closed fan repeats its first one)
 FAN_GROUP = 10  # merged rings up to this many candidates are triangulated apart from the longer ones
@@ -52,7 +52,7 @@ def merge_rings(rings: OneRings, absorbers: np.ndarray, absorbed: np.ndarray, ga
     ids, valid = ids[enough], valid[enough]
 
     offsets = origin[ids] - origin[absorbers[enough]][:, None, :]
-    u, v = _plane_basis(_fan_normals(gamma[absorbers[enough]], offsets, valid))
+    u, v = plane_basis(_fan_normals(gamma[absorbers[enough]], offsets, valid))
     planar = np.stack([np.einsum("pwc,pc->pw", offsets, u), np.einsum("pwc,pc->pw", offsets, v)], axis=-1)
     ring_row, ring_slot, tri_row, tri_j, tri_l = _fans_by_length(planar, valid)
     good = np.bincount(tri_row, minlength=len(enough)) >= MIN_FAN_TRIANGLES
@@ -146,14 +146,6 @@ def _fan_normals(gamma: np.ndarray, offsets: np.ndarray, valid: np.ndarray) -> n
         covariance = np.einsum("pwa,pwb->pab", centred, centred) + np.einsum("pa,pb->pab", mean, mean)
         normals[flat] = np.linalg.eigh(covariance)[1][:, :, 0]
     return normals
-
-
-def _plane_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors spanning the plane normal to each unit normal."""
-    axis = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
-    u = np.cross(normals, axis)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    return u, np.cross(normals, u)
 
 
 def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from .neighbours import widest_gap
+from .neighbours import plane_basis, widest_gap
 
 COARSE = 200  # view directions first tried, spread over the sphere (half of them: -d signs alike), 14 degrees apart
 FINE = 3200  # directions over the sphere, 3.6 degrees apart, tried next where within REFINE of the best coarse one
@@ -60,12 +60,7 @@ def _rim(points: np.ndarray, normals: np.ndarray, neighbours: np.ndarray) -> tup
     """(rim, outward): whether each point's `neighbours` (kNN indices, itself first) leave at least RIM_GAP of its
     tangent plane empty, and the unit direction in that plane through the middle of the widest gap (off the
     surface's edge)."""
-    offsets = points[neighbours[:, 1:]] - points[:, None]
-    first = np.cross(normals, [1.0, 0.0, 0.0])
-    steep = np.linalg.norm(first, axis=1) < 0.5
-    first[steep] = np.cross(normals[steep], [0.0, 1.0, 0.0])
-    first /= np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
-    gap, outward = widest_gap(offsets, first, np.cross(normals, first))
+    gap, outward = widest_gap(points[neighbours[:, 1:]] - points[:, None], *plane_basis(normals))
     return gap >= math.radians(RIM_GAP), outward
 
 
