@@ -24,14 +24,18 @@ class Pinned:
     skeleton: tuple[np.ndarray, np.ndarray] | None  # nodes, edges; None before the cloud has contracted
 
 
-def describe(state, role: str) -> str:
+def describe(state, role: str, history=()) -> str:
     """"pinned: LBC, W_H0 1, s_L 3, Termination 0.001, iteration 4": the method, W_H0 and s_L, and every other
-    panel parameter the run set away from its default, so that two runs that differ are named apart."""
+    panel parameter the run set away from its default, so that two runs that differ are named apart; those of
+    `state`'s step, and where the run's `history` (its states up to `state`) started with others, from which
+    iteration they held ("... iteration 6, retuned at iteration 5")."""
     p = state.params
     default = ContractionParams(method=p.method)
     changed = [name for name in PARAMETER_LABELS
                if name not in ("method", "wh0", "sl") and getattr(p, name) != getattr(default, name)]
-    return f"{role}: {METHOD_LABELS[p.method]}, {assignments(p, ['wh0', 'sl', *changed])}, iteration {state.iteration}"
+    retuned = [later.iteration for earlier, later in zip(history, history[1:]) if later.params != earlier.params]
+    return (f"{role}: {METHOD_LABELS[p.method]}, {assignments(p, ['wh0', 'sl', *changed])}, iteration "
+            f"{state.iteration}" + (f", retuned at iteration {retuned[-1]}" if retuned else ""))
 
 
 def pin(session) -> Pinned:
@@ -42,7 +46,7 @@ def pin(session) -> Pinned:
     if not provisional.skeleton_is_provisional(state, provisional.state_curve_share(state, run.cloud)):
         found = session.skeleton(index, run)
         skeleton = (found.nodes_array(), found.edges_array())
-    name = describe(state, "pinned")
+    name = describe(state, "pinned", session.history[:index + 1])
     # the verdict the Histograms tab shows for it: with the skeleton's checks where it has a skeleton
     judged = skeleton is not None or (index, session.skeleton_params) in run.evidence
     verdict = session.verdict(index, run, with_skeleton=index > 0 and judged)

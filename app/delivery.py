@@ -28,12 +28,12 @@ SAVE_NAME_LENGTH = 80  # characters of a cloud's name kept in the names of expor
 class Delivery:
     def __init__(self, session: Session, files: FileWidgets, activity: Activity, save_dir: Path | None,
                  redraw: Callable[[Viewer, int], None], draw_frame: Callable[[Viewer, object, int], None],
-                 skeleton_note: Callable[[Viewer, object, int], str]):
+                 skeleton_notes: Callable[[Viewer, object, int], list[str]]):
         """redraw(viewer, index): show history[index] in a viewer again (after the animation); draw_frame(viewer,
         run, index): draw run.history[index] in it at once, as its view settings draw it (a frame);
-        skeleton_note(viewer, run, index): what a picture of it says of the skeleton drawn."""
+        skeleton_notes(viewer, run, index): what a picture of it says of the skeletons drawn."""
         self.session, self.files, self.activity, self.save_dir = session, files, activity, save_dir
-        self.redraw, self.draw_frame, self.skeleton_note = redraw, draw_frame, skeleton_note
+        self.redraw, self.draw_frame, self.skeleton_notes = redraw, draw_frame, skeleton_notes
 
     def _size(self) -> tuple[int, int]:
         width, height = (int(v) for v in self.files.resolution.value.split("x"))
@@ -59,7 +59,7 @@ class Delivery:
             judged = (index, self.session.skeleton_params) in run.evidence
             labels = export.caption(run.cloud.name, run.history[index],
                                     self.session.verdict(index, run, with_skeleton=judged)["label"],
-                                    self.skeleton_note(viewer, run, index))
+                                    self.skeleton_notes(viewer, run, index))
         return export.png_bytes(rgba, labels, bool(self.files.transparent.value), viewer.view.colour_quantity)
 
     def stem(self, index: int | None = None) -> str:
@@ -95,7 +95,7 @@ class Delivery:
                 for index, state in enumerate(run.history):
                     self.draw_frame(viewer, run, index)
                     rgba = self.picture(viewer, width, height, camera)
-                    caption = export.caption(run.cloud.name, state, skeleton=self.skeleton_note(viewer, run, index))
+                    caption = export.caption(run.cloud.name, state, notes=self.skeleton_notes(viewer, run, index))
                     frames.append(export.compose(rgba, caption if labels else [],
                                                  colour_by=viewer.view.colour_quantity))
             finally:

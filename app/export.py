@@ -52,11 +52,11 @@ def point_scale(camera, height: int) -> float:
     return float(np.tan(camera.fov / 2) / np.tan(PICTURE_FOV / 2) * height / camera.image_height)
 
 
-def caption(cloud_name: str, state, verdict: str | None = None, skeleton: str = "") -> list[str]:
-    """The lines burned into a picture: file, method, iteration (and the verdict, and `skeleton`: a note on the
-    skeleton drawn, e.g. why it is provisional)."""
+def caption(cloud_name: str, state, verdict: str | None = None, notes: list[str] = ()) -> list[str]:
+    """The lines burned into a picture: file, method, iteration (and the verdict, and `notes` on the skeletons
+    drawn: why one is provisional, which run the pinned one is)."""
     lines = [f"{Path(cloud_name).name} · {METHOD_LABELS[state.params.method]} · iteration {state.iteration}"]
-    return lines + ([f"verdict: {verdict}"] if verdict else []) + ([skeleton] if skeleton else [])
+    return lines + ([f"verdict: {verdict}"] if verdict else []) + list(notes)
 
 
 def compose(rgba: np.ndarray, labels: list[str] = (), transparent: bool = False, colour_by: str | None = None

@@ -75,7 +75,7 @@ class Inspector:
         self.labels = self.presenter.labels = LabelPanel(server.gui, session, self.panel, self.worker.submit,
                                                          self.presenter.labels_changed, self.ui.tabs, restart)
         self.delivery = Delivery(session, self.ui.files, self.activity, save_dir, self.presenter.show,
-                                 self.presenter.draw_frame, self.presenter.picture_note)
+                                 self.presenter.draw_frame, self.presenter.picture_notes)
         self.loader = Loader(session, self.ui.files, self.worker, self.playback, self.activity, self.messages,
                              self.assets, max_upload_bytes, lambda: self._draw_new_run(frame=True))
         self._notify = self.messages.notify
@@ -152,8 +152,8 @@ class Inspector:
         on(ui.run.step, self._on_step, typed=True)
         on(ui.run.play, self._on_play, typed=True)
         on(ui.run.end, self._on_run_to_end, typed=True)
-        on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params), e.client), pause=True,
-           typed=True)
+        on(ui.run.reset, lambda e: submit(lambda: self._restart(self.session.start_params, e.client), e.client),
+           pause=True, typed=True)
         on(ui.params.restart, lambda e: self._on_restart(e.client), pause=True)
         for handle in ui.params.contraction_handles():  # a box is typed key by key; a list or switch is not
             typing = isinstance(handle, viser.GuiTextHandle)
@@ -300,9 +300,15 @@ class Inspector:
         if self.session.tune(params):
             self.presenter.update_statuses()
 
-    def _restart(self, params) -> None:
+    def _restart(self, params, resetting=None) -> None:
+        """Start again with `params`; `resetting`: the browser whose Reset drops the changes typed, told so."""
+        dropped = resetting is not None and self.session.pending
         with self.activity.busy(None, "Restarting", "computing the one-rings of iteration 0"):
             self.session.restart(params)
+        if dropped:
+            self._notify(resetting, "Reset", f"back to iteration 0 with the parameters the run started with; the "
+                         f"change typed ({dropped}) is dropped: Restart with these parameters starts with it",
+                         color="yellow")
         self.panel.show(self.session.params)
         self._draw_new_run(frame=False)
 

@@ -130,13 +130,17 @@ class Presenter:
                                           readiness.provisional)
         viewer.client.flush()
 
-    def picture_note(self, viewer: Viewer, run, index: int) -> str:
-        """What a picture of run.history[index] in a viewer says of its skeleton: why it is provisional, when it
-        draws a provisional one ("" otherwise)."""
+    def picture_notes(self, viewer: Viewer, run, index: int) -> list[str]:
+        """What a picture of run.history[index] in a viewer says of the skeletons drawn: why its own is
+        provisional, when it draws a provisional one, and which run the pinned one in green is."""
         readiness = self.analyses.readiness(run, index)
-        if not (readiness.provisional and self._skeleton_wanted(viewer, readiness)):
-            return ""
-        return f"skeleton provisional: {readiness.reason(run.history[index])}"
+        notes = []
+        if readiness.provisional and self._skeleton_wanted(viewer, readiness):
+            notes.append(f"skeleton provisional: {readiness.reason(run.history[index])}")
+        pinned = self.pinned
+        if pinned is not None and pinned.skeleton is not None:  # drawn with every frame (Viewer.show_ghost)
+            notes.append(f"in green, {pinned.name}")
+        return notes
 
     def prepare_ahead(self) -> None:
         """The plots of the state computed ahead (Session.look_ahead), so that Step pushes them at once."""

@@ -254,7 +254,7 @@ def _measure_baseline(cloud: str, iterations: str) -> dict:
 
     from . import io
     from .params import ContractionParams
-    from .step import schedule, start_run
+    from .step import grown, schedule, start_run
 
     startup.loaded()
     points = io.load(cloud).points
@@ -262,7 +262,7 @@ def _measure_baseline(cloud: str, iterations: str) -> dict:
     run = start_run(points, params)
     current, sizes = run.unit, run.sizes0
     for iteration in range(1, int(iterations) + 1):
-        wl, wh = schedule(params, run.auto_wl0, iteration, run.sizes0, sizes)
+        wl, wh = schedule(params, run.auto_wl0, grown(1.0, params.sl, iteration - 1), run.sizes0, sizes)
         laplacian = run.builder.laplacian(current)
         system = sp.vstack([wl * laplacian, sp.diags(wh)]).tocsc()
         normal = (system.T @ system).tocsc()

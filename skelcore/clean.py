@@ -84,8 +84,9 @@ class CleaningReport:
     def note(self) -> str:
         """One line for the cloud's notes."""
         outliers, stray = len(self.outliers), len(self.stray)
-        return (f"cleaning removed {outliers:,} outlier{'' if outliers == 1 else 's'} and {stray:,} "
-                f"point{'' if stray == 1 else 's'} of stray pieces "
+        removed = [f"{outliers:,} outlier{'' if outliers == 1 else 's'}" if outliers else "",
+                   f"{stray:,} point{'' if stray == 1 else 's'} of stray pieces" if stray else ""]
+        return (f"cleaning removed {' and '.join(filter(None, removed)) or 'nothing'} "
                 f"({self.input_points:,} -> {self.input_points - outliers - stray:,} points)")
 
 

@@ -18,7 +18,7 @@ from .params import ContractionParams
 from .solver import CholeskySolver
 from .step import (RESTART_FIELDS, TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows,
                    free_points, hold_curves, record, rejected, retune, schedule, shown, solve_stages, stall_ratios,
-                   start_run)
+                   start_run, wl_growth)
 from .stop_rules import goes_on, rings_stalled, torn
 
 __all__ = ["RESTART_FIELDS", "TERMINATION_MESSAGES", "IterationState", "Redo", "contract", "goes_on", "record",
@@ -67,7 +67,8 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         before = (iteration, state, earlier, current, sizes, ratio, held, first_ratio)
         iteration += 1
         step_start = time.perf_counter()
-        wl, wh = schedule(params, run.auto_wl0, iteration, sizes0, sizes)
+        growth = wl_growth(state, params)
+        wl, wh = schedule(params, run.auto_wl0, growth, sizes0, sizes)
         if params.balance_density:  # every input point stands for itself: its own area (skelcore.step.represented)
             wh = np.minimum(wh * run.areas, params.wh_max)
         wh = anchored(wh, run, ids, params)
@@ -103,7 +104,7 @@ def _contract_lbc(points: np.ndarray, params: ContractionParams, weights: np.nda
         earlier, state = state, IterationState(iteration=iteration, points=shown_points, point_ids=ids, owner=ids,
                                                rings=run.rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                                timings=timings, termination=termination, message=message,
-                                               anchored=anchored_count)
+                                               anchored=anchored_count, wl_growth=growth)
 
 
 def run_contraction(points: np.ndarray, params: ContractionParams = ContractionParams(),

@@ -76,7 +76,7 @@ from .skeleton import SkeletonParams
 from .solver import CholeskySolver
 from .step import (TERMINATION_MESSAGES, IterationState, Redo, anchored, contraction_rows, free_points, grown,
                    hold_curves, rejected, represented, retune, schedule, shown, solve_stages, stall_ratios, start_run,
-                   stopped)
+                   stopped, wl_growth)
 from .stop_rules import curve_like, rings_stalled, torn
 
 CONTROL = 1.2  # LCWR `Controled_ratio` factor
@@ -119,7 +119,8 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         before = carried()
         iteration += 1
         step_start = time.perf_counter()
-        wl, wh = schedule(params, auto_wl0, iteration, sizes0, sizes)
+        growth = wl_growth(state, params)
+        wl, wh = schedule(params, auto_wl0, growth, sizes0, sizes)
         # A point standing for m input points carries m times their Laplacian (cot rows scale with the area
         # per point), so its attraction row is weighted by their area (their count without balance_density)
         # to keep eq. 2's balance of the input cloud.
@@ -164,7 +165,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         if reducing:
             gamma = builder.laplacian(current, values) @ current
             control = CONTROL * (new_ratio if iteration == 1 else ratio - new_ratio)
-            force = grown(params.wl0 or auto_wl0, params.sl, iteration + 1)
+            force = grown((params.wl0 or auto_wl0) * growth, params.sl, 2)  # W_L two steps on
             qualified = np.flatnonzero(merge_rule(gamma, rings, new_sizes, sizes0, unit[ids] - candidate, control,
                                                   force, params.gl_merge, params.gl_merge_share))
             absorbers = qualified[curve_like_points(candidate, SkeletonParams.sample_radius * run.diagonal,
@@ -201,7 +202,7 @@ def contract_with_reduction(points: np.ndarray, params: ContractionParams, weigh
         earlier, state = state, IterationState(iteration=iteration, points=shown_points, point_ids=ids, owner=owner,
                                                rings=rings, wl=wl, wh=wh, ring_ratio=ratio, params=params,
                                                timings=timings, termination=termination, message=message,
-                                               anchored=anchored_count)
+                                               anchored=anchored_count, wl_growth=growth)
 
 
 def covariance_settled(iteration: int, change: float, points: np.ndarray, params: ContractionParams,

@@ -66,7 +66,9 @@ def params_document(cloud: io.Cloud, states: list[IterationState], options: RunO
         "max_points": options.max_points, "metrics_k": options.metrics_k, "cleaning": options.cleaning.to_dict(),
         "normal_convention": options.normal_convention, "point_budget": options.point_budget,
         "drop_nonfinite": options.drop_nonfinite,
-        "retuned": [state.message for state in states if "retuned" in state.message],
+        # each change made during the run, from the step it applied to on (the contraction above is the start's)
+        "retuned": [f"iteration {state.iteration}: {said}" for state in states for said in state.message.split("; ")
+                    if said.startswith("retuned ")],
         "weights": weights_document(weights, options),
         "skelcore_version": __version__, "solver": backend(),
     }

@@ -70,6 +70,7 @@ class IterationState:
     anchored: int = 0  # present points anchored on a thin handle's axis (skelcore.step.anchored)
     message: str = ""
     detail: str = ""  # of a stop or rejection: its figures and notes, without its words (TERMINATION_MESSAGES)
+    wl_growth: float = 1.0  # W_L's growth since the first step, W_L / W_L0 before the cap (wl_growth)
 
     @property
     def n_points(self) -> int:
@@ -194,10 +195,17 @@ def grown(start: float, factor: float, steps: int) -> float:
         return math.inf
 
 
-def schedule(params: ContractionParams, auto_wl0: float, iteration: int, sizes0: np.ndarray,
+def wl_growth(before: IterationState, params: ContractionParams) -> float:
+    """W_L's growth at the step after `before`: 1 at the first, else before's times s_L (W_L^{t+1} = s_L W_L^t,
+    Cao et al. 2010): an s_L changed during a run applies from the next step on."""
+    return 1.0 if before.iteration == 0 else before.wl_growth * params.sl
+
+
+def schedule(params: ContractionParams, auto_wl0: float, growth: float, sizes0: np.ndarray,
              sizes: np.ndarray) -> tuple[float, np.ndarray]:
-    """W_L = W_L0 s_L^(t-1), capped; W_H,i = W_H0 s_i^0 / s_i^t, capped (cloudcontr's schedule)."""
-    wl = min(grown(params.wl0 or auto_wl0, params.sl, iteration - 1), params.wl_max)
+    """W_L = W_L0 growth (s_L^(t-1) while s_L stays), capped; W_H,i = W_H0 s_i^0 / s_i^t, capped (cloudcontr's
+    schedule)."""
+    wl = min((params.wl0 or auto_wl0) * growth, params.wl_max)
     return wl, np.minimum(params.wh0 * sizes0 / np.maximum(sizes, 1e-300), params.wh_max)
 
 

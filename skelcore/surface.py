@@ -100,9 +100,11 @@ class OriginalSurface:
         radius = sample_radius * self.diagonal
         notes = []
         if self.gap_unit(radius) > radius:
-            notes.append(f"a sparse cloud: its points lie {self.spacing / self.diagonal:.1%} of the diagonal apart, "
-                         f"more than the skeleton's sample radius ({sample_radius:.1%}); gaps and holes narrower "
-                         f"than that spacing are not told from surface")
+            share = self.spacing / self.diagonal  # one more digit where one does not tell it from the radius
+            apart = f"{share:.1%}" if f"{share:.1%}" != f"{sample_radius:.1%}" else f"{share:.2%}"
+            notes.append(f"a sparse cloud: its points lie {apart} of the diagonal apart, more than the skeleton's "
+                         f"sample radius ({sample_radius:.1%}); gaps and holes narrower than that spacing are not "
+                         f"told from surface")
         count, labels = self.pieces
         if count > 1:
             low, high = np.full((count, 3), np.inf), np.full((count, 3), -np.inf)

@@ -1128,6 +1128,23 @@ def test_upload_of_a_valid_ply_replaces_the_cloud(fresh, page, tmp_path):
         open_tab(page, "Parameters")
 
 
+def test_reset_says_it_drops_the_change_typed(fresh, page):
+    """Reset goes back to the parameters the run started with, so a change typed and not used yet is dropped: the
+    notice says so and names Restart, which starts with it (a walk-through found Reset put a typed s_L back
+    without a word)."""
+    inspector = fresh
+    close_browser_notices(page)
+    open_tab(page, "Parameters")
+    set_value(page, "s_L", 2)
+    wait_until(lambda: "s_L 2" in inspector.session.pending, "the change pending")
+    click(page, "Reset")
+    page.get_by_text(re.compile(r"the change typed \(s_L 2 from iteration 1\) is dropped: Restart with these "
+                                r"parameters starts with it")).first.wait_for()
+    wait_until(lambda: not inspector.session.pending and len(inspector.session.history) == 1, "the reset run")
+    assert inspector.session.latest.params.sl == RUN["sl"] and number_input(page, "s_L").input_value() == "1"
+    close_browser_notices(page)
+
+
 def test_upload_of_garbage_is_refused_in_our_words(fresh, page, tmp_path):
     from skelcore.formats import FORMATS
 

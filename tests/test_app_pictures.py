@@ -62,7 +62,7 @@ def test_a_picture_says_why_its_skeleton_is_provisional_instead_of_drawing_the_3
     from app.scene import SceneView
 
     state = types.SimpleNamespace(params=types.SimpleNamespace(method="lbc"), iteration=2)
-    lines = export.caption("torus.ply", state, "not yet converged", "skeleton provisional: 3% of points curve-like")
+    lines = export.caption("torus.ply", state, "not yet converged", ["skeleton provisional: 3% of points curve-like"])
     assert lines[-1] == "skeleton provisional: 3% of points curve-like"
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
@@ -149,7 +149,7 @@ def test_a_picture_names_the_verdict_the_panel_shows(monkeypatch):
                      up_direction=np.array([0.0, 0.0, 1.0]), image_height=720)
     client = setting(camera=camera, get_render=lambda height, width, **_: np.zeros((height, width, 4), np.uint8))
     viewer = setting(client=client, view=setting(picture=contextlib.nullcontext, colour_quantity=None))
-    Delivery(session, files, None, None, None, None, lambda *_: "")._render(viewer, 1)
+    Delivery(session, files, None, None, None, None, lambda *_: [])._render(viewer, 1)
     assert captions[-1][2] == panel
 
 
@@ -211,3 +211,23 @@ def test_a_cloud_far_from_the_origin_or_in_millimetres_is_drawn_from_near_it_and
     assert np.isfinite(clipping_planes(huge)).all()
     framing = framing_camera(huge - display_origin(huge), (-0.7, 0.7, -0.5), 1.2, 0.75, 0.8)
     assert np.linalg.norm(framing.position - framing.look_at) > 1e6
+
+
+def test_a_picture_names_the_pinned_run_whose_skeleton_it_shows_in_green():
+    """A run pinned for comparison has its skeleton drawn in green in every picture and frame of the current run:
+    the caption names that run (a walk-through's screenshot read "GLSkeleton" above the pinned LBC ring)."""
+    from app import compare
+    from app.presenter import Presenter
+    from skelcore.params import ContractionParams
+
+    state = types.SimpleNamespace(params=ContractionParams(sl=2.0), iteration=6)
+    readiness = types.SimpleNamespace(provisional=False)
+    presenter = types.SimpleNamespace(analyses=types.SimpleNamespace(readiness=lambda run, index: readiness),
+                                      pinned=None, _skeleton_wanted=lambda viewer, ready: True)
+    run = types.SimpleNamespace(history=[state])
+    assert Presenter.picture_notes(presenter, None, run, 0) == []
+    presenter.pinned = types.SimpleNamespace(name=compare.describe(state, "pinned"), skeleton=(np.zeros((2, 3)),
+                                                                                               np.array([[0, 1]])))
+    assert Presenter.picture_notes(presenter, None, run, 0) == ["in green, pinned: LBC, W_H0 1, s_L 2, iteration 6"]
+    presenter.pinned.skeleton = None  # pinned before its cloud had contracted: nothing drawn, nothing said
+    assert Presenter.picture_notes(presenter, None, run, 0) == []

@@ -893,6 +893,8 @@ def test_compared_runs_are_named_by_every_parameter_set_away_from_its_default():
                               iteration=2)
     assert describe(changed, "current") == "current: GLSkeleton, W_H0 1, s_L 3, Termination 0.001, Hold curves off, " \
                                            "iteration 2"
+    steps = [SimpleNamespace(params=ContractionParams(sl=sl), iteration=i) for i, sl in enumerate([1.5] * 5 + [2.0] * 2)]
+    assert describe(steps[-1], "pinned", steps) == "pinned: LBC, W_H0 1, s_L 2, iteration 6, retuned at iteration 5"
 
 
 def test_a_repeated_notice_replaces_the_one_still_up():

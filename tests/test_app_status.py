@@ -461,7 +461,7 @@ def test_about_this_run_says_what_loading_and_cleaning_did_to_the_input():
     points = np.vstack([make_shape("torus", 3000, seed=0).points, [[9.0, 9.0, 9.0], [-9.0, 9.0, 9.0]]])
     session = Session(validate(points, name="torus.xyz"), look_ahead=False)
     notes = run_notes(session.run, session.history[0], notice="")
-    assert "Cleaning removed 2 outliers and 0 points of stray pieces (3,002 -> 3,000 points)." in notes
+    assert "Cleaning removed 2 outliers (3,002 -> 3,000 points)." in notes
     assert "The histograms judge" not in notes  # every point judged
     merging = Session(validate(points, name="torus.xyz"), ContractionParams(method="glskeleton"), look_ahead=False)
     assert ("The histograms judge the 3,000 points, those of them GLSkeleton has not merged into others; their n "
@@ -494,3 +494,20 @@ def test_a_refused_label_weight_is_worded_as_the_panel_names_it_with_what_was_ty
         assert worded.startswith(f"the weight of label {label_value} = '{typed}': must be a positive number")
         assert worded.endswith("(a point marks decimals: 0.5, not 0,5)") == ("," in typed)
     assert words.typed_weight(1, " 1e-2 ") == 0.01
+
+
+def test_a_sparse_clouds_spacing_is_told_apart_from_the_sample_radius_it_exceeds():
+    """"its points lie 2.0% of the diagonal apart, more than the skeleton's sample radius (2.0%)" (a walk-through):
+    where one decimal does not tell the spacing from the radius, it gets two."""
+    from types import SimpleNamespace
+
+    from skelcore.surface import OriginalSurface
+
+    def note(spacing):
+        surface = SimpleNamespace(spacing=spacing, diagonal=1.0, pieces=(1, None),
+                                  gap_unit=lambda radius: max(radius, spacing))
+        return OriginalSurface.scale_notes(surface, 0.02)[0]
+
+    assert note(0.0204).startswith("a sparse cloud: its points lie 2.04% of the diagonal apart, more than the "
+                                   "skeleton's sample radius (2.0%)")
+    assert note(0.039).startswith("a sparse cloud: its points lie 3.9% of the diagonal apart")

@@ -188,7 +188,9 @@ def test_the_cleaning_note_counts_in_words_that_agree():
     assert CleaningReport(10, np.array([1]), np.array([2])).note().startswith(
         "cleaning removed 1 outlier and 1 point of stray pieces")
     assert CleaningReport(10, np.array([1, 3]), np.zeros(0, int)).note().startswith(
-        "cleaning removed 2 outliers and 0 points of stray pieces")
+        "cleaning removed 2 outliers (10 -> 8 points)")
+    assert CleaningReport(10, np.zeros(0, int), np.array([4, 5])).note() == \
+        "cleaning removed 2 points of stray pieces (10 -> 8 points)"
 
 
 def _plate(n, thickness, seed=0):

@@ -182,6 +182,26 @@ def test_generator_yields_input_first_and_retunes_live():
         steps.send(ContractionParams(k=12))
 
 
+@pytest.mark.parametrize("method", ["lbc", "glskeleton"])
+def test_an_s_l_changed_during_a_run_grows_w_l_from_that_step_on(method):
+    """W_L^{t+1} = s_L W_L^t: s_L 1.5 for three steps, then 2, makes the fourth step's W_L twice the third's (it
+    jumped to W_L0 2^3, 4.7 times the third's, when W_L was worked out from the start with the new s_L), and the
+    run's params.json says at which step the change applied."""
+    from skelcore.io import Cloud
+    from skelcore.options import RunOptions
+    from skelcore.results import params_document
+
+    points = make_shape("torus", 1500, seed=4).points
+    params = ContractionParams(method=method, sl=1.5, wl0=1.0, max_iterations=6, termination=1e-9)
+    steps = contract(points, params)
+    states = [next(steps) for _ in range(4)]
+    assert [state.wl for state in states[1:]] == pytest.approx([1.0, 1.5, 2.25])
+    states.append(steps.send(params.replace(sl=2.0)))
+    assert states[-1].iteration == 4 and states[-1].wl == pytest.approx(4.5)
+    document = params_document(Cloud(points=points, name="torus.xyz"), states, RunOptions(params=params))
+    assert document["retuned"] == ["iteration 4: retuned sl=2.0"]
+
+
 def test_weight_schedule_follows_cloudcontr():
     points = make_shape("capsule", 800, seed=0).points
     states = run_contraction(points, ContractionParams(wl0=2.0, sl=3.0, wl_max=40.0, max_iterations=5, termination=1e-9))

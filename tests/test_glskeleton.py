@@ -104,8 +104,8 @@ def test_attraction_weights_count_the_represented_points(monkeypatch, balance_de
     with balance_density the areas they stand for (skelcore.step.density_weights)."""
     from skelcore.step import start_run
 
-    monkeypatch.setattr(glskeleton, "schedule", lambda params, auto, iteration, sizes0, sizes:
-                        (auto * params.sl ** (iteration - 1), np.ones(len(sizes))))
+    monkeypatch.setattr(glskeleton, "schedule", lambda params, auto, growth, sizes0, sizes:
+                        (auto * growth, np.ones(len(sizes))))
     points = make_shape("y_branch", 1500, seed=0).points
     params = GLSKELETON.replace(max_iterations=3, balance_density=balance_density)
     areas = start_run(points, params).areas if balance_density else np.ones(len(points))
