@@ -16,6 +16,7 @@ import numpy as np
 
 from skelcore import display
 from skelcore.formats import Y_UP_FORMATS
+from skelcore.skeleton import beyond_solid_notes
 
 from . import compare, layout, status
 from .analysis import Analyses
@@ -323,8 +324,10 @@ class Presenter:
             following=viewer.following)
         self.ui.pending.content = status.pending_markdown(session)
         # a sparse cloud, small separate pieces: known once a skeleton of the run has read its surface
-        scale = [] if run.surface is None else run.surface[2].scale_notes(session.sample_radius)
-        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), scale)
+        said = [] if run.surface is None else run.surface[2].scale_notes(session.sample_radius)
+        shown = run.skeletons.get((index, session.run_options(run).skeleton_params()))  # drawn: its cuts said
+        said += [] if shown is None else beyond_solid_notes(shown)
+        notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), said)
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)
 

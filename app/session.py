@@ -28,7 +28,7 @@ from skelcore.options import RunOptions
 from skelcore.verdict import run_verdict
 from skelcore.params import ContractionParams
 from skelcore.provisional import skeleton_is_provisional, state_curve_share
-from skelcore.skeleton import Skeleton, SkeletonParams
+from skelcore.skeleton import Skeleton, SkeletonParams, beyond_solid_notes
 
 from .run import Run
 from .words import PARAMETER_LABELS, assignments
@@ -326,7 +326,8 @@ class Session:
                 inside = None if run.metrics is None else run.metrics.reference.inside  # none yet: the probe's own
                 samples = run.cloud.surface if run.reduction is None else None
                 kept = run.surface = (state.rings, state.point_ids,
-                                      pipeline.original_surface(state, original, inside, samples))
+                                      pipeline.original_surface(state, original, inside, samples,
+                                                                run.cloud.loops_at_most))
             run.skeletons[key] = pipeline.skeleton_of_state(state, run.cloud.points, key[1], run.reduction, kept[2])
         return run.skeletons[key]
 
@@ -378,10 +379,11 @@ class Session:
         for the run up to history[index]."""
         run = self.run
         self.verdict(index, run, with_skeleton=True)  # the evidence the inspector judged by (a cloud's solid read)
+        skeleton = self.skeleton(index, run)
+        notes = single_view.with_note(run.cloud.notes, None if run.metrics is None else run.metrics.reference.inside)
         cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name,  # never the server's paths
-                                    notes=single_view.with_note(run.cloud.notes, None if run.metrics is None
-                                                                else run.metrics.reference.inside))
-        Result(cloud, run.history[:index + 1], self.skeleton(index, run), self.metrics_upto(index, run),
+                                    notes=notes + beyond_solid_notes(skeleton))
+        Result(cloud, run.history[:index + 1], skeleton, self.metrics_upto(index, run),
                self.run_options(run), run.weights, reduction=run.reduction,
                evidence=run.evidence[(index, self.skeleton_params)]).save(out_dir)
 

@@ -136,15 +136,15 @@ def pending_markdown(session) -> str:
     return session.pending and f"**Pending:** {session.pending}"
 
 
-def run_notes(run, state, notice: str, scale: list[str] | None = None) -> str:
+def run_notes(run, state, notice: str, skeleton: list[str] | None = None) -> str:
     """What the status leaves out, of `run` (app.run.Run) and its shown `state`: what loading and cleaning
     did to the input (the cloud's notes: a mesh drawn over, points dropped, outliers removed, ...), what the
-    skeleton's balls cannot resolve (`scale`, OriginalSurface.scale_notes), the contraction at reduced
-    resolution, the points held on thin handles, what the view leaves out (`notice`), the sample the histograms
-    judge and the figures the run ended on."""
+    skeleton's balls cannot resolve and the loops it cut as more than the solid has (`skeleton`), the
+    contraction at reduced resolution, the points held on thin handles, what the view leaves out (`notice`),
+    the sample the histograms judge and the figures the run ended on."""
     inside = None if run.metrics is None else run.metrics.reference.inside
     input_notes = [note[:1].upper() + note[1:] + ("" if note.endswith(".") else ".")
-                   for note in [*single_view.with_note(run.cloud.notes, inside), *(scale or [])]]
+                   for note in [*single_view.with_note(run.cloud.notes, inside), *(skeleton or [])]]
     reduction = run.reduction
     if reduction is None:
         reduced = ""

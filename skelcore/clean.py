@@ -173,7 +173,7 @@ def cleaned(cloud: Cloud, params: CleaningParams = CleaningParams(), report: Cle
                      f"skeletonised as pieces of their own and do not set the skeleton's scale")
     return Cloud(points=points, faces=faces, name=cloud.name, notes=notes, cleaning=report.to_dict(),
                  labels=None if cloud.labels is None else cloud.labels[kept], scale=cloud.scale,
-                 solid_loops=cloud.solid_loops, surface=surface)
+                 solid_loops=cloud.solid_loops, solid_pieces=cloud.solid_pieces, surface=surface)
 
 
 def denoised(points: np.ndarray, neighbours: int, index: np.ndarray | None = None,

@@ -21,7 +21,7 @@ from .distinct import distinct_rows, row_groups
 from .errors import InputError, NonFiniteError, ParameterError, TooLargeError
 from .formats import FORMATS
 from .labels import as_labels, check_weights, input_weights, ply_label_property, read_labels, read_ply_labels
-from .mesh_topology import solid_loops
+from .mesh_topology import closed_solid
 from .normalise import bounds, half_extent, object_diagonal
 from .params import check_flag, is_integer, is_real
 from .paths import as_path
@@ -50,9 +50,17 @@ class Cloud:
     # the loops through the solid a closed mesh file bounds (its genus, skelcore.mesh_topology), read from its own
     # faces before any resampling; None for a point cloud or a mesh that bounds no solid
     solid_loops: int | None = None
+    solid_pieces: int | None = None  # ... and the pieces of that mesh
     # the points as cleaning's denoising projects them with a thin wall's two faces kept apart (skelcore.clean),
     # which the inside tests sample where that differs from `points`; None: the points themselves
     surface: np.ndarray | None = None
+
+    @property
+    def loops_at_most(self) -> int | None:
+        """The most loops a skeleton of this cloud keeps, where known exactly: a closed mesh's genus when the mesh
+        is one piece (separate closed pieces may pass through each other, and their union then has loops that no
+        piece's genus counts: a handle modelled as its own solid sunk into a mug's wall)."""
+        return self.solid_loops if self.solid_pieces == 1 else None
 
     @functools.cached_property
     def diagonal(self) -> float:
@@ -210,9 +218,9 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
     rows = np.arange(len(points)) if kept is None else kept  # the input row of every point
     if faces is not None:  # before the cap, unsaid: an STL file repeats each vertex for every face it has
         points, faces, labels, rows = without_repeats(points, faces, labels, rows, [])
-    loops, no_solid = solid_loops(faces, len(points))  # said after what loading did to the points
+    loops, pieces, no_solid = closed_solid(faces, len(points))  # said after what loading did to the points
     if no_solid and (weld := welded(points, faces, labels, rows, notes)) is not None:
-        (points, faces, labels, rows, loops), no_solid = weld, ""
+        (points, faces, labels, rows, loops, pieces), no_solid = weld, ""
     budget = memory.budget_bytes() if budget is None else budget
     cap = min(max_points, memory.point_cap(budget))
     note = None
@@ -255,7 +263,7 @@ def validate(points, faces=None, *, name: str = "cloud", sample: int | None = No
         notes.append(f"extreme coordinates: computed at 1/{scale:g} of their size, results written at full size")
     notes += [no_solid] if no_solid else []
     return Cloud(points=points, faces=faces, name=name, notes=notes, labels=labels, scale=scale, rows=rows,
-                 input_rows=input_rows, solid_loops=loops)
+                 input_rows=input_rows, solid_loops=loops, solid_pieces=pieces)
 
 
 def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
@@ -270,7 +278,8 @@ def checked(cloud: Cloud, drop_nonfinite: bool = False) -> Cloud:
         return cloud
     fresh = validate(points, cloud.faces, name=cloud.name, labels=labels, drop_nonfinite=drop_nonfinite)
     return dataclasses.replace(fresh, notes=[*cloud.notes, *fresh.notes],
-                               solid_loops=cloud.solid_loops if cloud.faces is None else fresh.solid_loops)
+                               **({"solid_loops": cloud.solid_loops, "solid_pieces": cloud.solid_pieces}
+                                  if cloud.faces is None else {}))
 
 
 def weights_of(source, cloud: Cloud, weights) -> np.ndarray | None:

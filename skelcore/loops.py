@@ -279,11 +279,15 @@ _AWAY_FROM_RIM = _LATTICE.sum(axis=1) < 1 - 1 / DISK_LATTICE  # lattice points o
 
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
                     probe: SurfaceProbe, radius: float = 0.0,
-                    disk_probe: Callable[[int], SurfaceProbe] | None = None) -> int:
+                    disk_probe: Callable[[int], SurfaceProbe] | None = None,
+                    most_loops: int | None = None) -> tuple[int, int]:
     """Cut every cycle of `adj` that is no loop of the shape (see the module's rules) at its weakest edge,
     shortest cycles first, until every cycle left is a loop. `radius`: the skeleton's sample radius, the
     empty space a jump crosses (0: no jumps). disk_probe: the probe that judges the disk of a cycle through a
-    given node (OriginalSurface.probe_of_piece of its piece; None: `probe`). Returns the number of cuts."""
+    given node (OriginalSurface.probe_of_piece of its piece; None: `probe`). most_loops: the loops the solid
+    has, where known exactly (OriginalSurface.genus): while more are left, the one whose disk is least open is
+    cut too (a curve skeleton has as many loops as its solid). Returns the number of cuts of false loops and of
+    loops beyond the solid's."""
     ends = node_of_point[edges].reshape(-1, 2)
     low, high = ends.min(axis=1), ends.max(axis=1)
     m = len(xyz)
@@ -292,8 +296,8 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
     pairs = list(zip((codes // m).tolist(), (codes % m).tolist()))
     support = dict(zip(pairs, counts.tolist()))
     jump: dict | None = None  # found once there is a cycle to judge (its inside test is made then)
-    judged: dict[frozenset, bool] = {}
-    cuts = 0
+    open_shares: dict[frozenset, float] = {}  # -1: too few crossings
+    cuts = beyond = 0
     while True:
         graph = nx.Graph((u, v, {"length": math.dist(xyz[u], xyz[v])}) for u in adj for v in adj[u] if u < v)
         basis, minimum = short_cycle_basis(graph)
@@ -306,17 +310,20 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
                 false_cycles.append(ordered)
             else:
                 key = frozenset(cycle)
-                if key not in judged:
+                if key not in open_shares:
                     corners = np.array([xyz[node] for node in ordered])
                     disk = probe if disk_probe is None else disk_probe(ordered[0])
-                    judged[key] = (disk.crossings(corners) >= CROSSING_POINTS
-                                   and disk.open_share(corners) >= OPEN_SHARE)
-                if not judged[key]:
+                    open_shares[key] = disk.open_share(corners) if disk.crossings(corners) >= CROSSING_POINTS else -1.0
+                if open_shares[key] < OPEN_SHARE:
                     false_cycles.append(ordered)
             if false_cycles and minimum:  # one cut at a time, the basis found again: the shortest false cycle first
                 break
         if not false_cycles:
-            return cuts
+            if most_loops is None or len(basis) <= most_loops:
+                return cuts - beyond, beyond
+            # loops beyond the solid's: the least open disk goes first, as the one least like a hole's
+            false_cycles = [_ordered(graph, min(basis, key=lambda cycle: open_shares[frozenset(cycle)]))]
+            beyond += 1
         for false in false_cycles:
             ring = [(min(e), max(e)) for e in zip(false, false[1:] + false[:1]) if e[1] in adj[e[0]]]
             if len(ring) < len(false):

@@ -46,18 +46,19 @@ def mesh_topology(faces: np.ndarray, vertex_count: int) -> dict:
             "closed": two_sided and _fans(ends, order, len(faces)) == len(used)}
 
 
-def solid_loops(faces: np.ndarray | None, vertex_count: int) -> tuple[int | None, str]:
-    """The loops through the solid a closed mesh bounds (its total genus), and "" ; or None and why, in words,
-    when the surface bounds no solid (a scan's open mesh, a sheet, two solids touching at an edge or a corner).
-    (None, "") without faces."""
+def closed_solid(faces: np.ndarray | None, vertex_count: int) -> tuple[int | None, int | None, str]:
+    """(loops, pieces, ""): the loops through the solid a closed mesh bounds (its total genus) and the pieces of
+    its surface; or (None, None, why in words) when the surface bounds no solid (a scan's open mesh, a sheet, two
+    solids touching at an edge or a corner). (None, None, "") without faces."""
     if faces is None or len(faces) == 0:
-        return None, ""
+        return None, None, ""
     topology = mesh_topology(faces, vertex_count)
     if topology["closed"]:
-        return topology["genus"], ""
+        return topology["genus"], topology["components"], ""
     why = (f"it has {topology['boundary_loops']} boundary loop{'' if topology['boundary_loops'] == 1 else 's'}"
            if topology["boundary_loops"] else "edges or corners where separate sheets meet")
-    return None, f"the mesh's faces close no solid ({why}), so its skeleton's loops are not checked against a genus"
+    return None, None, (f"the mesh's faces close no solid ({why}), so its skeleton's loops are not checked against "
+                        f"a genus")
 
 
 def _fans(ends: np.ndarray, order: np.ndarray, face_count: int) -> int:

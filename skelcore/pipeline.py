@@ -26,7 +26,7 @@ from .metrics import NORMAL_CONVENTION, UNREAD, IterationMetrics, MetricsReferen
 from .options import METRICS_K, RunOptions
 from .params import ContractionParams
 from .results import write_results
-from .skeleton import Skeleton, SkeletonParams, extract_skeleton
+from .skeleton import Skeleton, SkeletonParams, beyond_solid_notes, extract_skeleton
 from .surface import OriginalSurface
 
 
@@ -64,13 +64,14 @@ def skeleton_of_state(state: IterationState, original: np.ndarray, params: Skele
 
 
 def original_surface(state: IterationState, original: np.ndarray, inside: InsideTest | None = None,
-                     samples: np.ndarray | None = None) -> OriginalSurface:
+                     samples: np.ndarray | None = None, genus: int | None = None) -> OriginalSurface:
     """What a state's skeleton reads of the original points and surface (skelcore.surface): the same for every
     state on the same rings. `original`: the points the state contracts (a reduction's, for a reduced run).
     inside: an inside test made ahead (the run's metrics', MetricsReference.inside, or loops.cloud_inside),
     whose oriented normals the false-loop probe takes when it samples the same points; samples: what the probe's
-    inside test samples in place of `original` (io.Cloud.surface)."""
-    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside, samples)
+    inside test samples in place of `original` (io.Cloud.surface); genus: the loops its skeleton keeps at most,
+    where known exactly (io.Cloud.loops_at_most)."""
+    return OriginalSurface.of(original, state.point_ids[state.rings.triangles], inside, samples, genus)
 
 
 class IterationMetricsCache:
@@ -231,6 +232,8 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 and not options.params.hold_inside:
             computed = _held_inside(computed, options, progress, loops, solid)
             clock.mark("hold inside")
+        for note in beyond_solid_notes(computed.skeleton):
+            computed = _noted(computed, note, progress)
         if loops is not None and cloud.solid_loops is None:  # a closed cloud's read: the verdict's floor too
             computed = dataclasses.replace(computed, evidence={**computed.evidence, "input_loops": loops,
                                                                "input_loops_read": True})
@@ -302,7 +305,8 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             states = run_states(cloud, options.params, progress, weights,
                                 lambda state: helpers.measuring(lambda: cache.result().append(state)))
             clock.mark("contract")
-            surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface)
+            surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface,
+                                       cloud.loops_at_most)
             radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
             skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
@@ -320,7 +324,8 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             helpers.measuring(lambda: [cache.result().append(state) for state in lifted.result()])
             # a failure there is the probe's to report, if it ever needs that test
             surface = original_surface(reduced[-1], reduction.points,
-                                       None if probe_inside.exception() else probe_inside.result())
+                                       None if probe_inside.exception() else probe_inside.result(),
+                                       genus=cloud.loops_at_most)
             radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
                                                               surface.gap_unit(radius)))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh_topology import solid_loops
+from .mesh_topology import closed_solid
 
 # Vertices closer than this share of the mesh's median edge are one vertex written twice: float32 text keeps six
 # or seven digits, a rounding of 5e-7 of a coordinate, which is 5e-4 of an edge only on a mesh a thousand edges
@@ -34,10 +34,10 @@ def without_repeats(points: np.ndarray, faces: np.ndarray | None, labels: np.nda
 
 
 def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, rows: np.ndarray | None,
-           notes: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None, int] | None:
+           notes: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None, int, int] | None:
     """A mesh whose faces close no solid with its vertices closer than WELD_SHARE of its median edge merged (each
-    group into its first vertex; said in `notes`), with the loops through the solid it then bounds; None when that
-    closes none (the mesh stays as it came)."""
+    group into its first vertex; said in `notes`), with the loops through the solid it then bounds and its pieces;
+    None when that closes none (the mesh stays as it came)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -56,12 +56,13 @@ def welded(points: np.ndarray, faces: np.ndarray, labels: np.ndarray | None, row
     rank = np.empty(len(points), dtype=np.int64)
     rank[kept] = np.arange(len(kept))
     merged = _with_three_corners(rank[first[group]][faces])
-    loops = solid_loops(merged, len(kept))[0]
+    loops, pieces, _ = closed_solid(merged, len(kept))
     if loops is None:
         return None
     notes.append(f"merged {len(points) - len(kept)} mesh vertices within {WELD_SHARE * edge:.3g} of another (the "
                  f"file writes them apart by rounding), so the faces close a solid")
-    return points[kept], merged, *(None if values is None else values[kept] for values in (labels, rows)), loops
+    return (points[kept], merged, *(None if values is None else values[kept] for values in (labels, rows)), loops,
+            pieces)
 
 
 def _with_three_corners(faces: np.ndarray) -> np.ndarray:

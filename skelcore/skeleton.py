@@ -54,6 +54,9 @@ class SkeletonParams:
     # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
     # within the sample radius of its middle, or the points' spacing where larger (skelcore.loops)
     cut_jumps: bool = True
+    # ... and while more cycles are left than the solid has loops (a one-piece closed mesh's genus,
+    # OriginalSurface.genus), the one whose disk is least open
+    cut_beyond_solid: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
     prune_spurs: bool = True
@@ -102,6 +105,7 @@ class Skeleton:
     # (OriginalSurface.gap_unit); the unit in which the verdict reads the input's pieces
     gap: float
     dropped: int = 0  # degree-2 nodes GLSkeleton's light graph left out (skelcore.refine.drop_collinear)
+    beyond_solid: int = 0  # loops cut as more than the solid has (SkeletonParams.cut_beyond_solid)
 
     def nodes_array(self) -> np.ndarray:
         """(m,3) node positions, in node order."""
@@ -149,12 +153,14 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     complex_ = SampleComplex.from_surface(xyz, owner, edges, triangles)
     collapse_to_graph(complex_)
     adj, parent = complex_.nbr, complex_.parent
+    beyond_solid = 0
     if params.cut_false_loops and len(edges):
         node_of_point = _roots(parent)[owner]
         node_piece = np.zeros(len(xyz), dtype=np.int64)
         node_piece[node_of_point] = known.pieces[1]  # a node's points lie on one piece (ball_cover_by_piece)
-        cut_false_loops(adj, xyz, node_of_point, edges, known.probe, gap if params.cut_jumps else 0.0,
-                        lambda node: known.probe_of_piece(int(node_piece[node])))
+        beyond_solid = cut_false_loops(adj, xyz, node_of_point, edges, known.probe, gap if params.cut_jumps else 0.0,
+                                       lambda node: known.probe_of_piece(int(node_piece[node])),
+                                       known.genus if params.cut_beyond_solid else None)[1]
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
@@ -175,8 +181,20 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         offset = radius * math.sin(math.radians(params.collinear_angle))
         drawn = len(adj)
         node_of_point = drop_collinear(adj, xyz, node_of_point, contracted, params.collinear_angle, offset)
-        return _finish(adj, xyz, node_of_point, radius, gap, dropped=drawn - len(adj))
-    return _finish(adj, xyz, node_of_point, radius, gap)
+        return _finish(adj, xyz, node_of_point, radius, gap, beyond_solid, dropped=drawn - len(adj))
+    return _finish(adj, xyz, node_of_point, radius, gap, beyond_solid)
+
+
+def beyond_solid_notes(skeleton: Skeleton) -> list[str]:
+    """In words, the loops `skeleton` cut as more than its mesh's solid has (SkeletonParams.cut_beyond_solid;
+    empty when none)."""
+    cut = skeleton.beyond_solid
+    if not cut:
+        return []
+    which = "the loop whose disk lay least in open space was" if cut == 1 else \
+        f"the {cut} whose disks lay least in open space were"
+    return [f"the skeleton drew {'one loop' if cut == 1 else f'{cut} loops'} more than the mesh's solid has (its "
+            f"genus): {which} cut"]
 
 
 def _roots(parent: np.ndarray) -> np.ndarray:
@@ -188,7 +206,7 @@ def _roots(parent: np.ndarray) -> np.ndarray:
 
 
 def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radius: float, gap: float,
-            dropped: int = 0) -> Skeleton:
+            beyond_solid: int, dropped: int = 0) -> Skeleton:
     """Relabel nodes 0..m-1 in order of their ids."""
     kept = np.array(sorted(adj), dtype=np.int64)
     label = np.full(len(xyz), -1, dtype=np.int64)
@@ -200,4 +218,5 @@ def _finish(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, radi
     graph.add_nodes_from((i, {"pos": positions[i], "point_count": int(counts[i])}) for i in range(len(kept)))
     edges = [(int(label[u]), int(label[v])) for u in adj for v in adj[u] if u < v]
     graph.add_edges_from((a, b, {"length": float(np.linalg.norm(positions[a] - positions[b]))}) for a, b in edges)
-    return Skeleton(graph=graph, correspondence=correspondence, radius=radius, gap=gap, dropped=dropped)
+    return Skeleton(graph=graph, correspondence=correspondence, radius=radius, gap=gap, dropped=dropped,
+                    beyond_solid=beyond_solid)

@@ -42,6 +42,9 @@ class OriginalSurface:
     pieces: tuple[int, np.ndarray]  # connected pieces of the graph of `edges`: (count, piece of every point)
     shared_inside: InsideTest | None = field(default=None, repr=False)  # for the probe (SurfaceProbe's `shared`)
     inside_samples: np.ndarray | None = field(default=None, repr=False)  # ... and what its inside test samples
+    # the most loops a skeleton of the surface keeps, where known exactly: a one-piece closed mesh's genus
+    # (io.Cloud.loops_at_most)
+    genus: int | None = None
     _probe: SurfaceProbe | None = field(default=None, repr=False)
     _hulls: dict = field(default_factory=dict, repr=False)  # "inner", "whole": face planes (None: flat)
     _adjacency: sp.csr_matrix | None = field(default=None, repr=False)
@@ -49,11 +52,12 @@ class OriginalSurface:
 
     @classmethod
     def of(cls, original, surface, shared_inside: InsideTest | None = None,
-           inside_samples: np.ndarray | None = None) -> "OriginalSurface":
+           inside_samples: np.ndarray | None = None, genus: int | None = None) -> "OriginalSurface":
         """From `original` (n,3) and `surface`: (t,3) ring triangles (OneRings.triangles, preferred: the fans
         cover the surface without gaps) or (e,2) ring edges, whose 3-cliques are then its triangles.
         shared_inside: the run's metrics' inside test, which the probe takes the oriented normals of;
-        inside_samples: the points the probe's inside test samples in place of `original` (io.Cloud.surface)."""
+        inside_samples: the points the probe's inside test samples in place of `original` (io.Cloud.surface);
+        genus: the loops through the solid, where known exactly (io.Cloud.loops_at_most)."""
         original = as_points(original, "original points")
         cells = np.asarray(surface)
         if cells.size == 0:
@@ -72,7 +76,7 @@ class OriginalSurface:
         graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)) if len(edges) else \
             sp.coo_matrix((n, n))
         return cls(original, edges, triangles, object_diagonal(original), connected_components(graph, directed=False),
-                   shared_inside, inside_samples)
+                   shared_inside, inside_samples, genus)
 
     def checked(self, contracted) -> np.ndarray:
         """The contracted positions of the original points, validated against them."""

@@ -925,7 +925,8 @@ def test_pending_change_and_old_view_are_told(fresh, page):
     page.get_by_text("Stepped from the newest iteration").first.wait_for()
     wait_shown(page, 3)
     state = inspector.session.latest
-    assert state.params.sl == 2.5 and state.wl == pytest.approx(RUN["wl0"] * 2.5 ** (state.iteration - 1))
+    # W_L grows by the new s_L from the step it applies to (W_L <- s_L W_L)
+    assert state.params.sl == 2.5 and state.wl == pytest.approx(2.5 * inspector.session.history[-2].wl)
     set_value(page, "s_L", RUN["sl"])
     wait_until(lambda: inspector.session.params.sl == RUN["sl"], "s_L restored")
 

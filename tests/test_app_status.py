@@ -477,7 +477,7 @@ def test_about_this_run_says_a_cloud_is_sparser_than_the_skeletons_balls():
         session.skeleton(1)
     [note] = sparse.run.surface[2].scale_notes(sparse.sample_radius)
     assert note.startswith("a sparse cloud: its points lie ")
-    assert f"A{note[1:]}." in run_notes(sparse.run, sparse.history[1], notice="", scale=[note])
+    assert f"A{note[1:]}." in run_notes(sparse.run, sparse.history[1], notice="", skeleton=[note])
     assert dense.run.surface[2].scale_notes(dense.sample_radius) == []
 
 

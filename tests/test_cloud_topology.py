@@ -156,3 +156,50 @@ def test_the_inspector_judges_a_point_clouds_skeleton_against_its_solid_too(tmp_
     session.write_results(last, tmp_path)
     saved = json.loads((tmp_path / "metrics.json").read_text())
     assert saved["skeleton_evidence"]["input_loops"] == 1 and saved["verdict"]["label"] == "unstable"
+
+
+def test_a_skeleton_keeps_no_more_loops_than_its_meshs_genus(tmp_path):
+    """The block with two long bores side by side (genus 2) contracts into a tangle whose skeleton draws three
+    loops, each passing the loop rule. From its mesh file, whose genus is exact, the loop whose disk lies least in
+    open space is cut and the notes say so, as the inspector's results do; from points on it (no genus to go by),
+    and without the cut, the third loop stays."""
+    import skelcore
+    from app.session import Session
+    from skelcore import io, pipeline, solids
+    from skelcore.skeleton import SkeletonParams
+
+    vertices, faces = solids.solid_mesh("twin_bore_block")
+    trimesh.Trimesh(vertices, faces).export(tmp_path / "block.ply")
+    said = ("the skeleton drew one loop more than the mesh's solid has (its genus): the loop whose disk lay least in "
+            "open space was cut")
+    result = skelcore.skeletonize(tmp_path / "block.ply", "lbc")
+    assert result.topology["cycles"] == 2 and said in result.cloud.notes
+    state, original = result.states[-1], result.cloud.points
+    surface = pipeline.original_surface(state, original, genus=2)
+    assert pipeline.skeleton_of_state(state, original, SkeletonParams(cut_beyond_solid=False),
+                                      surface=surface).topology()["cycles"] == 3
+    points = skelcore.skeletonize(solids.benchmark_shapes(names=["twin_bore_block"])[0].points, "lbc")
+    assert points.topology["cycles"] == 3 and not any("more than the mesh" in note for note in points.cloud.notes)
+    session = Session(io.load(tmp_path / "block.ply"))
+    while not session.finished:
+        session.step()
+    last = len(session.history) - 1
+    assert session.skeleton(last).topology()["cycles"] == 2
+    session.write_results(last, tmp_path / "out")
+    assert said in json.loads((tmp_path / "out" / "metrics.json").read_text())["notes"]
+
+
+def test_separate_closed_pieces_passing_through_each_other_do_not_bound_the_skeletons_loops(tmp_path):
+    """Four bars modelled as separate closed boxes, sunk into each other at a square frame's corners: each box has
+    genus 0, but their union has the frame's loop, and the skeleton keeps it (held to the genus, it was cut)."""
+    import skelcore
+    from skelcore import io
+
+    bars = [trimesh.creation.box(size, trimesh.transformations.translation_matrix(centre))
+            for size, centre in (((3.0, 0.5, 0.5), (0.0, 1.25, 0.0)), ((3.0, 0.5, 0.5), (0.0, -1.25, 0.0)),
+                                 ((0.5, 3.3, 0.5), (1.3, 0.0, 0.0)), ((0.5, 3.3, 0.5), (-1.3, 0.0, 0.0)))]
+    trimesh.util.concatenate(bars).export(tmp_path / "frame.ply")
+    cloud = io.load(tmp_path / "frame.ply")
+    assert (cloud.solid_loops, cloud.solid_pieces, cloud.loops_at_most) == (0, 4, None)
+    result = skelcore.skeletonize(cloud, "lbc")
+    assert result.topology["cycles"] == 1 and result.skeleton.beyond_solid == 0

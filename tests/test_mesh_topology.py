@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 from skelcore import io
-from skelcore.mesh_topology import mesh_topology, solid_loops
+from skelcore.mesh_topology import closed_solid, mesh_topology
 
 
 def _two_tori():
@@ -19,16 +19,16 @@ def test_the_genus_of_closed_and_open_surfaces():
     torus, ball = trimesh.creation.torus(1.0, 0.3), trimesh.creation.icosphere(2)
     assert mesh_topology(torus.faces, len(torus.vertices)) == {
         "components": 1, "euler": 0, "boundary_loops": 0, "genus": 1, "closed": True}
-    assert solid_loops(ball.faces, len(ball.vertices)) == (0, "")
+    assert closed_solid(ball.faces, len(ball.vertices)) == (0, 1, "")
     pair = _two_tori()
     assert mesh_topology(pair.faces, len(pair.vertices))["components"] == 2
-    assert solid_loops(pair.faces, len(pair.vertices)) == (2, "")
+    assert closed_solid(pair.faces, len(pair.vertices)) == (2, 2, "")
     opened = torus.faces[1:]  # one triangle removed: a boundary loop, no solid inside
     assert mesh_topology(opened, len(torus.vertices))["boundary_loops"] == 1
-    assert solid_loops(opened, len(torus.vertices)) == (
-        None, "the mesh's faces close no solid (it has 1 boundary loop), so its skeleton's loops are not checked "
+    assert closed_solid(opened, len(torus.vertices)) == (
+        None, None, "the mesh's faces close no solid (it has 1 boundary loop), so its skeleton's loops are not checked "
               "against a genus")
-    assert solid_loops(None, 10) == (None, "")
+    assert closed_solid(None, 10) == (None, None, "")
 
 
 def _touching(mesh, offset):
@@ -46,14 +46,14 @@ def test_solids_touching_at_a_corner_or_an_edge_bound_no_solid_and_repeated_face
     cube = trimesh.creation.box((1.0, 1.0, 1.0))
     corner = _touching(cube, (1.0, 1.0, 1.0))
     assert not mesh_topology(corner.faces, len(corner.vertices))["closed"]
-    assert solid_loops(corner.faces, len(corner.vertices)) == (
-        None, "the mesh's faces close no solid (edges or corners where separate sheets meet), so its skeleton's "
+    assert closed_solid(corner.faces, len(corner.vertices)) == (
+        None, None, "the mesh's faces close no solid (edges or corners where separate sheets meet), so its skeleton's "
               "loops are not checked against a genus")
     edge = _touching(cube, (1.0, 1.0, 0.0))
-    assert solid_loops(edge.faces, len(edge.vertices))[0] is None
+    assert closed_solid(edge.faces, len(edge.vertices))[0] is None
     torus = trimesh.creation.torus(1.0, 0.3)
     repeated = np.r_[torus.faces, torus.faces[:10], torus.faces[:3, ::-1], [[0, 0, 1]]]
-    assert solid_loops(repeated, len(torus.vertices)) == (1, "")
+    assert closed_solid(repeated, len(torus.vertices)) == (1, 1, "")
 
 
 @pytest.mark.parametrize("make", [lambda: trimesh.creation.torus(1.0, 0.3), _two_tori,
@@ -85,6 +85,7 @@ def test_a_loaded_mesh_carries_its_solids_loops_when_its_points_are_drawn_anew(t
     trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)).export(path)
     cloud = io.load(path)
     assert cloud.faces is None and cloud.solid_loops == 2 and not any("no solid" in note for note in cloud.notes)
+    assert cloud.solid_pieces == 1 and cloud.loops_at_most == 2  # one piece: its genus bounds the skeleton's loops
     points = tmp_path / "points.xyz"
     np.savetxt(points, cloud.points)
     assert io.load(points).solid_loops is None

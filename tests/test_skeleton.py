@@ -231,12 +231,34 @@ def test_a_cycle_inside_a_bulky_part_is_no_loop_though_walls_cross_its_disk(monk
         adj = {i: {(i - 1) % 12, (i + 1) % 12} for i in range(12)}
         node_of_point = cKDTree(ring).query(original)[1]
         probe = loops.SurfaceProbe(original, float(np.median(cKDTree(original).query(original, 2)[0][:, 1])))
-        return loops.cut_false_loops(adj, list(ring), node_of_point, knn_edges(original), probe)
+        return loops.cut_false_loops(adj, list(ring), node_of_point, knn_edges(original), probe)[0]
 
     assert cuts(ball, 0.99 * circle) == 1
     assert cuts(torus(n=4000, minor=0.4)[1], circle) == 0
     monkeypatch.setattr(loops, "OPEN_SHARE", 0.0)
     assert cuts(ball, 0.99 * circle) == 0
+
+
+def test_loops_beyond_the_solids_are_cut_the_least_open_first():
+    """Two tori side by side, a thin ring and a thick one whose hole is narrower, each with a cycle along its
+    centre circle: both are loops of the shape. Told that the solid has one loop (a mesh's genus), the cut takes
+    the thick torus's, whose disk lies less in open space; told two, or nothing, none is cut; told none, both go."""
+    angle = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    circle = np.c_[np.cos(angle), np.sin(angle), np.zeros(12)]
+    thin, thick = torus(n=4000, minor=0.25)[1], torus(n=6000, minor=0.6, centre=(4.0, 0.0, 0.0))[1]
+    original, rings = np.concatenate([thin, thick]), np.concatenate([circle, circle + [4.0, 0.0, 0.0]])
+
+    def cut(most):
+        adj = {i: {12 * (i // 12) + (i + step) % 12 for step in (-1, 1)} for i in range(24)}
+        probe = loops.SurfaceProbe(original, float(np.median(cKDTree(original).query(original, 2)[0][:, 1])))
+        counts = loops.cut_false_loops(adj, [tuple(p) for p in rings], cKDTree(rings).query(original)[1],
+                                       knn_edges(original), probe, most_loops=most)
+        return counts, [sum(len(adj[i]) for i in range(start, start + 12)) < 24 for start in (0, 12)]
+
+    assert cut(1) == ((0, 1), [False, True])
+    assert cut(2) == ((0, 0), [False, False])
+    assert cut(None) == ((0, 0), [False, False])
+    assert cut(0) == ((0, 2), [True, True])
 
 
 def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monkeypatch):
@@ -261,7 +283,7 @@ def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monke
     def cuts():
         adj = {i: {(i - 1) % 12, (i + 1) % 12} for i in range(12)}
         probe = loops.SurfaceProbe(bowl, float(np.median(cKDTree(bowl).query(bowl, 2)[0][:, 1])))
-        return loops.cut_false_loops(adj, list(ring), cKDTree(ring).query(bowl)[1], knn_edges(bowl), probe)
+        return loops.cut_false_loops(adj, list(ring), cKDTree(ring).query(bowl)[1], knn_edges(bowl), probe)[0]
 
     assert cuts() == 1
     monkeypatch.setattr(loops.SurfaceProbe, "_through", lambda self, points, *rest: np.ones(len(points), bool))
