@@ -28,7 +28,7 @@ def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.nd
     return {"nodes": nodes, "nodes_with_dropped": nodes + skeleton.dropped, "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
             "input_pieces": source["pieces"], "input_loops": solid_loops,
-            "input_loops_read": bool(solid_read and solid_loops is not None)}
+            "input_loops_read": bool(solid_read and solid_loops is not None), "cut_beyond_solid": skeleton.beyond_solid}
 
 
 def cloud_evidence(state: IterationState, original: np.ndarray, radius: float, gap: float) -> tuple[dict, dict]:

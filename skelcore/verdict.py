@@ -272,8 +272,12 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
     cycles = v["skeleton_cycles"]
     floor = ("" if solid is None else f", and no fewer than its solid holds ({solid}, read from its inside test)"
              if v.get("skeleton_input_loops_read") else f", and no fewer than the mesh's genus ({solid})")
-    yield _criterion("skeleton loops", cycles == loops and (solid is None or cycles >= solid), "unstable", f"{cycles}",
-                     f"as many as the contracted cloud holds ({loops})" + floor)
+    # a skeleton cut to its mesh's genus (SkeletonParams.cut_beyond_solid) holds what the solid holds: the
+    # contracted cloud's loops beyond it are the false ones cut
+    cut = bool(v.get("skeleton_cut_beyond_solid")) and cycles == solid != loops
+    yield _criterion("skeleton loops", (cycles == loops or cut) and (solid is None or cycles >= solid), "unstable",
+                     f"{cycles}", f"as many as the contracted cloud holds ({loops})"
+                     + (f", but for those cut beyond the mesh's genus ({solid})" if cut else floor))
 
 
 def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:
