@@ -53,22 +53,25 @@ def pin(session) -> Pinned:
     return Pinned(run, name, report.run_summary(name, metrics, verdict), skeleton)
 
 
-def comparison(pinned: Pinned, state, history, verdict: dict | None = None) -> tuple[str, object, object, object]:
+def comparison(pinned: Pinned, state, history, verdict: dict | None = None,
+               states=()) -> tuple[str, object, object, object]:
     """Markdown naming both runs, the overlaid convergence curves, the last histograms of both (D_theta,
     delta_kappa); `history`: the current run's metrics up to the shown `state`; `verdict`: its verdict as the
-    Histograms tab shows it (with the skeleton's checks once made; None: from the metrics alone)."""
-    current = report.run_summary(describe(state, "current"), history, verdict)
+    Histograms tab shows it (with the skeleton's checks once made; None: from the metrics alone); `states`: the
+    current run's states up to `state` (to say when it was retuned; see `describe`)."""
+    current = report.run_summary(describe(state, "current", states), history, verdict)
     runs = [pinned.summary, current]
     convergence = report.convergence_comparison_figure(runs, title="Convergence: pinned and current",
                                                        colours=RUN_COLOURS).update_layout(CARD)
     theta, kappa = (report.final_histograms_figure(runs, key, title=f"{key_name}, last iteration", colours=RUN_COLOURS)
                     .update_layout(CARD, xaxis_title=None, legend=dict(y=-0.13, yanchor="top"))  # the title names it
                     for key, key_name in (("d_theta", "D_theta"), ("delta_kappa", "delta_kappa")))
-    return comparison_note(pinned, state, current["verdict"]), convergence, theta, kappa
+    return comparison_note(pinned, state, current["verdict"], states), convergence, theta, kappa
 
 
-def comparison_note(pinned: Pinned, state, verdict: dict) -> str:
-    """Markdown naming the pinned run and the current one at `state`, each with its verdict."""
+def comparison_note(pinned: Pinned, state, verdict: dict, states=()) -> str:
+    """Markdown naming the pinned run and the current one at `state` (`states`: its run's up to it), each with its
+    verdict."""
     return (f"**{pinned.name}** (grey, verdict {pinned.summary['verdict']['label']}) against "
-            f"**{describe(state, 'current')}** (red, verdict {verdict['label']}); the pinned skeleton is drawn in "
-            f"green.")
+            f"**{describe(state, 'current', states)}** (red, verdict {verdict['label']}); the pinned skeleton is drawn "
+            f"in green.")

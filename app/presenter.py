@@ -183,7 +183,8 @@ class Presenter:
                        if colour_by in COLOUR_RANGES else None)
             # the skeleton's checks, when the skeleton thread has already made them
             verdict = session.verdict(index, run, with_skeleton=(index, session.skeleton_params) in run.evidence)
-            comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run), verdict)
+            comparison = (compare.comparison(self.pinned, state, session.metrics_upto(index, run), verdict,
+                                             run.history[:index + 1])
                           if self.pinned is not None else None)
         points = viewer.drawn.get("points")
         if not self._plots_wanted(viewer, run, index, points):
@@ -230,7 +231,8 @@ class Presenter:
             with viewer.client.atomic():
                 viewer.show_verdict(verdict, hint)
                 if pinned is not None:  # the Compare tab names the same verdict; its figures stand
-                    viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict)
+                    viewer.ui.plots.compare_note.content = compare.comparison_note(pinned, state, verdict,
+                                                                                   run.history[:index + 1])
             viewer.client.flush()
 
     def _hold_hint(self, verdict: dict, run, index: int) -> str:

@@ -152,6 +152,10 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     note = comparison(pinned, state, session.metrics_upto(index), judged)[0]
     assert note.count("verdict unstable") == 2, note
     assert comparison_note(pinned, state, judged) == note  # the note alone, as the presenter sends it with the checks
+    session.tune(session.params.replace(sl=2.0))
+    session.step()  # the current run, retuned on its third step, says so as the pinned one would
+    assert "current: LBC, W_H0 1, s_L 2, iteration 3, retuned at iteration 3**" in comparison_note(
+        pinned, session.latest, judged, session.history)
 
 
 def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
