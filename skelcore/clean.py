@@ -82,11 +82,11 @@ class CleaningReport:
                 "stray_removed": len(self.stray), "kept": self.input_points - len(self.outliers) - len(self.stray)}
 
     def note(self) -> str:
-        """One line for the cloud's notes."""
+        """One line for the cloud's notes, made where cleaning removed points."""
         outliers, stray = len(self.outliers), len(self.stray)
         removed = [f"{outliers:,} outlier{'' if outliers == 1 else 's'}" if outliers else "",
                    f"{stray:,} point{'' if stray == 1 else 's'} of stray pieces" if stray else ""]
-        return (f"cleaning removed {' and '.join(filter(None, removed)) or 'nothing'} "
+        return (f"cleaning removed {' and '.join(filter(None, removed))} "
                 f"({self.input_points:,} -> {self.input_points - outliers - stray:,} points)")
 
 
