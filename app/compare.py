@@ -9,7 +9,7 @@ import numpy as np
 from skelcore import provisional, report
 from skelcore.params import ContractionParams
 
-from .layout import CARD
+from .layout import CARD, PIN, PIN_AGAIN
 from .words import METHOD_LABELS, PARAMETER_LABELS, assignments
 
 RUN_COLOURS = ("#8a8a8a", "#d1342f")  # pinned, current
@@ -22,6 +22,17 @@ class Pinned:
     name: str
     summary: dict  # report.run_summary
     skeleton: tuple[np.ndarray, np.ndarray] | None  # nodes, edges; None before the cloud has contracted
+
+
+def show_pin(viewers, pinned: Pinned | None) -> None:
+    """Each viewer (app.viewer.Viewer) draws the pinned run's skeleton in green and offers to pin again; with
+    nothing pinned (None), no green skeleton, the Pin button as at first, and a blank Compare tab."""
+    skeleton = None if pinned is None else pinned.skeleton
+    for viewer in viewers:
+        viewer.view.show_ghost(*(skeleton or (None, None)))
+        viewer.ui.plots.pin.label = PIN if pinned is None else PIN_AGAIN
+        if pinned is None:
+            viewer.clear_comparison()
 
 
 def describe(state, role: str, history=()) -> str:
@@ -72,6 +83,11 @@ def comparison(pinned: Pinned, state, history, verdict: dict | None = None,
 def comparison_note(pinned: Pinned, state, verdict: dict, states=()) -> str:
     """Markdown naming the pinned run and the current one at `state` (`states`: its run's up to it), each with its
     verdict."""
-    return (f"**{pinned.name}** (grey, verdict {pinned.summary['verdict']['label']}) against "
-            f"**{describe(state, 'current', states)}** (red, verdict {verdict['label']}); the pinned skeleton is drawn "
-            f"in green.")
+    return (f"**{pinned.name}** (grey, {_verdict_phrase(pinned.summary['verdict'])}) against "
+            f"**{describe(state, 'current', states)}** (red, {_verdict_phrase(verdict)}); the pinned skeleton is "
+            f"drawn in green.")
+
+
+def _verdict_phrase(verdict: dict) -> str:
+    # iteration 0 is the input: the verdict has no label there
+    return "no verdict yet" if verdict["label"] is None else f"verdict {verdict['label']}"

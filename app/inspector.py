@@ -127,8 +127,7 @@ class Inspector:
         self.presenter.update_legend(viewer)
         viewer.view.load(self.session.cloud.points)
         if self.presenter.pinned is not None:
-            viewer.view.show_ghost(*(self.presenter.pinned.skeleton or (None, None)))
-            viewer.ui.plots.pin.label = layout.PIN_AGAIN
+            compare.show_pin([viewer], self.presenter.pinned)
         self.presenter.show(viewer, len(self.session.history) - 1)
 
     # ------------------------------------------------------------------ wiring
@@ -381,18 +380,13 @@ class Inspector:
         state = self.session.latest
         with self.activity.busy(viewer.client, "Pinning", f"metrics and skeleton of iteration {state.iteration}"):
             self.presenter.pinned = compare.pin(self.session)
-        for each in self.presenter.all():
-            each.view.show_ghost(*(self.presenter.pinned.skeleton or (None, None)))
-            each.ui.plots.pin.label = layout.PIN_AGAIN
+        compare.show_pin(self.presenter.all(), self.presenter.pinned)
         self.session.note(f"pinned the run at iteration {state.iteration} for comparison")
         self.presenter.reanalyse()
 
     def _unpin(self) -> None:
         self.presenter.pinned = None
-        for each in self.presenter.all():
-            each.view.show_ghost(None, None)
-            each.ui.plots.pin.label = layout.PIN
-            each.clear_comparison()
+        compare.show_pin(self.presenter.all(), None)
         said = "the run compared with was of the cloud before"  # the Compare tab alone went blank without a word
         self.session.note(f"unpinned: {said}")
         self.messages.notify(None, "Unpinned", said, color="blue")

@@ -25,7 +25,7 @@ from .labels import LabelPanel
 from .layout import Layout
 from .playback import Playback
 from .progress import Activity
-from .scene import FRAME_FILL, INITIAL_DIRECTION, frame_camera, legend_share
+from .scene import INITIAL_DIRECTION, fit_client_camera, frame_camera
 from .session import Session
 from .viewer import Viewer
 from .worker import ErrorHandler, Latest, Worker
@@ -388,16 +388,8 @@ class Presenter:
         out of the original's box)."""
         if client is None:
             return
-        camera = client.camera
         viewer, run = self.viewer(client), self.session.run
         points = self.session.cloud.points
         if viewer is not None and 0 < viewer.shown < len(run.history):
             points = np.concatenate([points, run.state(viewer.shown).points])
-        origin = display.display_origin(self.session.cloud.points)  # the scene's, from the original (app.scene)
-        direction = camera.look_at - camera.position if direction is None else direction
-        framing = display.framing_camera(points - origin, direction, camera.fov,
-                                         camera.aspect or 1.0, FRAME_FILL, up=camera.up_direction,
-                                         bottom=legend_share(camera.image_height))
-        camera.near, camera.far = display.clipping_planes(points)
-        camera.position = framing.position
-        camera.look_at = framing.look_at
+        fit_client_camera(client.camera, points, display.display_origin(self.session.cloud.points), direction)

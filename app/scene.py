@@ -365,3 +365,14 @@ def frame_camera(camera, points: np.ndarray, aspect: float = 0.75, up=UP_AXES[DE
     camera.near, camera.far = clipping_planes(points)
     camera.position = framing.position
     camera.look_at = framing.look_at  # after the position: moving the position drags look_at along
+
+
+def fit_client_camera(camera, points: np.ndarray, origin: np.ndarray, direction=None) -> None:
+    """Frame `points` in a browser's `camera` (the scene's `origin` is the original cloud's display_origin),
+    keeping its viewing direction or looking along `direction`, above the legend's share of its canvas."""
+    direction = camera.look_at - camera.position if direction is None else direction
+    framing = framing_camera(points - origin, direction, camera.fov, camera.aspect or 1.0, FRAME_FILL,
+                             up=camera.up_direction, bottom=legend_share(camera.image_height))
+    camera.near, camera.far = clipping_planes(points)
+    camera.position = framing.position
+    camera.look_at = framing.look_at  # after the position: moving the position drags look_at along

@@ -31,7 +31,7 @@ from skelcore.provisional import skeleton_is_provisional, state_curve_share
 from skelcore.skeleton import Skeleton, SkeletonParams, beyond_solid_notes
 
 from .run import Run
-from .words import PARAMETER_LABELS, assignments
+from .words import PARAMETER_LABELS, assignments, start_text, weights_text
 
 LOG_LENGTH = 200
 
@@ -128,7 +128,7 @@ class Session:
         """Contraction weights per label, used from the next restart."""
         self.label_weights = check_label_weights(label_weights)
         self._point_weights = None
-        self.note(f"label weights {_weights_text(self.label_weights)}: applies on restart")
+        self.note(f"label weights {weights_text(self.label_weights)}: applies on restart")
 
     def weights_for(self, cloud: Cloud) -> np.ndarray | None:
         """The per-point contraction weights a run on `cloud` uses."""
@@ -170,7 +170,7 @@ class Session:
                 self.run.history = [reduction.lift(states[0], self.run.carrier)]
                 self.note(reduction.note())
             weighted = "" if weights is None else f", weights in [{weights.min():g}, {weights.max():g}]"
-            self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {_describe(params)}{weighted}")
+            self.note(f"start: {Path(cloud.name).name}, {len(cloud.points):,} points, {start_text(params)}{weighted}")
 
     def tune(self, params: ContractionParams) -> str:
         """Take the panel's parameters: live ones apply from the next step, the others on restart.
@@ -391,13 +391,3 @@ class Session:
         self.log.append(line)
         del self.log[:-LOG_LENGTH]
 
-
-def _weights_text(label_weights: dict[int, float]) -> str:
-    return ", ".join(f"{label}={weight:g}" for label, weight in sorted(label_weights.items())) or "none"
-
-
-def _describe(params: ContractionParams) -> str:
-    """The parameters of a start, the two holds only where they differ from their defaults ("Hold inside on")."""
-    switches = ("hold_curves", "hold_inside")
-    changed = [name for name in switches if getattr(params, name) != getattr(ContractionParams(), name)]
-    return assignments(params, [name for name in PARAMETER_LABELS if name not in switches] + changed)

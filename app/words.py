@@ -7,7 +7,7 @@ import math
 import re
 
 from skelcore.errors import ParameterError
-from skelcore.params import AUTOMATIC, WEIGHT_MAX
+from skelcore.params import AUTOMATIC, WEIGHT_MAX, ContractionParams
 
 PARAMETER_LABELS = {"method": "Method", "k": "k", "wl0": "W_L0", "wh0": "W_H0", "sl": "s_L", "wl_max": "W_L cap",
                     "max_iterations": "Max iterations", "termination": "Termination", "hold_curves": "Hold curves",
@@ -126,3 +126,16 @@ def refused(message: str, typed: dict[str, str] | None = None) -> str:
     if automatic and automatic.group(1) in AUTOMATIC:
         message = message[:automatic.end()] + "0 (auto) or " + message[automatic.end():]
     return _ENGINE_NAMING.sub(lambda match: f"{label(match.group(1))} = ", message)
+
+
+def weights_text(label_weights: dict[int, float]) -> str:
+    """Label weights as the session log gives them ("1=0.5, 3=2")."""
+    return ", ".join(f"{value}={weight:g}" for value, weight in sorted(label_weights.items())) or "none"
+
+
+def start_text(params) -> str:
+    """The parameters of a start (a ContractionParams), the two holds only where they differ from their defaults
+    ("Hold inside on")."""
+    switches = ("hold_curves", "hold_inside")
+    changed = [name for name in switches if getattr(params, name) != getattr(ContractionParams(), name)]
+    return assignments(params, [name for name in PARAMETER_LABELS if name not in switches] + changed)

@@ -245,11 +245,11 @@ def test_fit_view_frames_the_contracted_points_of_the_iteration_shown_too(cloud,
     """A step can fling contracted points out of the original's box: Fit view keeps them in the picture."""
     import types
 
-    import app.presenter as presenter_module
+    import app.scene as scene_module
 
     framed = []
-    real = presenter_module.display.framing_camera
-    monkeypatch.setattr(presenter_module.display, "framing_camera",
+    real = scene_module.framing_camera
+    monkeypatch.setattr(scene_module, "framing_camera",
                         lambda points, *args, **kwargs: framed.append(points) or real(points, *args, **kwargs))
     with served(cloud) as inspector:
         for _ in range(2):

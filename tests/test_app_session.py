@@ -156,6 +156,10 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     session.step()  # the current run, retuned on its third step, says so as the pinned one would
     assert "current: LBC, W_H0 1, s_L 2, iteration 3, retuned at iteration 3**" in comparison_note(
         pinned, session.latest, judged, session.history)
+    # a current run restarted to its input has no verdict yet, and the note says so rather than "verdict None"
+    session.restart()
+    start = comparison_note(pinned, session.latest, session.verdict(0), session.history)
+    assert "iteration 0** (red, no verdict yet)" in start and "None" not in start, start
 
 
 def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
