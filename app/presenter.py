@@ -328,7 +328,7 @@ class Presenter:
         # a sparse cloud, small separate pieces: known once a skeleton of the run has read its surface
         said = [] if run.surface is None else run.surface[2].scale_notes(session.sample_radius)
         shown = run.skeletons.get((index, session.run_options(run).skeleton_params()))  # drawn: its cuts said
-        said += [] if shown is None else beyond_solid_notes(shown)
+        said += [] if shown is None else beyond_solid_notes(shown, run.cloud.loops_at_most is not None)
         notes = status.run_notes(run, history[index], viewer.view.notice(history[index].n_points), said)
         viewer.ui.notes.content = notes
         viewer.ui.notes_folder.visible = bool(notes)

@@ -382,7 +382,7 @@ class Session:
         skeleton = self.skeleton(index, run)
         notes = single_view.with_note(run.cloud.notes, None if run.metrics is None else run.metrics.reference.inside)
         cloud = dataclasses.replace(run.cloud, name=Path(run.cloud.name).name,  # never the server's paths
-                                    notes=notes + beyond_solid_notes(skeleton))
+                                    notes=notes + beyond_solid_notes(skeleton, run.cloud.loops_at_most is not None))
         Result(cloud, run.history[:index + 1], skeleton, self.metrics_upto(index, run),
                self.run_options(run), run.weights, reduction=run.reduction,
                evidence=run.evidence[(index, self.skeleton_params)]).save(out_dir)

@@ -19,7 +19,9 @@ hand and figure, the ball with three small handles, the kettle, the thinned tref
 of drilled solids that the contraction closes. It costs a few tenths of a second on a 10,000-point cloud's grid,
 so it is made only where the grid's plain count (`surface_loops`, its Euler characteristic, an upper bound: a
 persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks. Both read the same
-offsets (`offsets`), measured out to the skeleton's sample radius beyond the surface.
+offsets (`offsets`), measured out to the skeleton's sample radius beyond the surface. The plain count taken with
+the solid grown by up to half a cell as well is the most loops the solid has (`loops_at_most`), the skeleton's
+ceiling (skelcore.loops.cut_false_loops): the read above is its floor.
 """
 from __future__ import annotations
 
@@ -27,6 +29,8 @@ import numpy as np
 
 from .inside import InsideTest
 from .regions import dilated, label_regions
+
+GROWN_BY = (0.0, 0.25, 0.5)  # in cells: the levels `loops_at_most` counts the grid's loops at
 
 
 def offsets(test: InsideTest, reach: float) -> np.ndarray | None:
@@ -58,6 +62,20 @@ def surface_loops(offset: np.ndarray) -> int:
     count = label_regions(~solid)[1]
     cavities = count - 1  # the padding joins every empty cell that reaches the outside into one region
     return int(pieces + cavities - _euler(solid))
+
+
+def loops_at_most(test: InsideTest) -> int | None:
+    """The most loops the solid a closed cloud bounds has, as its inside test reads it: the grid's count
+    (`surface_loops`) at offset 0 and with the solid grown by a quarter and by half a cell, whichever is most.
+    At offset 0 a tube about a cell thick can fall between the cells' centres and the grid cut it (the ball with
+    three small handles at 5,000 points read 2 loops there, 3 grown by a quarter cell); half a cell, the farthest a
+    surface crossing a cell lies from its centre along an axis, joins it again, and a loop that growing closes
+    was counted before it closed. A hole narrower than a cell reads closed at every level, as the loop rule's probe
+    reads it too. None where the cloud bounds no solid: it reads open, or as one view of an object."""
+    offset = None if test.single_view else offsets(test, GROWN_BY[-1] * test.size)
+    if offset is None:
+        return None
+    return max(surface_loops(offset - grown * test.size) for grown in GROWN_BY)
 
 
 def solid_loops(offset: np.ndarray, reach: float) -> int:

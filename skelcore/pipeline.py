@@ -232,7 +232,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
                 and not options.params.hold_inside:
             computed = _held_inside(computed, options, progress, loops, solid)
             clock.mark("hold inside")
-        for note in beyond_solid_notes(computed.skeleton):
+        for note in beyond_solid_notes(computed.skeleton, cloud.loops_at_most is not None):
             computed = _noted(computed, note, progress)
         if loops is not None and cloud.solid_loops is None:  # a closed cloud's read: the verdict's floor too
             computed = dataclasses.replace(computed, evidence={**computed.evidence, "input_loops": loops,

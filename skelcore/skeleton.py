@@ -54,8 +54,8 @@ class SkeletonParams:
     # ... and cycles that jump a gap of the scan: an edge whose shortest surface edge has no original point
     # within the sample radius of its middle, or the points' spacing where larger (skelcore.loops)
     cut_jumps: bool = True
-    # ... and while more cycles are left than the solid has loops (a one-piece closed mesh's genus,
-    # OriginalSurface.genus), the one whose disk is least open
+    # ... and while more cycles are left than the solid has loops (a one-piece closed mesh's genus, or the most a
+    # closed cloud's inside test reads: OriginalSurface.loops_at_most), the one whose disk is least open
     cut_beyond_solid: bool = True
     merge_junctions: bool = True
     junction_distance: float = 2.0  # in sample radii: junctions joined by a shorter path become one
@@ -160,7 +160,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         node_piece[node_of_point] = known.pieces[1]  # a node's points lie on one piece (ball_cover_by_piece)
         beyond_solid = cut_false_loops(adj, xyz, node_of_point, edges, known.probe, gap if params.cut_jumps else 0.0,
                                        lambda node: known.probe_of_piece(int(node_piece[node])),
-                                       known.genus if params.cut_beyond_solid else None)[1]
+                                       (lambda: known.loops_at_most) if params.cut_beyond_solid else None)[1]
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:
@@ -185,16 +185,17 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
     return _finish(adj, xyz, node_of_point, radius, gap, beyond_solid)
 
 
-def beyond_solid_notes(skeleton: Skeleton) -> list[str]:
-    """In words, the loops `skeleton` cut as more than its mesh's solid has (SkeletonParams.cut_beyond_solid;
-    empty when none)."""
+def beyond_solid_notes(skeleton: Skeleton, genus: bool) -> list[str]:
+    """In words, the loops `skeleton` cut as more than its solid has (SkeletonParams.cut_beyond_solid; empty when
+    none). genus: the solid's loops were a closed mesh's genus (io.Cloud.loops_at_most), not a cloud's read."""
     cut = skeleton.beyond_solid
     if not cut:
         return []
     which = "the loop whose disk lay least in open space was" if cut == 1 else \
         f"the {cut} whose disks lay least in open space were"
-    return [f"the skeleton drew {'one loop' if cut == 1 else f'{cut} loops'} more than the mesh's solid has (its "
-            f"genus): {which} cut"]
+    solid = ("the mesh's solid has (its genus)" if genus
+             else "the solid the cloud bounds has (as its inside test reads it)")
+    return [f"the skeleton drew {'one loop' if cut == 1 else f'{cut} loops'} more than {solid}: {which} cut"]
 
 
 def _roots(parent: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, QhullError
 
+from . import cloud_topology
 from .collapse import surface_triangles
 from .errors import InputError
 from .inside import InsideTest
@@ -124,6 +125,19 @@ class OriginalSurface:
                              f"cloud's diagonal resolve little of such a piece, and a loop of it may be lost; "
                              f"skeletonise it alone, or lower the sample radius")
         return notes
+
+    @functools.cached_property
+    def loops_at_most(self) -> int | None:
+        """The most loops a skeleton of this surface keeps: a one-piece closed mesh's genus (`genus`); else the
+        most the solid a closed cloud bounds has as the run's inside test reads it (or the probe's where the run
+        has none yet; skelcore.cloud_topology.loops_at_most). None: no solid to go by."""
+        if self.genus is not None:
+            return self.genus
+        try:
+            test = self.shared_inside if self.shared_inside is not None else self.probe.inside()
+        except InputError:  # too few points to bound anything
+            return None
+        return cloud_topology.loops_at_most(test)
 
     @property
     def probe(self) -> SurfaceProbe:

@@ -272,12 +272,15 @@ def _criteria(v: dict, t: StabilityThresholds, steps: int):
     cycles = v["skeleton_cycles"]
     floor = ("" if solid is None else f", and no fewer than its solid holds ({solid}, read from its inside test)"
              if v.get("skeleton_input_loops_read") else f", and no fewer than the mesh's genus ({solid})")
-    # a skeleton cut to its mesh's genus (SkeletonParams.cut_beyond_solid) holds what the solid holds: the
-    # contracted cloud's loops beyond it are the false ones cut
-    cut = bool(v.get("skeleton_cut_beyond_solid")) and cycles == solid != loops
+    # a skeleton cut to the most loops its solid has (SkeletonParams.cut_beyond_solid: a closed mesh's genus, or
+    # what a closed cloud's inside test reads) holds what the solid holds: the contracted cloud's loops beyond
+    # it are the false ones cut
+    cut = bool(v.get("skeleton_cut_beyond_solid")) and cycles < loops
+    most = "the mesh's genus" if solid is not None and not v.get("skeleton_input_loops_read") else \
+        "what its solid holds as its inside test reads it"
     yield _criterion("skeleton loops", (cycles == loops or cut) and (solid is None or cycles >= solid), "unstable",
                      f"{cycles}", f"as many as the contracted cloud holds ({loops})"
-                     + (f", but for those cut beyond the mesh's genus ({solid})" if cut else floor))
+                     + (f", but for those cut beyond {most} ({cycles})" if cut else floor))
 
 
 def convergence(iterations, thresholds: StabilityThresholds = StabilityThresholds()) -> dict:

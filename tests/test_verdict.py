@@ -147,10 +147,11 @@ def test_a_skeleton_with_fewer_loops_than_a_closed_meshs_solid_is_unstable_thoug
     assert judge(features(entry(), {**evidence(), "input_loops": 0}), 3, T)["label"] == "stable"
 
 
-def test_a_skeleton_cut_to_its_meshs_genus_is_not_held_to_the_false_loops_of_its_contracted_cloud():
+def test_a_skeleton_cut_to_its_solids_loops_is_not_held_to_the_false_loops_of_its_contracted_cloud():
     """A hinge's wedge leaves the contracted cloud a loop the mesh's solid has not: the skeleton, cut to the genus
     (SkeletonParams.cut_beyond_solid), keeps none, and that is not a skeleton that lost a loop. Uncut, the same
-    count fails, as does a cut skeleton that keeps fewer than the genus."""
+    count fails, as does a cut skeleton that keeps fewer than the genus. A point cloud's skeleton cut to what its
+    inside test reads passes the same way."""
     wedged = {**evidence(cycles=0), "input_loops": 0}
     assert "skeleton loops: 0 (as many as the contracted cloud holds (1), and no fewer than the mesh's genus (0)): " \
            "fail" in judge(features(entry(), wedged), 3, T)["reasons"]
@@ -160,6 +161,12 @@ def test_a_skeleton_cut_to_its_meshs_genus_is_not_held_to_the_false_loops_of_its
                                                "for those cut beyond the mesh's genus (0)): pass")
     lost = {**evidence(cycles=0, loops=((0.3, 25.0), (0.3, 25.0))), "input_loops": 1, "cut_beyond_solid": 1}
     assert judge(features(entry(), lost), 3, T)["label"] == "unstable"
+    # a point cloud's skeleton cut to the most loops its inside test reads (no genus): said so, and passed
+    read = judge(features(entry(), {**evidence(cycles=0), "cut_beyond_solid": 1}), 3, T)
+    assert read["label"] == "stable"
+    assert read["criteria"][-1]["text"] == ("skeleton loops: 0 (as many as the contracted cloud holds (1), but for "
+                                            "those cut beyond what its solid holds as its inside test reads it (0)): "
+                                            "pass")
 
 
 def test_a_straight_stretch_drawn_as_one_edge_has_not_collapsed():
