@@ -82,10 +82,11 @@ def comparison(pinned: Pinned, state, history, verdict: dict | None = None,
 
 def comparison_note(pinned: Pinned, state, verdict: dict, states=()) -> str:
     """Markdown naming the pinned run and the current one at `state` (`states`: its run's up to it), each with its
-    verdict."""
+    verdict, and whether the pinned run's skeleton is drawn."""
+    ghost = ("the pinned skeleton is drawn in green" if pinned.skeleton is not None else
+             "no pinned skeleton is drawn: the run was pinned before its skeleton was final")
     return (f"**{pinned.name}** (grey, {_verdict_phrase(pinned.summary['verdict'])}) against "
-            f"**{describe(state, 'current', states)}** (red, {_verdict_phrase(verdict)}); the pinned skeleton is "
-            f"drawn in green.")
+            f"**{describe(state, 'current', states)}** (red, {_verdict_phrase(verdict)}); {ghost}.")
 
 
 def _verdict_phrase(verdict: dict) -> str:

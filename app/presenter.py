@@ -340,7 +340,7 @@ class Presenter:
             self.colour_by, run.history[index], self.analyses.readiness(run, index, compute=False), note=note,
             visible=viewer.view.visible, original_coloured=self.colour_original,
             provisional_wanted=self.ui.view.provisional.value,
-            pinned=self.pinned is not None, labels_html=self.labels.legend_html())
+            pinned=self.pinned is not None and self.pinned.skeleton is not None, labels_html=self.labels.legend_html())
 
     def mark(self, stage: str, viewer: Viewer, run, index: int) -> None:
         viewer.drawn[stage] = (run, index)

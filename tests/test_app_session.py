@@ -1,6 +1,7 @@
 """The inspector's session, worker threads, colours and exports, without a browser."""
 from __future__ import annotations
 
+import dataclasses
 import io
 import threading
 import zipfile
@@ -160,6 +161,11 @@ def test_the_compare_tab_names_the_verdict_the_histograms_tab_shows(monkeypatch)
     session.restart()
     start = comparison_note(pinned, session.latest, session.verdict(0), session.history)
     assert "iteration 0** (red, no verdict yet)" in start and "None" not in start, start
+    # a run pinned before its skeleton was final has none drawn in green, and the note does not say it has
+    drawn = dataclasses.replace(pinned, skeleton=(np.zeros((2, 3)), np.array([[0, 1]])))
+    assert comparison_note(drawn, session.latest, judged).endswith("the pinned skeleton is drawn in green.")
+    assert comparison_note(dataclasses.replace(pinned, skeleton=None), session.latest, judged).endswith(
+        "no pinned skeleton is drawn: the run was pinned before its skeleton was final.")
 
 
 def test_the_skeletons_loop_probe_takes_the_metrics_surface(monkeypatch):
