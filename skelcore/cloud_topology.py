@@ -64,18 +64,24 @@ def surface_loops(offset: np.ndarray) -> int:
     return int(pieces + cavities - _euler(solid))
 
 
-def loops_at_most(test: InsideTest) -> int | None:
+def loops_at_most(test: InsideTest, enough: int | None = None) -> int | None:
     """The most loops the solid a closed cloud bounds has, as its inside test reads it: the grid's count
     (`surface_loops`) at offset 0 and with the solid grown by a quarter and by half a cell, whichever is most.
     At offset 0 a tube about a cell thick can fall between the cells' centres and the grid cut it (the ball with
     three small handles at 5,000 points read 2 loops there, 3 grown by a quarter cell); half a cell, the farthest a
     surface crossing a cell lies from its centre along an axis, joins it again, and a loop that growing closes
     was counted before it closed. A hole narrower than a cell reads closed at every level, as the loop rule's probe
-    reads it too. None where the cloud bounds no solid: it reads open, or as one view of an object."""
+    reads it too. None where the cloud bounds no solid: it reads open, or as one view of an object. enough: stop
+    counting once a level reads that many (a skeleton's cycles: none is cut then), and give that level's count."""
     offset = None if test.single_view else offsets(test, GROWN_BY[-1] * test.size)
     if offset is None:
         return None
-    return max(surface_loops(offset - grown * test.size) for grown in GROWN_BY)
+    most = 0
+    for grown in GROWN_BY:
+        most = max(most, surface_loops(offset - grown * test.size))
+        if enough is not None and most >= enough:
+            break
+    return most
 
 
 def solid_loops(offset: np.ndarray, reach: float) -> int:

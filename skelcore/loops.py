@@ -280,14 +280,15 @@ _AWAY_FROM_RIM = _LATTICE.sum(axis=1) < 1 - 1 / DISK_LATTICE  # lattice points o
 def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarray, edges: np.ndarray,
                     probe: SurfaceProbe, radius: float = 0.0,
                     disk_probe: Callable[[int], SurfaceProbe] | None = None,
-                    most_loops: Callable[[], int | None] | None = None) -> tuple[int, int]:
+                    most_loops: Callable[[int], int | None] | None = None) -> tuple[int, int]:
     """Cut every cycle of `adj` that is no loop of the shape (see the module's rules) at its weakest edge,
     shortest cycles first, until every cycle left is a loop. `radius`: the skeleton's sample radius, the
     empty space a jump crosses (0: no jumps). disk_probe: the probe that judges the disk of a cycle through a
     given node (OriginalSurface.probe_of_piece of its piece; None: `probe`). most_loops: the most loops the
-    solid has (OriginalSurface.loops_at_most), asked once cycles are left that pass the rules: while more are
-    left, the one whose disk is least open is cut too (a curve skeleton has as many loops as its solid). Returns
-    the number of cuts of false loops and of loops beyond the solid's."""
+    solid has (OriginalSurface.loops_at_most), asked with the number of cycles left once they pass the rules
+    (it may stop counting at that many): while more are left, the one whose disk is least open is cut too (a
+    curve skeleton has as many loops as its solid). Returns the number of cuts of false loops and of loops
+    beyond the solid's."""
     ends = node_of_point[edges].reshape(-1, 2)
     low, high = ends.min(axis=1), ends.max(axis=1)
     m = len(xyz)
@@ -321,7 +322,7 @@ def cut_false_loops(adj: dict[int, set[int]], xyz: list, node_of_point: np.ndarr
                 break
         if not false_cycles:
             if basis and most_loops is not None and limit is None:
-                limit = most_loops()
+                limit = most_loops(len(basis))
             if limit is None or len(basis) <= limit:
                 return cuts - beyond, beyond
             # loops beyond the solid's: the least open disk goes first, as the one least like a hole's

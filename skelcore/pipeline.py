@@ -170,6 +170,13 @@ class _Helpers:
             pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _read_ahead(surface: OriginalSurface, most: Future | None) -> None:
+    """Give `surface` the most loops its solid has as read ahead (None: not read; a failed read leaves the surface
+    to read it, and to report the error, if its skeleton asks)."""
+    if most is not None and most.exception() is None:
+        surface.read_ahead(most.result())
+
+
 def _lift(reduction: multires.Reduction, reduced: list[IterationState]) -> list[IterationState]:
     """The states of a reduced run carried to every input point."""
     carrier = reduction.carrier(reduced[0].rings)
@@ -300,13 +307,19 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
     with _Helpers() as helpers:
         cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
                                   options.normal_convention, samples)
+        ceiling = cloud.loops_at_most is None and options.skeleton_params().cut_beyond_solid
         if reduction is None:
+            # the most loops the solid has (the skeleton's ceiling), read from the metrics' inside test on the
+            # evidence thread while the contraction runs
+            most = helpers.judging(lambda: cloud_topology.loops_at_most(cache.result().reference.inside)) \
+                if ceiling else None
             # each state is measured on the second core while the contraction goes on
             states = run_states(cloud, options.params, progress, weights,
                                 lambda state: helpers.measuring(lambda: cache.result().append(state)))
             clock.mark("contract")
             surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface,
                                        cloud.loops_at_most)
+            _read_ahead(surface, most)
             radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
             skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
@@ -316,6 +329,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             # the metrics' inside test samples the centroids before denoising: the false-loop probe's own, of
             # the contracted points, is made on the second core while the contraction runs
             probe_inside = helpers.judging(cloud_inside, reduction.points, 0.0)
+            most = helpers.judging(lambda: cloud_topology.loops_at_most(probe_inside.result())) if ceiling else None
             clock.mark("reduce")
             reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
                                  None if weights is None else reduction.mean(weights))
@@ -326,6 +340,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             surface = original_surface(reduced[-1], reduction.points,
                                        None if probe_inside.exception() else probe_inside.result(),
                                        genus=cloud.loops_at_most)
+            _read_ahead(surface, most)
             radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
                                                               surface.gap_unit(radius)))

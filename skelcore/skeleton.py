@@ -160,7 +160,7 @@ def extract_skeleton(contracted, original, surface, params: SkeletonParams | Non
         node_piece[node_of_point] = known.pieces[1]  # a node's points lie on one piece (ball_cover_by_piece)
         beyond_solid = cut_false_loops(adj, xyz, node_of_point, edges, known.probe, gap if params.cut_jumps else 0.0,
                                        lambda node: known.probe_of_piece(int(node_piece[node])),
-                                       (lambda: known.loops_at_most) if params.cut_beyond_solid else None)[1]
+                                       known.loops_at_most if params.cut_beyond_solid else None)[1]
     if params.merge_junctions:
         merge_junctions(adj, xyz, parent, params.junction_distance * radius)
     if params.prune_spurs:

@@ -50,6 +50,7 @@ class OriginalSurface:
     _hulls: dict = field(default_factory=dict, repr=False)  # "inner", "whole": face planes (None: flat)
     _adjacency: sp.csr_matrix | None = field(default=None, repr=False)
     _piece_probes: dict = field(default_factory=dict, repr=False)  # piece -> the probe its loops are judged by
+    _most_loops: dict = field(default_factory=dict, repr=False)  # enough -> loops_at_most(enough); None: all
 
     @classmethod
     def of(cls, original, surface, shared_inside: InsideTest | None = None,
@@ -126,18 +127,28 @@ class OriginalSurface:
                              f"skeletonise it alone, or lower the sample radius")
         return notes
 
-    @functools.cached_property
-    def loops_at_most(self) -> int | None:
+    def loops_at_most(self, enough: int | None = None) -> int | None:
         """The most loops a skeleton of this surface keeps: a one-piece closed mesh's genus (`genus`); else the
         most the solid a closed cloud bounds has as the run's inside test reads it (or the probe's where the run
-        has none yet; skelcore.cloud_topology.loops_at_most). None: no solid to go by."""
+        has none yet; skelcore.cloud_topology.loops_at_most, counted only until a level reads `enough`). None: no
+        solid to go by."""
         if self.genus is not None:
             return self.genus
-        try:
-            test = self.shared_inside if self.shared_inside is not None else self.probe.inside()
-        except InputError:  # too few points to bound anything
-            return None
-        return cloud_topology.loops_at_most(test)
+        if None in self._most_loops:  # counted to the end (or read ahead): the answer to every ask
+            return self._most_loops[None]
+        if enough not in self._most_loops:  # the skeletons of a run mostly ask with the same count
+            try:
+                test = self.shared_inside if self.shared_inside is not None else self.probe.inside()
+            except InputError:  # too few points to bound anything
+                self._most_loops[enough] = None
+            else:
+                self._most_loops[enough] = cloud_topology.loops_at_most(test, enough)
+        return self._most_loops[enough]
+
+    def read_ahead(self, most: int | None) -> None:
+        """Take `most`, cloud_topology.loops_at_most of `shared_inside` read on a helper thread while the
+        contraction ran, as loops_at_most's answer."""
+        self._most_loops[None] = most
 
     @property
     def probe(self) -> SurfaceProbe:

@@ -256,11 +256,11 @@ def test_loops_beyond_the_solids_are_cut_the_least_open_first():
                                        knn_edges(original), probe, most_loops=most)
         return counts, [sum(len(adj[i]) for i in range(start, start + 12)) < 24 for start in (0, 12)]
 
-    assert cut(lambda: 1) == ((0, 1), [False, True])
-    assert cut(lambda: 2) == ((0, 0), [False, False])
-    assert cut(lambda: None) == ((0, 0), [False, False])
+    assert cut(lambda enough: 1) == ((0, 1), [False, True])
+    assert cut(lambda enough: 2) == ((0, 0), [False, False])
+    assert cut(lambda enough: None) == ((0, 0), [False, False])
     assert cut(None) == ((0, 0), [False, False])
-    assert cut(lambda: 0) == ((0, 2), [True, True])
+    assert cut(lambda enough: 0) == ((0, 2), [True, True])
 
 
 def test_a_cycle_along_a_bowls_rim_is_no_loop_though_its_disk_lies_outside(monkeypatch):
