@@ -21,16 +21,28 @@ so it is made only where the grid's plain count (`surface_loops`, its Euler char
 persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks. Both read the same
 offsets (`offsets`), measured out to the skeleton's sample radius beyond the surface. The plain count taken with
 the solid grown by up to half a cell as well is the most loops the solid has (`loops_at_most`), the skeleton's
-ceiling (skelcore.loops.cut_false_loops): the read above is its floor.
+ceiling (skelcore.loops.cut_false_loops): the read above is its floor. A run reads both from one grid (`read`)
+while it contracts.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from .inside import InsideTest
 from .regions import dilated, label_regions
 
-GROWN_BY = (0.0, 0.25, 0.5)  # in cells: the levels `loops_at_most` counts the grid's loops at
+GROWN_BY = (0.25, 0.5)  # in cells: the levels beyond the surface `loops_at_most` counts the grid's loops at too
+
+
+@dataclass(frozen=True)
+class GridLoops:
+    """A closed cloud's grid read once for both bounds of its skeleton's loops (`read`)."""
+    offset: np.ndarray  # `offsets`, measured out to `reach` and to half a cell at least
+    reach: float  # the skeleton's sample radius the floor (`solid_loops`) is read at
+    at_surface: int  # `surface_loops` at offset 0: the floor is no more
+    most: int | None  # `loops_at_most` (None: not asked for, or the cloud reads as one view)
 
 
 def offsets(test: InsideTest, reach: float) -> np.ndarray | None:
@@ -64,6 +76,18 @@ def surface_loops(offset: np.ndarray) -> int:
     return int(pieces + cavities - _euler(solid))
 
 
+def read(test: InsideTest, reach: float, ceiling: bool = True) -> GridLoops | None:
+    """The grid's offsets and loops for a skeleton drawn at sample radius `reach`, and with `ceiling` the most loops
+    the solid has (`loops_at_most`); None when the cloud reads open."""
+    # as far as the farther of the two counts looks: the floor to the radius, the ceiling to half a cell
+    offset = offsets(test, max(reach, GROWN_BY[-1] * test.size))
+    if offset is None:
+        return None
+    at_surface = surface_loops(offset)
+    most = _most(offset, test.size, at_surface) if ceiling and not test.single_view else None
+    return GridLoops(offset, reach, at_surface, most)
+
+
 def loops_at_most(test: InsideTest, enough: int | None = None) -> int | None:
     """The most loops the solid a closed cloud bounds has, as its inside test reads it: the grid's count
     (`surface_loops`) at offset 0 and with the solid grown by a quarter and by half a cell, whichever is most.
@@ -74,13 +98,16 @@ def loops_at_most(test: InsideTest, enough: int | None = None) -> int | None:
     reads it too. None where the cloud bounds no solid: it reads open, or as one view of an object. enough: stop
     counting once a level reads that many (a skeleton's cycles: none is cut then), and give that level's count."""
     offset = None if test.single_view else offsets(test, GROWN_BY[-1] * test.size)
-    if offset is None:
-        return None
-    most = 0
+    return None if offset is None else _most(offset, test.size, surface_loops(offset), enough)
+
+
+def _most(offset: np.ndarray, size: float, at_surface: int, enough: int | None = None) -> int:
+    """`loops_at_most` of a grid of cell `size` whose count at offset 0 is `at_surface`."""
+    most = at_surface
     for grown in GROWN_BY:
-        most = max(most, surface_loops(offset - grown * test.size))
         if enough is not None and most >= enough:
             break
+        most = max(most, surface_loops(offset - grown * size))
     return most
 
 

@@ -23,6 +23,7 @@ from .evidence import cloud_evidence, skeleton_evidence
 from .inside import InsideTest
 from .loops import cloud_inside
 from .metrics import NORMAL_CONVENTION, UNREAD, IterationMetrics, MetricsReference, Unread
+from .normalise import object_diagonal
 from .options import METRICS_K, RunOptions
 from .params import ContractionParams
 from .results import write_results
@@ -170,11 +171,16 @@ class _Helpers:
             pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _read_ahead(surface: OriginalSurface, most: Future | None) -> None:
-    """Give `surface` the most loops its solid has as read ahead (None: not read; a failed read leaves the surface
-    to read it, and to report the error, if its skeleton asks)."""
-    if most is not None and most.exception() is None:
-        surface.read_ahead(most.result())
+def _read_ahead(surface: OriginalSurface, grid: Future | None) -> None:
+    """Give `surface` the most loops its solid has from its grid read ahead (cloud_topology.read; None: not read;
+    a failed read leaves the surface to read it, and to report the error, if its skeleton asks)."""
+    if grid is not None and grid.exception() is None:
+        surface.read_ahead(None if grid.result() is None else grid.result().most)
+
+
+def _made(task: Future | None):
+    """What a task made ahead gave; None when not asked for, or when it failed (then made again where needed)."""
+    return None if task is None or task.exception() is not None else task.result()
 
 
 def _lift(reduction: multires.Reduction, reduced: list[IterationState]) -> list[IterationState]:
@@ -194,6 +200,7 @@ class Computed:
     reduction: multires.Reduction | None = None  # the multi-resolution reduction (None: every point contracted)
     evidence: dict | None = None  # skeleton_evidence of the skeleton
     inside: InsideTest | None = None  # the original solid, as the metrics' boundedness reads it
+    grid: cloud_topology.GridLoops | None = None  # the inside test's grid as read ahead for `solid_loops`
 
 
 def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str], None] | None = None, *,
@@ -233,7 +240,7 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         if computed.inside is not None and computed.inside.single_view:
             computed = _noted(computed, single_view.NOTE, progress)
         loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
-                                   computed.skeleton.radius)
+                                   computed.skeleton.radius, computed.grid)
         clock.mark("solid loops")
         if loops is not None and computed.evidence["cycles"] < loops and options.hold_retry \
                 and not options.params.hold_inside:
@@ -249,17 +256,20 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
     return computed
 
 
-def solid_loops(cloud: io.Cloud, inside: InsideTest | None, cycles: int, radius: float) -> tuple[int | None, str]:
+def solid_loops(cloud: io.Cloud, inside: InsideTest | None, cycles: int, radius: float,
+                grid: cloud_topology.GridLoops | None = None) -> tuple[int | None, str]:
     """The loops through the solid a cloud bounds, and whose they are in words, for a skeleton of `cycles` loops
     drawn at `radius`: a closed mesh's genus; else those its inside test (the metrics' MetricsReference.inside)
     reads when the cloud reads closed, read only when the test's plain count leaves room for more than `cycles`
-    (skelcore.cloud_topology). None: no solid to go by, or no loop the skeleton could lack."""
+    (skelcore.cloud_topology; `grid`: that test's read, when made ahead). None: no solid to go by, or no loop the
+    skeleton could lack."""
     if cloud.solid_loops is not None:
         return cloud.solid_loops, "the mesh's solid (its genus)"
-    offset = None if inside is None else cloud_topology.offsets(inside, radius)
-    if offset is None or cloud_topology.surface_loops(offset) <= cycles:
+    if grid is None or grid.reach != radius:
+        grid = None if inside is None else cloud_topology.read(inside, radius, ceiling=False)
+    if grid is None or grid.at_surface <= cycles:
         return None, ""
-    return cloud_topology.solid_loops(offset, radius), "the solid the input bounds (as its inside test reads it)"
+    return cloud_topology.solid_loops(grid.offset, radius), "the solid the input bounds (as its inside test reads it)"
 
 
 def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None, wanted: int,
@@ -308,19 +318,20 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
         cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
                                   options.normal_convention, samples)
         ceiling = cloud.loops_at_most is None and options.skeleton_params().cut_beyond_solid
+        floor = cloud.solid_loops is None  # no genus: the loops a closed cloud's solid has are read (`solid_loops`)
         if reduction is None:
-            # the most loops the solid has (the skeleton's ceiling), read from the metrics' inside test on the
-            # evidence thread while the contraction runs
-            most = helpers.judging(lambda: cloud_topology.loops_at_most(cache.result().reference.inside)) \
-                if ceiling else None
+            radius = options.sample_radius * object_diagonal(cloud.points)  # the skeleton's (extract_skeleton)
+            # the loops the solid has, at most (the skeleton's ceiling) and at least (the run's floor), read from the
+            # metrics' inside test on the evidence thread while the contraction runs
+            grid = helpers.judging(lambda: cloud_topology.read(cache.result().reference.inside, radius, ceiling)) \
+                if ceiling or floor else None
             # each state is measured on the second core while the contraction goes on
             states = run_states(cloud, options.params, progress, weights,
                                 lambda state: helpers.measuring(lambda: cache.result().append(state)))
             clock.mark("contract")
             surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface,
                                        cloud.loops_at_most)
-            _read_ahead(surface, most)
-            radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
+            _read_ahead(surface, grid if ceiling else None)
             evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
             skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
             clock.mark("skeleton")
@@ -329,7 +340,10 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             # the metrics' inside test samples the centroids before denoising: the false-loop probe's own, of
             # the contracted points, is made on the second core while the contraction runs
             probe_inside = helpers.judging(cloud_inside, reduction.points, 0.0)
-            most = helpers.judging(lambda: cloud_topology.loops_at_most(probe_inside.result())) if ceiling else None
+            radius = options.sample_radius * object_diagonal(reduction.points)  # the skeleton's (extract_skeleton)
+            most = helpers.judging(lambda: cloud_topology.read(probe_inside.result(), radius)) if ceiling else None
+            grid = helpers.judging(lambda: cloud_topology.read(cache.result().reference.inside, radius, False)) \
+                if floor else None
             clock.mark("reduce")
             reduced = run_states(io.Cloud(points=reduction.points, name=cloud.name), options.params, progress,
                                  None if weights is None else reduction.mean(weights))
@@ -341,7 +355,6 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
                                        None if probe_inside.exception() else probe_inside.result(),
                                        genus=cloud.loops_at_most)
             _read_ahead(surface, most)
-            radius = options.sample_radius * surface.diagonal  # the skeleton's (extract_skeleton)
             evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
                                                               surface.gap_unit(radius)))
             skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
@@ -358,7 +371,8 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
         clock.mark("evidence")
         for note in surface.scale_notes(options.sample_radius):
             _say(progress, f"{cloud.name}: {note}")
-    return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence, cache.result().reference.inside)
+    return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence, cache.result().reference.inside,
+                    _made(grid))
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,

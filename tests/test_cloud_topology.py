@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from skelcore.cloud_topology import _euler, loops_at_most, offsets, solid_loops, surface_loops
+from skelcore.cloud_topology import _euler, loops_at_most, offsets, read, solid_loops, surface_loops
 from skelcore.loops import cloud_inside
 from skelcore.regions import label_regions
 
@@ -107,6 +107,26 @@ def test_a_tall_pipes_point_cloud_keeps_its_loop_by_a_second_run_held_inside(met
     assert result.evidence["input_loops"] == 1 and result.evidence["input_loops_read"]
     loops = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton loops")
     assert "no fewer than its solid holds (1, read from its inside test)" in loops["threshold"]
+
+
+@pytest.mark.parametrize("budget, reads", [(20000, 1), (2000, 2)])
+def test_a_run_measures_its_grid_once_for_both_bounds_of_its_skeletons_loops(monkeypatch, budget, reads):
+    """The pipe's points: one measure of the grid's offsets, made while the contraction runs, gives the skeleton's
+    ceiling and the run's floor as a fresh read gives it (a reduced run's ceiling reads its probe's own test)."""
+    from skelcore import cloud_topology, pipeline
+    from skelcore.io import validate
+    from skelcore.options import RunOptions
+
+    measured, measure = [], cloud_topology.offsets
+    monkeypatch.setattr(cloud_topology, "offsets", lambda test, reach: measured.append(reach) or measure(test, reach))
+    points = trimesh.sample.sample_surface_even(_pipe(), 6000, seed=0)[0]
+    run = pipeline.compute(validate(points), RunOptions(hold_retry=False, point_budget=budget))
+    assert len(measured) == reads and (run.reduction is None) == (reads == 1)
+    assert run.evidence["cycles"] == 0
+    ahead = pipeline.solid_loops(run.cloud, run.inside, 0, run.skeleton.radius, run.grid)
+    assert len(measured) == reads  # read from the grid measured ahead
+    fresh = pipeline.solid_loops(run.cloud, run.inside, 0, run.skeleton.radius)
+    assert ahead == fresh == (1, "the solid the input bounds (as its inside test reads it)")
 
 
 def test_a_cloud_whose_skeleton_keeps_its_loops_is_not_run_again(tmp_path, capsys):
@@ -230,6 +250,10 @@ def test_a_clouds_most_loops_count_a_tube_the_cells_cut_at_the_surface():
     assert surface_loops(offsets(ball.inside, 0.0)) == 2 and loops_at_most(ball.inside) >= 3
     # asked whether the solid has room for 2 loops, the count stops at the surface's 2; for 3, it goes on
     assert loops_at_most(ball.inside, enough=2) == 2 and loops_at_most(ball.inside, enough=3) == 3
+    # a run's read of both bounds at once (`read`) counts the same
+    grid = read(ball.inside, ball.skeleton.radius)
+    assert (grid.at_surface, grid.most) == (2, loops_at_most(ball.inside))
+    assert read(ball.inside, ball.skeleton.radius, ceiling=False).most is None
     assert ball.skeleton.topology()["cycles"] == 3 and ball.skeleton.beyond_solid == 0
 
     def inside(points):  # as a run's metrics make it (skelcore.medial)
