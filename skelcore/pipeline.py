@@ -6,8 +6,7 @@
 from __future__ import annotations
 
 import dataclasses
-import time
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -27,6 +26,7 @@ from .normalise import object_diagonal
 from .options import METRICS_K, RunOptions
 from .params import ContractionParams
 from .results import write_results
+from .run_threads import Helpers, StageClock, made
 from .skeleton import Skeleton, SkeletonParams, beyond_solid_notes, extract_skeleton
 from .surface import OriginalSurface
 
@@ -121,66 +121,14 @@ def run_pipeline(input_path, out_dir, options: RunOptions = RunOptions(),
     return RunResult(Path(out_dir), run.cloud, run.states, run.skeleton, summary, clock.elapsed(), clock.stages)
 
 
-class StageClock:
-    """Seconds per pipeline stage, in order."""
-
-    def __init__(self) -> None:
-        self.start = self.last = time.perf_counter()
-        self.stages: dict[str, float] = {}
-
-    def mark(self, stage: str) -> None:
-        """Close `stage`: the seconds since the previous mark (or the start)."""
-        now = time.perf_counter()
-        self.stages[stage] = now - self.last
-        self.last = now
-
-    def elapsed(self) -> float:
-        """Seconds since the clock started."""
-        return time.perf_counter() - self.start
-
-
-class _Helpers:
-    """A run's two helper threads: one measures the states in order (the paper's metrics, after carrying a reduced
-    run's states to every input point), the other computes the parts of the skeleton evidence that need only the
-    last state. Their numpy, LAPACK, k-d tree and gudhi work releases the GIL, so they use the second core while
-    the contraction and the skeleton's graph step (Python) run on the first. An error in a task is raised where
-    its result is read, or by `wait`; leaving the block cancels what has not started."""
-
-    def __enter__(self) -> "_Helpers":
-        self._measure = ThreadPoolExecutor(1, thread_name_prefix="skelcore-metrics")
-        self._judge = ThreadPoolExecutor(1, thread_name_prefix="skelcore-evidence")
-        self._measuring: list[Future] = []
-        return self
-
-    def measuring(self, task: Callable, *args) -> Future:
-        """Queue `task(*args)` behind the measuring tasks queued before it."""
-        self._measuring.append(self._measure.submit(task, *args))
-        return self._measuring[-1]
-
-    def judging(self, task: Callable, *args) -> Future:
-        """Run `task(*args)` on the evidence thread."""
-        return self._judge.submit(task, *args)
-
-    def wait(self) -> None:
-        """Wait until every measuring task is done; the first error of one is raised."""
-        for task in self._measuring:
-            task.result()
-
-    def __exit__(self, *exc) -> None:
-        for pool in (self._measure, self._judge):
-            pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _read_ahead(surface: OriginalSurface, grid: Future | None) -> None:
-    """Give `surface` the most loops its solid has from its grid read ahead (cloud_topology.read; None: not read;
-    a failed read leaves the surface to read it, and to report the error, if its skeleton asks)."""
-    if grid is not None and grid.exception() is None:
+def _read_ahead(surface: OriginalSurface, grid: Future | None, at_most: int | None = None) -> None:
+    """Give `surface` the most loops its skeleton keeps: `at_most` when given, else the most its solid has from
+    its grid read ahead (cloud_topology.read; None: not read; a failed read leaves the surface to read it, and to
+    report the error, if its skeleton asks)."""
+    if at_most is not None:
+        surface.read_ahead(at_most)
+    elif grid is not None and grid.exception() is None:
         surface.read_ahead(None if grid.result() is None else grid.result().most)
-
-
-def _made(task: Future | None):
-    """What a task made ahead gave; None when not asked for, or when it failed (then made again where needed)."""
-    return None if task is None or task.exception() is not None else task.result()
 
 
 def _lift(reduction: multires.Reduction, reduced: list[IterationState]) -> list[IterationState]:
@@ -276,12 +224,14 @@ def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str],
                  solid: str) -> Computed:
     """A run whose skeleton keeps fewer loops than the `wanted` loops through `solid` (in words: a closed mesh's
     genus, or a closed cloud's read), run again with the points held inside the solid (ContractionParams.hold_inside,
-    skelcore.medial): that run when its skeleton keeps more of them, no more than `wanted`, else `plain` (also when
-    the second run fails: the first one is not lost); a note says which."""
+    skelcore.medial): that run when its skeleton keeps more of them, else `plain` (also when the second run fails:
+    the first one is not lost); a note says which. The held run's loops beyond `wanted` are cut as those beyond a
+    solid's are (SkeletonParams.cut_beyond_solid): `plain` lacks loops the solid has, and of the held run's more,
+    those the solid holds at the skeleton's scale are the ones to keep."""
     cloud, kept = plain.cloud, plain.evidence["cycles"]
     try:
         held = _contract_and_judge(cloud, dataclasses.replace(options, params=options.params.replace(hold_inside=True)),
-                                   plain.weights, progress, StageClock())
+                                   plain.weights, progress, StageClock(), at_most=wanted)
     except SkelError as error:
         held, outcome = None, f"failed ({error}), so the first run is the result"
     else:
@@ -303,9 +253,11 @@ def _noted(computed: Computed, note: str, progress: Callable[[str], None] | None
 
 
 def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarray | None,
-                        progress: Callable[[str], None] | None, clock: StageClock) -> Computed:
+                        progress: Callable[[str], None] | None, clock: StageClock,
+                        at_most: int | None = None) -> Computed:
     """Contract a loaded, cleaned cloud to the end (reduced first when it is over options.point_budget), the
-    paper's metrics of every state, the skeleton of the last and its evidence for the verdict."""
+    paper's metrics of every state, the skeleton of the last and its evidence for the verdict. at_most: the most
+    loops the skeleton keeps, in place of the most its solid has (with SkeletonParams.cut_beyond_solid)."""
     reduction = multires.contracted_cloud(cloud.points, options.point_budget)
     # The inside test samples a large surface, or one on scan lines, by the voxel reduction at POINT_BUDGET: the
     # run's read serves when it was made at that budget (its centroids as they are: the original surface, as the
@@ -314,11 +266,12 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
     samples = ((None if reduction is None or reduction.thinned else reduction)
                if options.point_budget == multires.POINT_BUDGET else UNREAD)
     reduction = None if reduction is None else reduction.denoised(options.cleaning.denoise_neighbours)
-    with _Helpers() as helpers:
+    with Helpers() as helpers:
         cache = helpers.measuring(IterationMetricsCache, cloud, options.metrics_k, options.seed,
                                   options.normal_convention, samples)
-        ceiling = cloud.loops_at_most is None and options.skeleton_params().cut_beyond_solid
-        floor = cloud.solid_loops is None  # no genus: the loops a closed cloud's solid has are read (`solid_loops`)
+        ceiling = at_most is None and cloud.loops_at_most is None and options.skeleton_params().cut_beyond_solid
+        # no genus: the loops a closed cloud's solid has are read (`solid_loops`; a held run is given its own)
+        floor = at_most is None and cloud.solid_loops is None
         if reduction is None:
             radius = options.sample_radius * object_diagonal(cloud.points)  # the skeleton's (extract_skeleton)
             # the loops the solid has, at most (the skeleton's ceiling) and at least (the run's floor), read from the
@@ -331,7 +284,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             clock.mark("contract")
             surface = original_surface(states[-1], cloud.points, cache.result().reference.inside, cloud.surface,
                                        cloud.loops_at_most)
-            _read_ahead(surface, grid if ceiling else None)
+            _read_ahead(surface, grid if ceiling else None, at_most)
             evidence = helpers.judging(cloud_evidence, states[-1], cloud.points, radius, surface.gap_unit(radius))
             skeleton = skeleton_of_state(states[-1], cloud.points, options.skeleton_params(), surface=surface)
             clock.mark("skeleton")
@@ -354,7 +307,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
             surface = original_surface(reduced[-1], reduction.points,
                                        None if probe_inside.exception() else probe_inside.result(),
                                        genus=cloud.loops_at_most)
-            _read_ahead(surface, most)
+            _read_ahead(surface, most, at_most)
             evidence = helpers.judging(lambda: cloud_evidence(lifted.result()[-1], cloud.points, radius,
                                                               surface.gap_unit(radius)))
             skeleton = skeleton_of_state(reduced[-1], cloud.points, options.skeleton_params(), reduction, surface)
@@ -372,7 +325,7 @@ def _contract_and_judge(cloud: io.Cloud, options: RunOptions, weights: np.ndarra
         for note in surface.scale_notes(options.sample_radius):
             _say(progress, f"{cloud.name}: {note}")
     return Computed(cloud, states, metrics, skeleton, weights, reduction, evidence, cache.result().reference.inside,
-                    _made(grid))
+                    made(grid))
 
 
 def run_states(cloud: io.Cloud, params: ContractionParams, progress: Callable[[str], None] | None = None,

@@ -146,8 +146,8 @@ class OriginalSurface:
         return self._most_loops[enough]
 
     def read_ahead(self, most: int | None) -> None:
-        """Take `most`, cloud_topology.loops_at_most of `shared_inside` read on a helper thread while the
-        contraction ran, as loops_at_most's answer."""
+        """Take `most` as loops_at_most's answer: cloud_topology.loops_at_most of `shared_inside` read on a helper
+        thread while the contraction ran, or the bound a run was given (skelcore.pipeline: a run held inside)."""
         self._most_loops[None] = most
 
     @property

@@ -109,6 +109,25 @@ def test_a_tall_pipes_point_cloud_keeps_its_loop_by_a_second_run_held_inside(met
     assert "no fewer than its solid holds (1, read from its inside test)" in loops["threshold"]
 
 
+def test_a_run_held_inside_that_keeps_more_loops_than_its_solid_is_cut_to_them_and_taken():
+    """The bar bored along its length, with 0.5% noise: the plain run closes the bore, and the run held inside the
+    solid keeps it and one false loop more. That run was refused (the result kept no loop); its loops beyond the
+    solid's one are cut as any skeleton's beyond its solid are, and it is the result."""
+    import skelcore
+    from skelcore.perturb import perturb
+    from skelcore.solids import benchmark_shapes
+
+    shape = benchmark_shapes(names=["drilled_bar"])[0]
+    result = skelcore.skeletonize(perturb(shape.points, "noise_0.5", seed=0, normals=shape.normals, loops=True), "lbc")
+    assert result.topology["cycles"] == 1 and result.states[-1].params.hold_inside
+    assert result.skeleton.beyond_solid == 1 and result.evidence["input_loops"] == 1
+    assert any("keeps 0 of the 1 loop" in note and "that run keeps 1, and is the result" in note
+               for note in result.cloud.notes)
+    assert any("drew one loop more than the solid the cloud bounds has" in note for note in result.cloud.notes)
+    loops = next(c for c in result.verdict["criteria"] if c["name"] == "skeleton loops")
+    assert loops["passed"]
+
+
 @pytest.mark.parametrize("budget, reads", [(20000, 1), (2000, 2)])
 def test_a_run_measures_its_grid_once_for_both_bounds_of_its_skeletons_loops(monkeypatch, budget, reads):
     """The pipe's points: one measure of the grid's offsets, made while the contraction runs, gives the skeleton's
