@@ -582,8 +582,8 @@ def test_a_value_being_typed_waits_for_the_person_and_a_click_takes_it(fresh, pa
     finally:
         set_value(page, "Max iterations", RUN["max_iterations"])
         wait_until(lambda: box.value == str(RUN["max_iterations"]), "the module's max iterations typed")
-        inspector.panel.flush()
-        wait_until(lambda: session.params.max_iterations == RUN["max_iterations"], "the module's max iterations")
+        wait_until(lambda: _flushed(inspector, lambda: session.params.max_iterations == RUN["max_iterations"]),
+                   "the module's max iterations")
         _take_play_interval(page, inspector, PLAY_INTERVAL)
         open_tab(page, "Parameters")
 
@@ -592,8 +592,15 @@ def _take_play_interval(page, inspector, seconds: float) -> None:
     """Type the Play interval and have it taken at once, as a click on Step would (`flush`)."""
     set_value(page, "Play interval (s)", seconds)
     wait_until(lambda: inspector.ui.run.interval.value == str(seconds), "the play interval typed")
+    wait_until(lambda: _flushed(inspector, lambda: inspector.playback.interval == seconds), "the play interval")
+
+
+def _flushed(inspector, taken) -> bool:
+    """Take what is being typed at once (`flush`, as a click does), then whether `taken()` holds. A box's value
+    reaches the server before the panel's callback marks it as being typed, so a single flush can fall between the
+    two and leave the value waiting for a pause that the test's stopped timer never ends."""
     inspector.panel.flush()
-    wait_until(lambda: inspector.playback.interval == seconds, "the play interval")
+    return taken()
 
 
 def _run_state(page) -> str:
