@@ -38,6 +38,7 @@ from .upload_guard import UploadGuard
 from .uploads import UploadNotices
 from .viewer import Viewer, quiet_closed_browsers
 from .worker import Worker
+from .words import capped_text
 
 MAX_UPLOAD_BYTES = 64 * 1024 * 1024
 RUN_ENDED = "Run has ended"  # the notice a step past the end gets
@@ -64,7 +65,7 @@ class Inspector:
         self.ui = layout.build(server.gui, session.params, session.sample_radius, play_interval=PLAY_INTERVAL,
                                assets=tuple(self.assets), max_upload_mib=max_upload_bytes // 2**20, save_dir=save_dir)
         self.panel = ParameterPanel(self.ui.params, session, self.messages.notify, {
-            "parameters": lambda params, client: self.worker.submit(lambda: self._tune(params), client),
+            "parameters": lambda params, client: self.worker.submit(lambda: self._tune(params, client), client),
             "radius": lambda radius, client: self.worker.submit(lambda: self._set_radius(radius), client)},
             self.messages.withdraw)
         self.playback = Playback(self.worker, self.ui.run, lambda: self.presenter.update_statuses())
@@ -295,9 +296,11 @@ class Inspector:
             else:
                 self.presenter.update_status(viewer)
 
-    def _tune(self, params) -> None:
+    def _tune(self, params, client=None) -> None:
         if self.session.tune(params):
             self.presenter.update_statuses()
+        for line in capped_text(params):
+            self._notify(client, "Capped", line, color="yellow")
 
     def _restart(self, params, resetting=None) -> None:
         """Start again with `params`; `resetting`: the browser whose Reset drops the changes typed, told so."""

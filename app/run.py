@@ -24,7 +24,8 @@ class Run:
     skeletons: dict[tuple[int, SkeletonParams], Skeleton] = field(default_factory=dict)
     evidence: dict[tuple[int, SkeletonParams], dict] = field(default_factory=dict)  # of each skeleton, for the verdict
     input_topology: dict[float, dict] = field(default_factory=dict)  # the input's, by skeleton gap unit: one per run
-    solid_loops: dict[tuple[int, float], int | None] = field(default_factory=dict)  # by skeleton's loops, radius
+    # by the skeleton's loops and radius, and the loops the verdict counts in its contracted cloud (None: not asked)
+    solid_loops: dict[tuple[int, float, int | None], pipeline.SolidRead] = field(default_factory=dict)
     metrics: pipeline.IterationMetricsCache | None = None  # built on first use
     weights: np.ndarray | None = None  # per-point contraction weights of the run (None: all 1)
     label_weights: dict[int, float] = field(default_factory=dict)  # that gave them, if any

@@ -24,8 +24,9 @@ from skelcore.evidence import input_evidence, skeleton_evidence
 from skelcore.io import Cloud
 from skelcore.labels import check_label_weights, check_weights, weights_from_labels
 from skelcore.metrics import IterationMetrics
+from skelcore.persistence import persistence_summary
 from skelcore.options import RunOptions
-from skelcore.verdict import run_verdict
+from skelcore.verdict import count_loops, run_verdict
 from skelcore.params import ContractionParams
 from skelcore.provisional import skeleton_is_provisional, state_curve_share
 from skelcore.skeleton import Skeleton, SkeletonParams, beyond_solid_notes
@@ -334,13 +335,20 @@ class Session:
     def solid_loops(self, index: int, run: Run | None = None) -> int | None:
         """The loops through the run's solid (pipeline.solid_loops: the verdict's floor for its skeletons, and why
         `skelcore run` tries a run held inside), when the skeleton of history[index] may lack some; else None."""
+        return self.solid_read(index, run).loops
+
+    def solid_read(self, index: int, run: Run | None = None, contracted: dict | None = None) -> pipeline.SolidRead:
+        """pipeline.solid_loops for the skeleton of history[index]; given `contracted` (the state's
+        persistence_summary) also where the skeleton keeps more loops than the verdict counts in it."""
         run = run or self.run
         skeleton = self.skeleton(index, run)
-        key = (skeleton.topology()["cycles"], skeleton.radius)
+        held = None if contracted is None else count_loops(contracted["loops"])
+        key = (skeleton.topology()["cycles"], skeleton.radius, held)
         if key not in run.solid_loops:
             if run.metrics is None:  # its inside test comes with the metrics: asked again once they are made
-                return run.cloud.solid_loops
-            run.solid_loops[key] = pipeline.solid_loops(run.cloud, run.metrics.reference.inside, *key)[0]
+                return pipeline.SolidRead(run.cloud.solid_loops, "")
+            run.solid_loops[key] = pipeline.solid_loops(run.cloud, run.metrics.reference.inside, *key[:2],
+                                                        contracted=None if contracted is None else contracted["loops"])
         return run.solid_loops[key]
 
     def metrics_upto(self, index: int, run: Run | None = None) -> list[IterationMetrics]:
@@ -367,10 +375,12 @@ class Session:
                 if skeleton.gap not in run.input_topology:  # the same at every iteration: computed once
                     run.input_topology[skeleton.gap] = input_evidence(run.cloud.points, skeleton.gap)
                 self.metrics_upto(index, run)  # a point cloud's solid is read from the metrics' inside test
+                contracted = persistence_summary(run.history[index].points, skeleton.radius)
+                solid = self.solid_read(index, run, contracted)
                 run.evidence[key] = skeleton_evidence(skeleton, run.history[index], run.cloud.points,
-                                                      run.input_topology[skeleton.gap],
-                                                      solid_loops=self.solid_loops(index, run),
-                                                      solid_read=run.cloud.solid_loops is None)
+                                                      run.input_topology[skeleton.gap], contracted, solid.loops,
+                                                      solid_read=run.cloud.solid_loops is None,
+                                                      solid_at_surface=solid.at_surface)
             evidence = run.evidence[key]
         return run_verdict(self.metrics_upto(index, run), evidence)
 

@@ -128,6 +128,13 @@ def refused(message: str, typed: dict[str, str] | None = None) -> str:
     return _ENGINE_NAMING.sub(lambda match: f"{label(match.group(1))} = ", message)
 
 
+def capped_text(params) -> list[str]:
+    """A line per starting weight typed above its cap (ContractionParams.starts_above_caps)."""
+    return [f"{label(start)} = {getattr(params, start):g} is above its cap ({label(cap)} = {getattr(params, cap):g}): "
+            f"the run starts at the cap, where a larger {label(start)} changes nothing"
+            for start, cap in params.starts_above_caps()]
+
+
 def weights_text(label_weights: dict[int, float]) -> str:
     """Label weights as the session log gives them ("1=0.5, 3=2")."""
     return ", ".join(f"{value}={weight:g}" for value, weight in sorted(label_weights.items())) or "none"

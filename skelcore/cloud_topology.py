@@ -18,7 +18,8 @@ On the benchmark's closed clouds this read is right where the plain grid over-re
 hand and figure, the ball with three small handles, the kettle, the thinned trefoil), and it reads the bores
 of drilled solids that the contraction closes. It costs a few tenths of a second on a 10,000-point cloud's grid,
 so it is made only where the grid's plain count (`surface_loops`, its Euler characteristic, an upper bound: a
-persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks. Both read the same
+persistent loop is one of the loops at offset 0) leaves room for a loop the skeleton lacks, or for loops it keeps
+that the verdict's count of the contracted cloud misses (skelcore.pipeline.solid_loops). Both read the same
 offsets (`offsets`), measured out to the skeleton's sample radius beyond the surface. The plain count taken with
 the solid grown by up to half a cell as well is the most loops the solid has (`loops_at_most`), the skeleton's
 ceiling (skelcore.loops.cut_false_loops): the read above is its floor. A run reads both from one grid (`read`)

@@ -12,7 +12,8 @@ from .step import IterationState
 
 
 def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.ndarray, source: dict | None = None,
-                      cloud: dict | None = None, solid_loops: int | None = None, solid_read: bool = False) -> dict:
+                      cloud: dict | None = None, solid_loops: int | None = None, solid_read: bool = False,
+                      solid_at_surface: int | None = None) -> dict:
     """What the verdict's skeleton checks read: the skeleton's nodes (with those GLSkeleton's light graph left out
     of a straight stretch, which are no collapse), pieces and loops, and the pieces and loops
     of the contracted cloud and the pieces of the input, lengths in multiples of the skeleton's sample radius
@@ -20,7 +21,8 @@ def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.nd
     piece_counts). source: input_evidence of `original` at the gap unit, and cloud: persistence_summary of the
     state's points at the radius, when already known (see `cloud_evidence`). solid_loops: the loops through the
     input's solid, the skeleton's floor: a closed mesh's genus (io.Cloud.solid_loops), or with solid_read those
-    a closed cloud's inside test reads (skelcore.cloud_topology); None: no solid known."""
+    a closed cloud's inside test reads (skelcore.cloud_topology), and solid_at_surface its grid's plain count at
+    the surface; None: no solid known."""
     topology = skeleton.topology()
     cloud = cloud or persistence_summary(state.points, skeleton.radius)
     source = source or input_evidence(original, skeleton.gap)
@@ -28,7 +30,8 @@ def skeleton_evidence(skeleton: Skeleton, state: IterationState, original: np.nd
     return {"nodes": nodes, "nodes_with_dropped": nodes + skeleton.dropped, "components": topology["components"],
             "cycles": topology["cycles"], "cloud_pieces": cloud["pieces"], "cloud_loops": cloud["loops"],
             "input_pieces": source["pieces"], "input_loops": solid_loops,
-            "input_loops_read": bool(solid_read and solid_loops is not None), "cut_beyond_solid": skeleton.beyond_solid}
+            "input_loops_read": bool(solid_read and solid_loops is not None),
+            "input_loops_at_surface": solid_at_surface, "cut_beyond_solid": skeleton.beyond_solid}
 
 
 def cloud_evidence(state: IterationState, original: np.ndarray, radius: float, gap: float) -> tuple[dict, dict]:

@@ -87,6 +87,12 @@ class ContractionParams:
                 raise ParameterError(f"parameter {name}={value!r}: must be {_describe_range(low, high, closed)}")
         return self
 
+    def starts_above_caps(self) -> list[tuple[str, str]]:
+        """The starting weights given above their caps, as (start, cap) names: W_L and W_H never exceed wl_max and
+        wh_max (skelcore.step.schedule), so such a run starts at the cap, where a larger start changes nothing."""
+        return [(start, cap) for start, cap in (("wl0", "wl_max"), ("wh0", "wh_max"))
+                if getattr(self, start) is not None and getattr(self, start) > getattr(self, cap)]
+
     def replace(self, **changes) -> "ContractionParams":
         """A copy with `changes` applied, validated."""
         return dataclasses.replace(self, **changes).validated()

@@ -9,7 +9,7 @@ import dataclasses
 from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from .params import ContractionParams
 from .results import write_results
 from .run_threads import Helpers, StageClock, made
 from .skeleton import Skeleton, SkeletonParams, beyond_solid_notes, extract_skeleton
+from .verdict import count_loops
 from .surface import OriginalSurface
 
 
@@ -187,37 +188,53 @@ def compute(source, options: RunOptions = RunOptions(), progress: Callable[[str]
         computed = _contract_and_judge(cloud, options, weights, progress, clock)
         if computed.inside is not None and computed.inside.single_view:
             computed = _noted(computed, single_view.NOTE, progress)
-        loops, solid = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"],
-                                   computed.skeleton.radius, computed.grid)
+        read = solid_loops(computed.cloud, computed.inside, computed.evidence["cycles"], computed.skeleton.radius,
+                           computed.grid, computed.evidence["cloud_loops"])
+        loops = read.loops
         clock.mark("solid loops")
         if loops is not None and computed.evidence["cycles"] < loops and options.hold_retry \
                 and not options.params.hold_inside:
-            computed = _held_inside(computed, options, progress, loops, solid)
+            computed = _held_inside(computed, options, progress, loops, read.words)
             clock.mark("hold inside")
         for note in beyond_solid_notes(computed.skeleton, cloud.loops_at_most is not None):
             computed = _noted(computed, note, progress)
+        params = options.params
+        for start, cap in params.starts_above_caps():
+            computed = _noted(computed, f"{start}={getattr(params, start):g} is above {cap}={getattr(params, cap):g}: "
+                                        f"the run started at the cap, where a larger {start} changes nothing", progress)
         if loops is not None and cloud.solid_loops is None:  # a closed cloud's read: the verdict's floor too
             computed = dataclasses.replace(computed, evidence={**computed.evidence, "input_loops": loops,
-                                                               "input_loops_read": True})
+                                                               "input_loops_read": True,
+                                                               "input_loops_at_surface": read.at_surface})
     except SkelError as error:
         raise named(error, cloud.name) from None
     return computed
 
 
+class SolidRead(NamedTuple):
+    """The loops through the solid a cloud bounds (`solid_loops`)."""
+    loops: int | None  # None: no solid to go by, or nothing to read
+    words: str  # whose loops they are
+    at_surface: int | None = None  # a closed cloud's: its grid's plain count at the surface (cloud_topology.read)
+
+
 def solid_loops(cloud: io.Cloud, inside: InsideTest | None, cycles: int, radius: float,
-                grid: cloud_topology.GridLoops | None = None) -> tuple[int | None, str]:
-    """The loops through the solid a cloud bounds, and whose they are in words, for a skeleton of `cycles` loops
-    drawn at `radius`: a closed mesh's genus; else those its inside test (the metrics' MetricsReference.inside)
-    reads when the cloud reads closed, read only when the test's plain count leaves room for more than `cycles`
-    (skelcore.cloud_topology; `grid`: that test's read, when made ahead). None: no solid to go by, or no loop the
-    skeleton could lack."""
+                grid: cloud_topology.GridLoops | None = None, contracted=None) -> SolidRead:
+    """The loops through the solid a cloud bounds for a skeleton of `cycles` loops drawn at `radius`: a closed
+    mesh's genus; else those its inside test (the metrics' MetricsReference.inside) reads when the cloud reads
+    closed (skelcore.cloud_topology; `grid`: that test's read, when made ahead), read only where the test's plain
+    count leaves room for a loop the skeleton lacks, or, given `contracted` (the persistence pairs of the
+    contracted cloud's loops, the skeleton evidence's cloud_loops), for loops the skeleton keeps beyond those the
+    verdict counts in that cloud (skelcore.verdict.count_loops), which the solid's may vouch for."""
     if cloud.solid_loops is not None:
-        return cloud.solid_loops, "the mesh's solid (its genus)"
+        return SolidRead(cloud.solid_loops, "the mesh's solid (its genus)")
     if grid is None or grid.reach != radius:
         grid = None if inside is None else cloud_topology.read(inside, radius, ceiling=False)
-    if grid is None or grid.at_surface <= cycles:
-        return None, ""
-    return cloud_topology.solid_loops(grid.offset, radius), "the solid the input bounds (as its inside test reads it)"
+    held = cycles if contracted is None else count_loops(contracted)
+    if grid is None or grid.at_surface <= min(cycles, held):
+        return SolidRead(None, "")
+    return SolidRead(cloud_topology.solid_loops(grid.offset, radius),
+                     "the solid the input bounds (as its inside test reads it)", grid.at_surface)
 
 
 def _held_inside(plain: Computed, options: RunOptions, progress: Callable[[str], None] | None, wanted: int,

@@ -501,3 +501,16 @@ def test_every_box_of_a_fractional_parameter_keeps_what_is_typed():
         assert [typed_number(name, text) for name, text in (("wl_max", "2.5"), ("termination", "1e-3"))] == [2.5, 0.001]
     finally:
         server.stop()
+
+
+def test_a_starting_weight_typed_above_its_cap_is_said_to_start_at_the_cap(cloud):
+    """W_L never exceeds the W_L cap: a W_L0 typed above it started the run at the cap without a word, and one
+    step pulled a hand to a dot while the box still showed 1e+12."""
+    with served(cloud) as inspector:
+        client = _Broadcast(inspector.server)
+        inspector.worker.submit(lambda: inspector._tune(inspector.session.params.replace(wl0=1e12), client), client)
+        assert inspector.wait_idle(60)
+        assert client.notices == [("Capped", "W_L0 = 1e+12 is above its cap (W_L cap = 2048): the run starts at the "
+                                              "cap, where a larger W_L0 changes nothing")]
+        inspector.worker.submit(lambda: inspector._tune(inspector.session.params.replace(wl0=2.0), client), client)
+        assert inspector.wait_idle(60) and len(client.notices) == 1

@@ -602,3 +602,16 @@ def test_density_balancing_averages_in_no_more_passes_than_there_are_points(monk
                                                                                  real(rings, points, passes))[1])
     states = run_contraction(clumps, ContractionParams(balance_density=True, max_iterations=1))
     assert taken == [len(clumps)] and np.isfinite(states[-1].points).all()
+
+
+def test_a_run_started_above_a_weights_cap_says_so():
+    """W_L and W_H never exceed their caps, so a start above one is the cap's: the run's notes say it, once."""
+    import skelcore
+
+    params = ContractionParams(wl0=5000.0, wh0=2e4)
+    assert params.starts_above_caps() == [("wl0", "wl_max"), ("wh0", "wh_max")]
+    assert ContractionParams().starts_above_caps() == []
+    result = skelcore.skeletonize(make_shape("torus", 800).points, wl0=5000.0)
+    said = [note for note in result.cloud.notes if "above" in note]
+    assert said == ["wl0=5000 is above wl_max=2048: the run started at the cap, where a larger wl0 changes nothing"]
+    assert result.states[1].wl == 2048.0

@@ -140,7 +140,7 @@ def test_a_skeleton_with_fewer_loops_than_a_closed_meshs_solid_is_unstable_thoug
     assert judge(features(entry(), closed_shut), 3, T)["label"] == "stable"  # a point cloud: nothing to tell
     verdict = judge(features(entry(), {**closed_shut, "input_loops": 1}), 3, T)
     assert verdict["label"] == "unstable"
-    assert ("skeleton loops: 0 (as many as the contracted cloud holds (0), and no fewer than the mesh's genus (1)): "
+    assert ("skeleton loops: 0 (as many as the contracted cloud holds (0) or, where more, the mesh's genus (1)): "
             "fail") in verdict["reasons"]
     assert judge(features(entry(), {**evidence(), "input_loops": 1}), 3, T)["label"] == "stable"
     # more loops than the genus are the contracted cloud's to judge, as before
@@ -153,7 +153,7 @@ def test_a_skeleton_cut_to_its_solids_loops_is_not_held_to_the_false_loops_of_it
     count fails, as does a cut skeleton that keeps fewer than the genus. A point cloud's skeleton cut to what its
     inside test reads passes the same way."""
     wedged = {**evidence(cycles=0), "input_loops": 0}
-    assert "skeleton loops: 0 (as many as the contracted cloud holds (1), and no fewer than the mesh's genus (0)): " \
+    assert "skeleton loops: 0 (as many as the contracted cloud holds (1) or, where more, the mesh's genus (0)): " \
            "fail" in judge(features(entry(), wedged), 3, T)["reasons"]
     verdict = judge(features(entry(), {**wedged, "cut_beyond_solid": 1}), 3, T)
     assert verdict["label"] == "stable"
@@ -244,3 +244,27 @@ def test_a_criterion_at_its_loosest_is_shown_not_counted_and_decides_nothing():
     assert verdict["label"] == "stable"  # what would fail is off
     assert judge(features(entry(d_mean=0.04, growth=0.05)), 4, loose)["reasons"] == [
         "spread change this step: +5.0% (at most +1%): fail"]
+
+
+def test_loops_the_contracted_cloud_cannot_count_are_held_to_the_solids():
+    """A loop the contracted cloud traces only with a gap over loop_birth radii, or round a hole under loop_death
+    radii, is not in its count: a skeleton that keeps it passes when the solid's unambiguous count has it (a
+    closed mesh's genus, or a closed cloud's read whose grid has no other loop at the surface), and fails when it
+    keeps more than the solid has, or nothing vouches (a read among noise's pinholes: the floor only)."""
+    small = evidence(cycles=2, loops=((0.3, 3.0), (2.7, 12.0)))  # a small hole, and one traced with a wide gap
+    assert count_loops(small["cloud_loops"], T) == 0
+    unbacked = judge(features(entry(), small), 3, T)
+    assert unbacked["label"] == "unstable"
+    assert "skeleton loops: 2 (as many as the contracted cloud holds (0)): fail" in unbacked["reasons"]
+    read = {**small, "input_loops": 2, "input_loops_read": True, "input_loops_at_surface": 2}
+    verdict = judge(features(entry(), read), 3, T)
+    assert verdict["label"] == "stable"
+    assert verdict["criteria"][-1]["text"] == ("skeleton loops: 2 (as many as the contracted cloud holds (0) or, where "
+                                               "more, its solid (2, read from its inside test)): pass")
+    pinholes = judge(features(entry(), {**read, "input_loops_at_surface": 5}), 3, T)
+    assert pinholes["label"] == "unstable"
+    assert pinholes["criteria"][-1]["text"] == ("skeleton loops: 2 (as many as the contracted cloud holds (0), and no "
+                                                "fewer than its solid holds (2, read from its inside test)): fail")
+    assert judge(features(entry(), {**small, "input_loops": 2}), 3, T)["label"] == "stable"  # a mesh's genus
+    for solid in (1, 3):  # one loop beyond the solid's, or one short of it
+        assert judge(features(entry(), {**small, "input_loops": solid}), 3, T)["label"] == "unstable"
