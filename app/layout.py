@@ -40,6 +40,10 @@ from .words import METHOD_LABELS, box_label, label, number_text
 # verdict, fit a 720 px high window without the panel scrolling; dragged wider by a person, the plots follow.
 PLOTS_WIDTH = 470
 CONTROLS_WIDTH = 340
+# The canvas between the two panels in the smallest window the inspector is laid out for, 1280x720 (width, height):
+# a browser tells its canvas only once connected, so a cloud is first framed for this one (at 0.75, the canvas of
+# a 1600x1000 window, the animal's head reached the controls' edge at 1280x720)
+NARROWEST_CANVAS = (1280 - PLOTS_WIDTH - CONTROLS_WIDTH, 720)
 HISTOGRAM_ASPECT = 0.62  # viser draws a plot width * aspect high
 # Every figure in the plots panel takes a clear paper: viser draws a plot as wide as its card's outside (1 px borders
 # included), so a white one would paint over the card's right border.

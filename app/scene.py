@@ -23,6 +23,7 @@ import viser
 from skelcore.display import DEFAULT_UP, UP_AXES, clipping_planes, display_origin, framing_camera, turned_up
 
 from .colours import EDGE_COLOUR, GHOST_COLOUR, LAYER_COLOURS, NODE_COLOURS, POINT_LAYERS, PROVISIONAL_EDGE_COLOUR
+from .layout import NARROWEST_CANVAS
 
 BACKGROUND = np.array([255, 255, 255], float)
 EDGE_THICKNESS = 0.6  # skeleton edges, x the node radius: about as wide as an original point
@@ -40,7 +41,7 @@ FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans thi
 # leaves them free. The first view, before a browser says its canvas size, leaves them of the smallest window's
 # canvas (720 pixels high), so a tall object clears the Legend there and sits a little high in a taller one.
 LEGEND_HEIGHT = 130
-SMALLEST_CANVAS_HEIGHT = 720
+SMALLEST_CANVAS_HEIGHT = NARROWEST_CANVAS[1]
 
 
 def legend_share(image_height: int | None) -> float:
@@ -355,10 +356,11 @@ class SceneView:
 
 
 
-def frame_camera(camera, points: np.ndarray, aspect: float = 0.75, up=UP_AXES[DEFAULT_UP]) -> None:
-    """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits
-    between two panels, so taller than wide) at the whole cloud `points` (the original: the scene's origin is
-    its display_origin), from above and aside, `up` up."""
+def frame_camera(camera, points: np.ndarray, aspect: float = NARROWEST_CANVAS[0] / NARROWEST_CANVAS[1],
+                 up=UP_AXES[DEFAULT_UP]) -> None:
+    """Point a camera (the server's initial one: a browser's canvas shape is not known yet, and sits between
+    two panels, so taller than wide: the narrowest, layout.NARROWEST_CANVAS) at the whole cloud `points` (the
+    original: the scene's origin is its display_origin), from above and aside, `up` up."""
     framing = framing_camera(points - display_origin(points), turned_up(INITIAL_DIRECTION, up), camera.fov, aspect,
                              FRAME_FILL, up=up, bottom=legend_share(None))
     camera.up = up

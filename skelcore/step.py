@@ -393,5 +393,11 @@ def retune(current: ContractionParams, sent: ContractionParams | None) -> tuple[
     blocked = [name for name in changed if name in RESTART_FIELDS]
     if blocked:
         raise ParameterError(f"parameter {', '.join(blocked)} can only change on restart")
-    note = ", ".join(f"{name}={getattr(sent, name)}" for name in changed)
+    # a number as short as it reads ("wh0=1e+09", not 1000000000.0)
+    note = ", ".join(f"{name}={_short(getattr(sent, name))}" for name in changed)
     return sent, [f"retuned {note}"] if note else []
+
+
+def _short(value) -> str:
+    """A parameter's value in a note: a float as %g, anything else as it prints."""
+    return f"{value:g}" if isinstance(value, float) else f"{value}"

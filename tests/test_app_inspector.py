@@ -514,3 +514,35 @@ def test_a_starting_weight_typed_above_its_cap_is_said_to_start_at_the_cap(cloud
                                               "cap, where a larger W_L0 changes nothing")]
         inspector.worker.submit(lambda: inspector._tune(inspector.session.params.replace(wl0=2.0), client), client)
         assert inspector.wait_idle(60) and len(client.notices) == 1
+
+
+def test_the_first_view_fits_the_cloud_between_the_panels_of_a_1280x720_window():
+    """A browser tells its canvas only once connected: the first view frames the cloud for the narrowest canvas,
+    between the panels of a 1280x720 window, with the framing's margin (framed for a 1600x1000 one, the animal's head
+    reached the controls' edge)."""
+    import viser
+
+    from app.inspector import Inspector
+    from app.layout import NARROWEST_CANVAS
+    from app.scene import FRAME_FILL
+    from skelcore.display import display_origin
+    from skelcore.shapes import make_shape
+
+    points = make_shape("y_branch", 2000).points * [3.0, 1.0, 1.0]  # wider than tall
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    inspector = Inspector(server, Session(validate(points, name="wide.xyz"), ContractionParams(), look_ahead=False))
+    try:
+        assert inspector.wait_idle(120)
+        camera = server.initial_camera
+        forward = np.asarray(camera.look_at) - np.asarray(camera.position)
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, camera.up)
+        right /= np.linalg.norm(right)
+        local = points - display_origin(points) - np.asarray(camera.position)
+        across = np.abs(local @ right) / (local @ forward)  # tan of each point's angle off the view's axis
+        half_width = np.tan(camera.fov / 2) * NARROWEST_CANVAS[0] / NARROWEST_CANVAS[1]
+        # the framing aims with a sample of the points: those left out may reach a little further
+        assert 0.9 < across.max() / (FRAME_FILL * half_width) < 1.05
+    finally:
+        inspector.close()
+        server.stop()
