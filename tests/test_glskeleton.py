@@ -220,7 +220,7 @@ def test_retune_live_and_restart_fields():
     one = next(steps)
     two = steps.send(GLSKELETON.replace(termination=1e-12, gl_covariance=1e-12, wl0=one.wl, sl=1.0, gl_merge=1.0))
     assert two.iteration == 2 and two.wl == pytest.approx(one.wl)
-    assert "gl_merge=1.0" in two.message
+    assert two.message.endswith("gl_merge=1")
     with pytest.raises(ParameterError):
         steps.send(ContractionParams(method="lbc"))
 
