@@ -53,7 +53,8 @@ class Delivery:
     def _render(self, viewer: Viewer, index: int) -> bytes:
         width, height = self._size()
         client, run = viewer.client, self.session.run
-        rgba = self.picture(viewer, width, height, export.framed_camera(run.cloud.points, client.camera, width, height))
+        camera = export.framed_camera(run.cloud.points, client.camera, width, height, [run.history[index]])
+        rgba = self.picture(viewer, width, height, camera)
         labels = []
         if self.files.labels.value:  # the verdict the panel shows: with the skeleton's checks once they are made
             judged = (index, self.session.skeleton_params) in run.evidence
@@ -87,7 +88,7 @@ class Delivery:
         as the view draws it (its colouring, and its skeleton when the view shows that iteration's)."""
         run, shown, client = self.session.run, viewer.shown, viewer.client
         width, height = self._size()
-        camera = export.framed_camera(run.cloud.points, client.camera, width, height)
+        camera = export.framed_camera(run.cloud.points, client.camera, width, height, run.history)
         frames = []
         labels = self.files.labels.value
         with self.activity.busy(client, "Export animation", f"rendering {len(run.history)} frames"):

@@ -31,14 +31,18 @@ PLOTLY_JS = "plotly.min.js"  # the bundle's copy, which its pages load
 LABEL_SIZE = 1 / 26  # burned-in text height, of the image's shorter side: 23 px at 800x600, 38 px at 1600x1000
 
 
-def framed_camera(points: np.ndarray, camera, width: int, height: int) -> dict:
+def framed_camera(points: np.ndarray, camera, width: int, height: int, states=()) -> dict:
     """get_render's camera arguments framing the original cloud `points` along a client camera's viewing direction,
-    in the scene's coordinates (from the cloud's display_origin, as app.scene draws it)."""
+    in the scene's coordinates (from the cloud's display_origin, as app.scene draws it), and the contracted points
+    of `states` (IterationStates) too: a step can carry some beyond the original's box (a thin ear's tip, and its
+    skeleton's end node, reached into the burned-in lines)."""
     import viser.transforms as tf
 
     direction = camera.look_at - camera.position
-    framing = display.framing_camera(points - display.display_origin(points), direction, PICTURE_FOV, width / height,
-                                     PICTURE_FILL, up=camera.up_direction)
+    # each state's points as framing samples them (display.FRAMING_SAMPLE): a run's many states cost no more
+    drawn = [points, *(state.points[::max(1, len(state.points) // display.FRAMING_SAMPLE)] for state in states)]
+    framing = display.framing_camera(np.vstack(drawn) - display.display_origin(points), direction, PICTURE_FOV,
+                                     width / height, PICTURE_FILL, up=camera.up_direction)
     return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": PICTURE_FOV}
 
 

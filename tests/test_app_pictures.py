@@ -44,6 +44,29 @@ def test_pictures_take_the_whole_cloud_through_a_narrow_lens_whatever_the_browse
         assert np.ptp(pixels, axis=0).max() >= 0.5 * min(width, height)  # not lost in the middle either
 
 
+def test_contracted_points_a_step_carried_beyond_the_original_are_framed_under_the_burned_in_lines():
+    """A GLSkeleton step took a horse's ear tip (and its skeleton's end node) 1.9 sample radii above the original's
+    box, into the burned-in lines of a picture framed on the original alone: pictures frame what they draw."""
+    import viser.transforms as tf
+
+    from skelcore.display import display_origin
+
+    points = make_shape("y_branch", 3000).points  # in the plane z = 0, 0.4 thick
+    tip = points.copy()
+    tip[:30, 2] = 0.8  # a few points carried up, twice the shape's thickness above it
+    state = types.SimpleNamespace(points=tip)
+    browser = types.SimpleNamespace(position=np.array([3.0, -3.0, 1.0]), look_at=np.zeros(3), fov=np.radians(75),
+                                    up_direction=np.array([0.0, 0.0, 1.0]))
+    width, height = 1280, 720
+    for states, framed in (((), False), ((state,), True)):
+        camera = export.framed_camera(points, browser, width, height, states)
+        rotation = tf.SO3(np.asarray(camera["wxyz"])).as_matrix()
+        pixels = _project(state.points - display_origin(points), camera["position"], rotation, camera["fov"], width,
+                          height)
+        under_words = pixels[:, 1].min() >= 3 * export.LABEL_SIZE * min(width, height)
+        assert under_words == framed
+
+
 @pytest.mark.parametrize("width, height", [(800, 600), (1280, 720), (1600, 1000), (2560, 1440)])
 def test_burned_in_words_are_sized_to_the_picture(width, height):
     """At least 1/32 of the shorter side high (19 px at 800x600: the 18 px font of before drew 17 px glyphs), and
