@@ -1149,7 +1149,9 @@ def test_reset_says_it_drops_the_change_typed(fresh, page):
     page.get_by_text(re.compile(r"the change typed \(s_L 2 from iteration 1\) is dropped: Restart with these "
                                 r"parameters starts with it")).first.wait_for()
     wait_until(lambda: not inspector.session.pending and len(inspector.session.history) == 1, "the reset run")
-    assert inspector.session.latest.params.sl == RUN["sl"] and number_input(page, "s_L").input_value() == "1"
+    assert inspector.session.latest.params.sl == RUN["sl"]
+    # the box is put back once the restart is done, and reaches the browser a moment after
+    wait_until(lambda: number_input(page, "s_L").input_value() == "1", "the box put back")
     close_browser_notices(page)
 
 
