@@ -39,8 +39,8 @@ def framed_camera(points: np.ndarray, camera, width: int, height: int, states=()
     import viser.transforms as tf
 
     direction = camera.look_at - camera.position
-    # each state's points as framing samples them (display.FRAMING_SAMPLE): a run's many states cost no more
-    drawn = [points, *(state.points[::max(1, len(state.points) // display.FRAMING_SAMPLE)] for state in states)]
+    # each state's points as framing samples them: a run's many states cost no more
+    drawn = [points, *(display.framing_sample(state.points) for state in states)]
     framing = display.framing_camera(np.vstack(drawn) - display.display_origin(points), direction, PICTURE_FOV,
                                      width / height, PICTURE_FILL, up=camera.up_direction)
     return {"wxyz": tf.SO3.from_matrix(framing.rotation).wxyz, "position": framing.position, "fov": PICTURE_FOV}

@@ -39,14 +39,14 @@ INITIAL_DIRECTION = (-0.7, 0.7, -0.5)  # the first view looks down on the object
 FRAME_FILL = 0.8  # a framed view: the object's projected bounding box spans this share of the binding side
 # Pixels the Legend panel covers at the 3-D view's foot (two or three lines, its margin included): a framed view
 # leaves them free. The first view, before a browser says its canvas size, leaves them of the smallest window's
-# canvas (720 pixels high), so a tall object clears the Legend there and sits a little high in a taller one.
+# canvas (layout.NARROWEST_CANVAS: 720 pixels high), so a tall object clears the Legend there and sits a little
+# high in a taller one.
 LEGEND_HEIGHT = 130
-SMALLEST_CANVAS_HEIGHT = NARROWEST_CANVAS[1]
 
 
 def legend_share(image_height: int | None) -> float:
     """The share of a canvas `image_height` pixels high that the Legend covers (of the smallest one if unknown)."""
-    return min(LEGEND_HEIGHT / (image_height or SMALLEST_CANVAS_HEIGHT), 0.5)
+    return min(LEGEND_HEIGHT / (image_height or NARROWEST_CANVAS[1]), 0.5)
 
 
 def auto_opacity(count: int) -> float:

@@ -141,6 +141,11 @@ def _axes(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return right, np.cross(forward, right), forward
 
 
+def framing_sample(points: np.ndarray) -> np.ndarray:
+    """About FRAMING_SAMPLE of the points, evenly through them: what `framing_camera` finds their extent from."""
+    return points[::max(1, len(points) // FRAMING_SAMPLE)]
+
+
 def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fill: float,
                    up=(0.0, 0.0, 1.0), bottom: float = 0.0) -> Camera:
     """A camera looking along `direction` at the middle of the points' projected extent, as close as lets every
@@ -153,7 +158,7 @@ def framing_camera(points: np.ndarray, direction, fov: float, aspect: float, fil
     low, high = points.min(axis=0), points.max(axis=0)
     centre = (low + high) / 2
     right, down, forward = _axes(direction, up)
-    sample = points[::max(1, len(points) // FRAMING_SAMPLE)]
+    sample = framing_sample(points)
     half = np.tan(fov / 2)
     for _ in range(4):  # aim, then re-aim at the middle of the projected extent (near points look larger)
         local = sample - centre
